@@ -1,0 +1,66 @@
+"""The paper's conventions and published values, read from ``config/paper.yaml``.
+
+Configurations, the paper-to-DH angle mapping and the impact direction live in the
+config folder, not in code; this module only reads and checks them.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+__all__ = ["config_dir", "load_paper", "paper_q", "configuration_q", "impact_direction"]
+
+
+def config_dir() -> Path:
+    """The project's ``config/`` folder (``$CAMPAIGN_CONFIG_DIR`` overrides it)."""
+    env = os.environ.get("CAMPAIGN_CONFIG_DIR")
+    path = Path(env) if env else Path(__file__).resolve().parents[1] / "config"
+    if not (path / "paper.yaml").is_file():
+        raise FileNotFoundError(
+            f"config folder {path} has no paper.yaml; install the project editable "
+            "(pip install -e .) or set CAMPAIGN_CONFIG_DIR"
+        )
+    return path
+
+
+@functools.lru_cache(maxsize=4)
+def _load(path: str) -> dict:
+    with open(path) as fh:
+        return yaml.safe_load(fh)
+
+
+def load_paper() -> dict:
+    """The parsed ``paper.yaml`` (cached; treat as read-only)."""
+    return _load(str(config_dir() / "paper.yaml"))
+
+
+def paper_q(q_paper_deg) -> np.ndarray:
+    """Map the paper's joint angles [deg] to the model's DH angles [rad]."""
+    q = np.asarray(q_paper_deg, dtype=float)
+    off = np.asarray(load_paper()["offset_deg"], dtype=float)
+    if q.shape != off.shape:
+        raise ValueError(f"expected {off.size} paper angles, got {q.tolist()}")
+    return np.radians(q + off)
+
+
+def configuration_q(config) -> np.ndarray:
+    """DH angles [rad] of the paper's configuration ``config`` (1, 2 or 3)."""
+    table = load_paper()["configurations"]
+    try:
+        key = int(config)
+    except (TypeError, ValueError):
+        key = None
+    if key not in table:
+        raise ValueError(f"unknown configuration {config!r}; known: {sorted(table)}")
+    return paper_q(table[key])
+
+
+def impact_direction() -> np.ndarray:
+    """Unit impact direction n of the paper, base frame."""
+    n = np.asarray(load_paper()["impact_direction"], dtype=float)
+    return n / np.linalg.norm(n)
