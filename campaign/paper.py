@@ -8,12 +8,33 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-__all__ = ["config_dir", "load_paper", "paper_q", "configuration_q", "impact_direction"]
+__all__ = ["yaml_load", "config_dir", "load_paper", "paper_q", "configuration_q", "impact_direction"]
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader that also reads YAML 1.2 floats such as ``2.5e8`` (PyYAML needs ``2.5e+8``)."""
+
+
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?(?:[eE][-+]?[0-9]+)
+    |[-+]?(?:[0-9][0-9_]*)\.[0-9_]*
+    |[-+]?\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+    |[-+]?\.(?:inf|Inf|INF)
+    |\.(?:nan|NaN|NAN))$""", re.X),
+    list("-+0123456789."),
+)
+
+
+def yaml_load(stream):
+    """Parse YAML with scientific-notation floats read as floats."""
+    return yaml.load(stream, Loader=_Loader)
 
 
 def config_dir() -> Path:
@@ -31,7 +52,7 @@ def config_dir() -> Path:
 @functools.lru_cache(maxsize=4)
 def _load(path: str) -> dict:
     with open(path) as fh:
-        return yaml.safe_load(fh)
+        return yaml_load(fh)
 
 
 def load_paper() -> dict:

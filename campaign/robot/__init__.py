@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
+
+from ..paper import yaml_load
 
 __all__ = ["Robot", "load_robot", "robot_dir", "ROBOTS_DIR"]
 
@@ -132,7 +133,7 @@ def load_robot(name_or_path: str | Path = "puma560") -> Robot:
     folder = robot_dir(name_or_path)
     drive_file = Path(name_or_path) if Path(name_or_path).is_file() else folder / "drives.yaml"
     with open(drive_file) as fh:
-        spec = yaml.safe_load(fh)
+        spec = yaml_load(fh)
     full = pin.buildModelFromUrdf(str(folder / spec["urdf"]))
 
     locked = spec.get("locked_q") or {}
