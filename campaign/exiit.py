@@ -208,22 +208,21 @@ def effective_mass_batch(robot: Robot, Q, n=(-1.0, 0.0, 0.0), lam=None) -> np.nd
     lam_m = lambda_matrix(lam, model.nv)
     N, nv = Q.shape[0], model.nv
     H = np.empty((N, nv, nv))
-    Jn = np.empty((N, nv))   # n^T J_lin: the only row of J that eq 11 needs
+    JT = np.empty((N, nv, 3))   # J_lin^T: eq 11 needs n^T J_lin, the range test trace(G33)
     fid = robot.impact_frame_id
     crba, jac, lwa = pin.crba, pin.computeFrameJacobian, pin.LOCAL_WORLD_ALIGNED
     for i in range(N):
         qi = Q[i]
         H[i] = crba(model, data, qi)
-        Jn[i] = n @ jac(model, data, qi, fid, lwa)[:3]
+        JT[i] = jac(model, data, qi, fid, lwa)[:3].T
     H = np.triu(H) + np.swapaxes(np.triu(H, 1), 1, 2) + lam_m
-    x = np.linalg.solve(H, Jn[:, :, None])[:, :, 0]
-    s = np.einsum("ij,ij->i", Jn, x)
-    # trace(G33) is not formed in the batch; n^T G n is compared with the scale of J H^-1 J^T
-    # along n's own row, ||Jn||^2 / max eig(H), which is zero only when n leaves the range.
-    scale = np.einsum("ij,ij->i", Jn, Jn) / np.linalg.norm(H, ord=2, axis=(1, 2))
+    Jn = JT @ n                                             # (N, nv)
+    X = np.linalg.solve(H, np.concatenate([Jn[:, :, None], JT], axis=2))
+    s = np.einsum("ij,ij->i", Jn, X[:, :, 0])               # n^T G33 n
+    tr = np.einsum("ijk,ijk->i", JT, X[:, :, 1:])           # trace(G33)
+    # the same range test as effective_mass_from_G, so batch and scalar agree on inf
     out = np.full(N, np.inf)
-    ok = s > RANGE_RTOL * np.maximum(scale, np.finfo(float).tiny)
-    ok &= scale > 0
+    ok = (s > RANGE_RTOL * tr) & (tr > 0.0)
     out[ok] = 1.0 / s[ok]
     return out
 
