@@ -1,0 +1,188 @@
+"""Throughput of the batch effective-mass evaluation (eq 11), configurations per second.
+
+Runs :func:`campaign.exiit.effective_mass_batch` on uniformly drawn configurations inside
+the joint limits, several repeats per size, on one core (BLAS threads limited to one and,
+where the OS allows it, the process pinned to one CPU), and prints a table of the median.
+The scalar :func:`campaign.exiit.effective_mass` is timed too, for comparison.
+
+Usage::
+
+    python benchmarks/bench_exiit.py                       # print the table
+    python benchmarks/bench_exiit.py --readme benchmarks/README.md   # also record it there
+
+The target of issue 2 is at least 100,000 configurations per second on one core; the
+script exits with status 1 if the PUMA 560 batch at the largest size misses it.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import datetime  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pinocchio as pin  # noqa: E402
+
+from campaign import __version__, exiit  # noqa: E402
+from campaign.robot import load_robot  # noqa: E402
+
+HEADING = "## Ex-IIT batch evaluation"
+TARGET = 100_000.0  # configurations per second, issue 2
+
+README_HEADER = """# Benchmarks
+
+Measurements of the campaign's cost, one script per topic in this folder (`bench_*.py`),
+run together with `make bench`. They are not timed tests: numbers depend on the machine, so
+each section below records the machine and library versions next to the printed summary.
+Each script documents how to rerun it and how to update its section here.
+"""
+
+
+def pin_to_one_cpu() -> str:
+    """Pin the process to one CPU if the OS allows it; describe what was done."""
+    try:
+        cpus = sorted(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {cpus[0]})
+        return f"pinned to CPU {cpus[0]}"
+    except (AttributeError, OSError):
+        return "not pinned (the OS does not support CPU affinity)"
+
+
+def cpu_name() -> str:
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def time_call(fn, repeats: int) -> list[float]:
+    """Wall times [s] of ``repeats`` calls of ``fn`` after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return times
+
+
+def measure(robot, n_configs: int, repeats: int, *, seed: int, scalar: bool = False) -> dict:
+    """Median throughput of eq 11 over ``n_configs`` random configurations.
+
+    Parameters
+    ----------
+    robot : campaign.robot.Robot
+    n_configs : int
+        Configurations per call.
+    repeats : int
+        Timed calls (the median is reported).
+    seed : int
+        Seed of the configurations.
+    scalar : bool
+        Time a Python loop over :func:`campaign.exiit.effective_mass` instead of the batch.
+    """
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(robot.q_lower, robot.q_upper, size=(n_configs, robot.nv))
+    n = (-1.0, 0.0, 0.0)
+    if scalar:
+        data = robot.model.createData()
+
+        def fn():
+            return [exiit.effective_mass(robot, q, n, data=data) for q in Q]
+    else:
+        def fn():
+            return exiit.effective_mass_batch(robot, Q, n)
+    times = time_call(fn, repeats)
+    med = statistics.median(times)
+    return {
+        "robot": robot.name, "method": "scalar loop" if scalar else "batch", "N": n_configs,
+        "repeats": repeats, "median_s": med, "min_s": min(times), "max_s": max(times),
+        "rate": n_configs / med,
+    }
+
+
+def format_table(rows: list[dict]) -> str:
+    head = (f"| {'robot':<8} | {'method':<11} | {'N':>7} | {'repeats':>7} | {'median [ms]':>11} | "
+            f"{'min-max [ms]':>15} | {'configs/s (median)':>18} |")
+    sep = "|" + "|".join("-" * (len(c)) for c in head.split("|")[1:-1]) + "|"
+    lines = [head, sep]
+    for r in rows:
+        spread = f"{1e3 * r['min_s']:.1f}-{1e3 * r['max_s']:.1f}"
+        lines.append(f"| {r['robot']:<8} | {r['method']:<11} | {r['N']:>7,d} | {r['repeats']:>7d} | "
+                     f"{1e3 * r['median_s']:>11.1f} | {spread:>15} | {r['rate']:>18,.0f} |")
+    return "\n".join(lines)
+
+
+def write_section(readme: Path, body: str) -> None:
+    """Replace (or append) this script's section of ``readme``, creating the file if needed."""
+    text = readme.read_text() if readme.is_file() else README_HEADER
+    section = f"{HEADING}\n\n{body.rstrip()}\n"
+    lines = text.splitlines(keepends=True)
+    start = next((i for i, line in enumerate(lines) if line.rstrip() == HEADING), None)
+    if start is None:
+        text = text.rstrip("\n") + "\n\n" + section
+    else:
+        end = next((j for j in range(start + 1, len(lines)) if lines[j].startswith("## ")), len(lines))
+        tail = "".join(lines[end:])
+        text = "".join(lines[:start]) + section + ("\n" + tail if tail else "")
+    tmp = readme.with_name(readme.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, readme)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--sizes", default="1000,10000,100000",
+                        help="configurations per batch call, comma-separated (default: %(default)s)")
+    parser.add_argument("--repeats", type=int, default=7, help="timed calls per size (default: %(default)s)")
+    parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
+    args = parser.parse_args(argv)
+    sizes = [int(s) for s in args.sizes.split(",")]
+    if args.repeats < 1 or any(s < 1 for s in sizes):
+        parser.error("--sizes and --repeats must be positive")
+
+    pinning = pin_to_one_cpu()
+    puma, planar = load_robot("puma560"), load_robot("planar2")
+    rows = [measure(puma, n, args.repeats, seed=i) for i, n in enumerate(sizes)]
+    rows.append(measure(planar, sizes[-1], args.repeats, seed=99))
+    rows.append(measure(puma, min(2000, sizes[-1]), args.repeats, seed=98, scalar=True))
+
+    best = rows[len(sizes) - 1]
+    verdict = "meets" if best["rate"] >= TARGET else "MISSES"
+    summary = "\n".join([
+        "Throughput of `campaign.exiit.effective_mass_batch` (eq 11, fixed base, n = -x, lambda = 0) "
+        "on configurations drawn uniformly inside the joint limits; median of the timed repeats after "
+        "one warm-up call, one core (BLAS threads = 1, process " + pinning + "). "
+        "The scalar loop over `effective_mass` is shown for comparison.",
+        "",
+        format_table(rows),
+        "",
+        f"PUMA 560 batch at N = {best['N']:,d}: **{best['rate']:,.0f} configurations/s**, which {verdict} "
+        f"the target of {TARGET:,.0f}/s.",
+        "",
+        f"Machine: {cpu_name()}; Python {platform.python_version()}, numpy {np.__version__}, "
+        f"pin {pin.__version__}, campaign {__version__}; {datetime.date.today().isoformat()}. "
+        "Rerun: `make bench`; record: `.venv/bin/python benchmarks/bench_exiit.py --readme benchmarks/README.md`.",
+    ])
+    print(summary)
+    if args.readme is not None:
+        write_section(args.readme, summary)
+        print(f"\nwrote the section '{HEADING}' of {args.readme}")
+    return 0 if best["rate"] >= TARGET else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
