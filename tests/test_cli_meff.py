@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from scipy.optimize import brentq
 
@@ -64,8 +65,9 @@ def test_a_negative_value_works_without_an_equals_sign(capsys):
 
 def test_flexible_base_uses_the_rig_platform(capsys, puma):
     params, _ = load_rig()
-    base = BaseBody(mass=params["flexible.platform_mass"], inertia=np.diag(params["flexible.platform_inertia"]))
-    assert params["flexible.mount_height"] == 0.0   # else the expected value below needs the mount offset
+    mount = pin.SE3(np.eye(3), np.array([0.0, 0.0, params["flexible.mount_height"]]))
+    base = BaseBody(mass=params["flexible.platform_mass"], inertia=np.diag(params["flexible.platform_inertia"]),
+                    mount=mount)
     frobot = attach_to_floating_base(puma, base)
     for config in (1, 2):
         d = run_json(capsys, "--config", str(config), "--base", "flexible", "--lambda", "53.18,8.66,2.83")
