@@ -36,10 +36,10 @@ _POSITIVE = (
     "trial.settle_velocity", "integration.substeps_contact", "integration.substeps_free",
     "flexible.beam_EI", "flexible.beam_length", "flexible.beam_mass", "flexible.beam_GJ_ratio",
     "flexible.beam_EA_ratio", "flexible.platform_mass", "flexible.trial_periods", "ves.rate", "ves.bandwidth",
-    "pendulum.max_release_deg", "arm.stick_velocity",
+    "pendulum.max_release_deg", "arm.stick_velocity", "pendulum.catch_delay",
 )
 _NONNEGATIVE = (
-    "gravity", "arm.friction_scale", "controller.torque_per_unit", "pendulum.rod_mass",
+    "gravity", "arm.coulomb_scale", "arm.viscous_scale", "controller.torque_per_unit", "pendulum.rod_mass",
     "sensors.joint_encoder_noise_counts", "sensors.piezo_noise", "sensors.piezo_resolution",
     "sensors.ft_noise_force", "sensors.ft_noise_torque", "trial.contact_jitter", "flexible.damping_ratio",
     "ves.latency", "flexible.mount_height",

@@ -1,0 +1,11 @@
+"""The simulated VES-II: the truth behind every "measurement" of the campaign.
+
+``simulate(scene) -> xarray.DataTree`` with ``/measured`` (raw channels) and ``/truth``.
+Modules: :mod:`.contact`, :mod:`.pendulum`, :mod:`.controller`, :mod:`.plant`,
+:mod:`.integrate`, :mod:`.sensors`, :mod:`.simulate`; the flexible base adds
+:mod:`.beam`, :mod:`.ves`.
+"""
+
+from .simulate import build, simulate
+
+__all__ = ["simulate", "build"]

@@ -1,0 +1,143 @@
+"""The digital joint servo of the VES-II's PUMA: a PID per joint in controller counts.
+
+At every servo tick ``t_k = k T`` the controller reads the joint encoders (quantised to
+counts), and holds until the next tick (zero-order hold) the torque
+
+    u_k   = P e_k + D (e_k - e_{k-1}) / T + I T sum_{i<=k} e_i   [controller units]
+    tau_k = sat( s u_k + tau_gc, +-tau_max )                      [N m]
+
+with ``e`` the position error in encoder counts, the derivative the encoder rate in
+counts per second (count difference over one tick) and the integral in count-seconds
+(running sum of counts times the period), ``s`` the documented torque per controller unit
+(``controller.torque_per_unit``) and ``tau_gc`` the constant gravity-compensation torque
+``g(q_cmd)`` the paper applied for Zero and Low gains. With counts ``c = q / r`` (``r`` rad
+per count) the equivalent continuous gains are ``Kp = s P / r``, ``Kd = s D / r``,
+``Ki = s I / r``. The paper's "counts" do not say how D and I are normalised; this
+convention (an assumption, stated in ``config/rig.yaml``) gives High gains the ratio
+``Kd / Kp = 8 ms`` of a well-damped position servo.
+
+:func:`check_stability` refuses, before any simulation, a gain set whose discrete closed
+loop (ZOH, per joint, linearised about the commanded pose) is unstable at the servo rate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["PID", "check_stability", "equivalent_gains"]
+
+
+def equivalent_gains(P, D, I, *, scale, resolution, period):
+    """Continuous-time equivalents (Kp [N m/rad], Kd [N m s/rad], Ki [N m/(rad s)]) per joint."""
+    r = np.asarray(resolution, dtype=float)
+    return scale * P / r, scale * D / r, scale * I / r
+
+
+def check_stability(inertia, viscous, *, P, D, I, scale, resolution, period, joint_names):
+    """Raise InputError if the sampled PID loop of any joint is unstable.
+
+    Each joint is linearised as ``I_j qdd = -b_j qd + tau`` (its diagonal inertia at the
+    commanded pose, viscous friction, no Coulomb friction or coupling), discretised exactly
+    with a zero-order hold at the servo period, and closed with the counts PID above. The
+    spectral radius of the closed loop must be < 1.
+    """
+    Kp, Kd, Ki = equivalent_gains(P, D, I, scale=scale, resolution=resolution, period=period)
+    worst = 0.0
+    for j, name in enumerate(joint_names):
+        # exact zero-order-hold discretisation of qdd = (-b qd + tau) / I (closed form)
+        beta, T = viscous[j] / inertia[j], period
+        if beta * T > 1e-8:
+            phi = -np.expm1(-beta * T) / beta          # (1 - exp(-beta T)) / beta
+            Ad = np.array([[1.0, phi], [0.0, 1.0 - beta * phi]])
+            Bd = np.array([[(T - phi) / beta], [phi]]) / inertia[j]
+        else:
+            Ad = np.array([[1.0, T], [0.0, 1.0]])
+            Bd = np.array([[0.5 * T * T], [T]]) / inertia[j]
+        # state z = [q, qd, q_prev, integral]; error e = -q (reference 0), counts folded into
+        # the gains: tau = Kp e + Kd (e - e_prev) / T + Ki T sum e   (e in rad)
+        kp, kd, ki = Kp[j], Kd[j] / period, Ki[j] * period
+        # integral update s_k = s_{k-1} + e_k, with e_k = -q_k
+        # tau_k = -(kp + kd + ki) q_k + kd q_{k-1} + ki s_{k-1}
+        K = np.array([[-(kp + kd + ki), 0.0, kd, ki]])
+        Acl = np.zeros((4, 4))
+        Acl[:2, :2] = Ad
+        Acl[:2, :] += Bd @ K
+        Acl[2, 0] = 1.0               # q_prev <- q
+        Acl[3, 0], Acl[3, 3] = -1.0, 1.0  # s <- s - q
+        rho = float(np.max(np.abs(np.linalg.eigvals(Acl))))
+        worst = max(worst, rho)
+        marginal = ki == 0 and kp == 0 and kd == 0
+        if not marginal and rho >= 1.0 + 1e-12:
+            raise InputError(
+                f"PID gains P={P}, D={D}, I={I} are unstable at the servo rate {1.0 / period:g} Hz on joint "
+                f"{name} (closed-loop spectral radius {rho:.4f} >= 1; Kp={Kp[j]:.4g} N m/rad, "
+                f"Kd={Kd[j]:.4g} N m s/rad, Ki={Ki[j]:.4g} N m/(rad s), inertia {inertia[j]:.4g} kg m^2)"
+            )
+    return worst
+
+
+@dataclasses.dataclass
+class PID:
+    """Per-joint counts PID with zero-order hold, saturation and constant gravity compensation.
+
+    Parameters
+    ----------
+    P, D, I : float
+        Gains in the paper's controller counts (Table 1).
+    scale : float
+        Torque per controller unit [N m].
+    resolution : ndarray
+        Encoder resolution [rad per count].
+    tau_max : ndarray
+        Saturation [N m].
+    tau_gc : ndarray
+        Constant gravity-compensation torque [N m] (zeros when not applied).
+    q_ref : ndarray
+        Commanded joint angles [rad].
+    period : float
+        Servo period T [s].
+    quantize : bool
+        Read the encoders in whole counts (a real servo does; off in the ideal scene).
+    """
+
+    P: float
+    D: float
+    I: float
+    scale: float
+    resolution: np.ndarray
+    tau_max: np.ndarray
+    tau_gc: np.ndarray
+    q_ref: np.ndarray
+    period: float
+    quantize: bool = True
+
+    def __post_init__(self):
+        self._ref_counts = self.q_ref / self.resolution
+        self.e_prev = np.zeros_like(self.q_ref)
+        self.e_sum = np.zeros_like(self.q_ref)
+        self.active = bool(self.P or self.D or self.I)
+
+    def hold_static(self, tau_needed: np.ndarray) -> None:
+        """Start at rest on the reference with the integrator wound up to ``tau_needed``
+        (what the arm needs beyond ``tau_gc`` to hold still), as after a long settle."""
+        if self.I > 0 and self.scale > 0:
+            self.e_sum = (tau_needed - self.tau_gc) / (self.scale * self.I * self.period)
+
+    def counts(self, q: np.ndarray) -> np.ndarray:
+        c = q / self.resolution
+        return np.round(c) if self.quantize else c
+
+    def update(self, q: np.ndarray) -> np.ndarray:
+        """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m]."""
+        if not self.active:
+            return np.clip(self.tau_gc, -self.tau_max, self.tau_max)
+        ref = np.round(self._ref_counts) if self.quantize else self._ref_counts
+        e = ref - self.counts(q)
+        self.e_sum = self.e_sum + e
+        u = self.P * e + self.D * (e - self.e_prev) / self.period + self.I * self.period * self.e_sum
+        self.e_prev = e
+        return np.clip(self.scale * u + self.tau_gc, -self.tau_max, self.tau_max)
