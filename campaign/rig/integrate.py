@@ -283,6 +283,10 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
                     if s_k < best_s:
                         best_s, best_k = s_k, key
                 h_ev = best_s * h
+                if best_k.startswith("break"):
+                    # act just past the root, where the static limit is exceeded strictly
+                    # (at the root itself sticking is still consistent to rounding)
+                    h_ev = min(h, h_ev + 1e-10)
                 if h_ev > 1e-15:
                     x, _ = rk4(x, h_ev, k1)
                     xds.append(k1)
@@ -310,8 +314,17 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
                     j = int(best_k[4:])
                     x[nv + 1 + j] = 0.0      # the joint comes to rest: stick, or reverse
                     settle_modes(x)
-                else:  # break-away of a stuck joint
-                    settle_modes(x)
+                else:  # break-away: at the located instant the holding torque sits on the
+                    # static limit, so release the joint in the direction it pushes (the
+                    # unchanged stick assignment is still "consistent" to rounding there)
+                    j = int(best_k[5:])
+                    lam = holding(x)
+                    m = modes.copy()
+                    m[j] = 1 if lam[list(stuck).index(j)] < 0 else -1
+                    if consistent(x, m):
+                        modes, stuck, coulomb = m, np.flatnonzero(m == 0), plant.coulomb(m)
+                    else:
+                        settle_modes(x)
                 xs[-1] = x.copy()
                 continue
         # -- servo tick ----------------------------------------------------------------------
