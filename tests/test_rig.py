@@ -1,0 +1,179 @@
+"""The fixed-base simulated VES-II against closed forms, invariants and physical sanity (issue 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from campaign import exiit, schema
+from campaign.cli import main
+from campaign.errors import InputError, SimulationError
+from campaign.paper import load_paper
+from campaign.rig import build, simulate
+from campaign.rig.contact import damping_for_restitution, restitution_of_damping
+from campaign.robot import load_robot
+from campaign.scene import make_scene
+
+E = 0.55
+
+
+def _edges(tree):
+    tr = tree["truth"]
+    return tuple(float(tr[k]) for k in ("v_a_pre", "v_a_post", "v_b_pre", "v_b_post"))
+
+
+@pytest.mark.parametrize("e", [0.2, 0.55, 0.9])
+@pytest.mark.parametrize("p", [0.8, 1.0, 1.5])
+def test_damping_root_gives_restitution_of_the_contact_ode(e, p):
+    # closed-form root vs an independent ODE integration of the dimensionless contact
+    assert restitution_of_damping(damping_for_restitution(e, p), p) == pytest.approx(e, rel=1e-8)
+
+
+@pytest.mark.parametrize("stiffness", [950.0, 4.0e6])
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
+def test_hammer_on_a_wall_rebounds_with_the_set_restitution_whatever_the_arrival_phase(stiffness, seed):
+    # the arm locked by (huge) friction is a wall; the seed moves the touch inside the servo tick
+    scene = make_scene(config=1, speed=1.7, seed=seed, params={
+        "gravity": 0.0, "arm.coulomb_scale": 1e6, "arm.viscous_scale": 0.0, "contact.stiffness": stiffness,
+        "trial.min_post_contact": 0.1, "trial.max_post_contact": 0.1})
+    rig = build(scene)
+    phase = (rig.t_contact / rig.servo_period) % 1.0
+    tree = simulate(scene)
+    va, va_post, vb, vb_post = _edges(tree)
+    assert va_post == 0.0
+    assert -vb_post / vb == pytest.approx(E, rel=1e-2), f"arrival phase {phase:.3f} of the servo tick"
+
+
+@pytest.mark.parametrize("config", [1, 2, 3])
+@pytest.mark.parametrize("speed", [1.0, 2.5])
+def test_ideal_scene_post_impact_velocities_match_eq13(config, speed):
+    robot = load_robot()
+    tree = simulate(make_scene(scene="ideal", config=config, speed=speed))
+    va, va_post, vb, vb_post = _edges(tree)
+    m_b = float(tree["measured"].hammer_mass_eff)
+    m1 = exiit.effective_mass(robot, tree["measured"].q_cmd.values)
+    va_eq13 = exiit.post_impact_velocity(m1, m_b, va, vb, E)
+    vb_eq = va_eq13 - E * (vb - va)     # eq 12
+    assert va_post == pytest.approx(va_eq13, rel=5e-3)
+    assert vb_post == pytest.approx(vb_eq, rel=5e-3)
+    # the integrated impulse is eq 14's, and the contact is close to impulsive (~1 ms)
+    tr = tree["truth"]
+    assert float(tr.impulse) == pytest.approx(exiit.impulse(m1, m_b, va, vb, E), rel=5e-3)
+    assert float(tr.contact_end - tr.contact_start) < 2e-3
+
+
+@pytest.mark.parametrize("config", [1, 3])
+def test_passive_scene_energy_never_increases_after_the_touch(config):
+    scene = make_scene(config=config, gain="zero", speed=2.0, params={"gravity": 0.0})
+    tree = simulate(scene)
+    tr = tree["truth"]
+    t0 = float(tr.contact_start)
+    energy = tr.energy.where(tr.t_truth >= t0, drop=True).values
+    assert energy.size > 50
+    assert np.all(np.diff(energy) <= 1e-9 * energy[0])
+    assert energy[-1] < 0.9 * energy[0]       # friction and contact damping dissipate
+
+
+@pytest.mark.parametrize("config,gain", [(2, "zero"), (3, "high"), (1, "low")])
+def test_halving_the_step_changes_post_impact_velocities_by_less_than_1e4(config, gain):
+    scene = make_scene(config=config, gain=gain, speed=1.8)
+    rig = build(scene)
+    base = _edges(simulate(scene))
+    fine = _edges(simulate(scene, integration={"substeps_contact": 2 * rig.substeps_contact,
+                                               "substeps_free": 2 * rig.substeps_free}))
+    for a, b in zip(base[1::2], fine[1::2]):
+        assert abs(a - b) <= 1e-4 * abs(b)
+
+
+@pytest.fixture(scope="module")
+def sweep():
+    out = {}
+    for config in (1, 2, 3):
+        for gain in ("zero", "high"):
+            for speed in (1.0, 2.5):
+                out[config, gain, speed] = simulate(make_scene(config=config, gain=gain, speed=speed))
+    return out
+
+
+def test_default_peak_forces_lie_in_the_papers_30_70_N(sweep):
+    lo, hi = load_paper()["impact_force_range_N"]
+    for key, tree in sweep.items():
+        peak = float(tree["truth"].peak_force)
+        assert lo * 0.97 <= peak <= hi * 1.03, key
+
+
+def test_zero_gain_joint3_moves_a_few_degrees_in_configuration_1_and_comes_to_rest():
+    tree = simulate(make_scene(config=1, gain="zero", speed=2.0))
+    tr = tree["truth"]
+    q3 = np.degrees(tr.q.sel(joint="j3").values - tree["measured"].q_cmd.sel(joint="j3").item())
+    assert 0.5 <= np.max(np.abs(q3)) <= 6.0
+    assert tr.attrs["settled"] == 1
+    assert np.all(tr.v.values[-10:] == 0.0)
+
+
+def test_high_gains_give_a_larger_effective_mass_than_zero_gains(sweep):
+    def m_true(tree):
+        va, va_post, vb, vb_post = _edges(tree)
+        return float(tree["measured"].hammer_mass_eff) * (vb - vb_post) / (va_post - va)
+    for config in (1, 2, 3):
+        for speed in (1.0, 2.5):
+            assert m_true(sweep[config, "high", speed]) > m_true(sweep[config, "zero", speed])
+
+
+def test_channels_follow_the_schema_and_a_fixed_base_carries_no_base_states(sweep):
+    tree = sweep[1, "zero", 1.0]
+    for group in ("measured", "truth"):
+        ds = tree[group].to_dataset()
+        names = {v.name for v in schema.variables(group, "fixed")}
+        assert names == set(ds.data_vars)
+        for name in names:
+            assert ds[name].attrs["units"] and ds[name].attrs["long_name"]
+        for name in schema.FLEXIBLE_ONLY:
+            assert name not in ds
+    m = tree["measured"]
+    assert np.allclose(np.diff(m.t_joint.values), 0.02)     # the paper's 20 ms joint samples
+    # quantised encoders: every sample is a whole number of counts
+    res = load_robot().encoder_resolution
+    counts = m.q_enc.values / res
+    assert np.allclose(counts, np.round(counts), atol=1e-6)
+    # the touch happens inside the recording, after the pre-contact window
+    assert 0.2 <= float(tree["truth"].contact_start) <= 0.22
+
+
+def test_same_scene_and_seed_give_identical_channels():
+    scene = make_scene(config=2, gain="low", speed=1.3)
+    a, b = simulate(scene), simulate(scene)
+    xr.testing.assert_identical(a["measured"].to_dataset(), b["measured"].to_dataset())
+    xr.testing.assert_identical(a["truth"].to_dataset(), b["truth"].to_dataset())
+    c = simulate(make_scene(config=2, gain="low", speed=1.3, seed=scene.seed + 1))
+    assert not np.array_equal(a["measured"].f_piezo.values, c["measured"].f_piezo.values)
+
+
+@pytest.mark.parametrize("argv,needle", [
+    (["--speed", "0"], "speed"),
+    (["--speed", "9"], "beyond what the pendulum can reach"),
+    (["--speed", "1", "--config", "7"], "configuration 7"),
+    (["--speed", "1", "--set", "pendulum.head_mass=-0.4"], "head_mass"),
+    (["--speed", "1", "--set", "contact.stiffness=-5"], "contact.stiffness"),
+    (["--speed", "1", "--gain", "high", "--set", "controller.torque_per_unit=1e-4"], "unstable"),
+    (["--speed", "1", "--set", "no.such=1"], "no.such"),
+])
+def test_trial_cli_bad_input_exits_2_naming_the_cause_and_leaves_no_file(tmp_path, capsys, argv, needle):
+    out = tmp_path / "t.nc"
+    assert main(["trial", *argv, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert needle in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_blow_up_is_reported_never_stored():
+    # a stiff contact forced onto far too coarse a step diverges: detected, not returned
+    scene = make_scene(config=1, speed=2.0, params={"contact.stiffness": 1e9, "contact.exponent": 1.0})
+    with pytest.raises(SimulationError, match="blew up|non-finite|chattering"):
+        simulate(scene, integration={"substeps_contact": 1})
+
+
+def test_contact_too_stiff_for_the_integrator_is_refused_before_simulating():
+    with pytest.raises(InputError, match="too stiff"):
+        build(make_scene(config=1, speed=2.0, params={"contact.stiffness": 1e14, "contact.exponent": 1.0}))
