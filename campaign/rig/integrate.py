@@ -92,16 +92,19 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
     nv = plant.nv
     iv, ithd, iP = plant.i_v, plant.i_thd, plant.i_P
     r = plant.pend.radius
-    friction_events = bool(np.any(plant.tc_pos > 0) or np.any(plant.tc_neg > 0))
+    sticky = plant.sticky            # dofs with Coulomb friction (base dofs never stick)
+    friction_events = bool(np.any(sticky))
+    arm_q = plant.arm_q
+    T_emu = plant.emulator_period    # VES emulator ticks (None: no emulator)
 
     # -- initial state at the first touch: arm at rest on q0, head at the bottom ------------
     x = np.zeros(plant.size)
     x[:nv] = plant.q0
     x[ithd] = speed / r
     x0 = x.copy()
-    tau = pid.update(plant.q0)          # the static servo output held at the touch
+    tau = plant.servo(pid.update(plant.q0[arm_q]))   # the static servo output held at the touch
     tau_static = tau.copy()
-    modes = np.zeros(nv, dtype=int) if friction_events else np.ones(nv, dtype=int)
+    modes = np.where(sticky, 0, 1)
     stuck = np.flatnonzero(modes == 0)
     coulomb = plant.coulomb(modes)
     contact_v0 = speed                  # first touch: delta = 0, ddelta = v_b - v_a = v_b
@@ -117,6 +120,8 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
     servo_tau = [tau.copy()]
 
     t = t_contact
+    t_stage = t
+    k_emu = (math.floor(t_contact / T_emu + 1e-9) + 1) if T_emu is not None else 0
     ts, xs, xds = [t], [x.copy()], []
     n_steps = n_rhs = n_events = tick_events = 0
     t_static = None
@@ -129,12 +134,16 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
     def f(xx):
         nonlocal n_rhs
         n_rhs += 1
-        return rhs(xx, tau, coulomb, stuck, contact_v0, caught)
+        return rhs(xx, tau, coulomb, stuck, contact_v0, caught, t_stage)
 
     def rk4(xx, h, k1=None):
+        nonlocal t_stage
+        t_stage = t
         k1 = f(xx) if k1 is None else k1
+        t_stage = t + 0.5 * h
         k2 = f(xx + (0.5 * h) * k1)
         k3 = f(xx + (0.5 * h) * k2)
+        t_stage = t + h
         k4 = f(xx + h * k3)
         return xx + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4), k1
 
@@ -163,11 +172,11 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
             if rebound_seen or contacts[-1][1] is not None:
                 vals["catch"] = xx[ithd]          # rebounding hammer (thd < 0) reaches its top
         if friction_events:
-            for j in np.flatnonzero(modes != 0):
+            for j in np.flatnonzero((modes != 0) & sticky):
                 vals[f"stop{j}"] = -modes[j] * xx[iv][j]
             # with every joint stuck, no contact and a constant servo torque the holding
             # torques cannot change: skip the constrained solve
-            if len(stuck) and not (len(stuck) == nv and contact_v0 is None and not pid.active):
+            if len(stuck) and not (len(stuck) == nv and contact_v0 is None and not pid.active and T_emu is None):
                 for jj, val in zip(stuck, violation(holding(xx))):
                     vals[f"break{jj}"] = val
         return vals
@@ -192,7 +201,7 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
             lim = np.where(lam < 0, plant.tc_pos[st], plant.tc_neg[st])
             if np.any(np.abs(lam) > lim * (1 + 1e-12)):
                 return False
-        at_rest = (m != 0) & (v == 0.0)
+        at_rest = (m != 0) & (v == 0.0) & sticky
         return not np.any(a[at_rest] * m[at_rest] < 0)
 
     def settle_modes(xx):
@@ -204,7 +213,7 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         nonlocal modes, stuck, coulomb
         if consistent(xx, modes):
             return
-        rest = np.flatnonzero((modes == 0) | (xx[iv] == 0.0))
+        rest = np.flatnonzero(((modes == 0) | (xx[iv] == 0.0)) & sticky)
         import itertools
         for combo in itertools.product((0, 1, -1), repeat=len(rest)):
             m = modes.copy()
@@ -226,9 +235,10 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         if contact_v0 is None:
             # all joints stuck and a servo output that cannot change any more, or (without
             # Coulomb friction) every joint slower than the settle velocity
-            static = (friction_events and not np.any(modes)
-                      and (not pid.active or pid.I == 0 or not np.any(pid.e_prev))) \
-                or (not friction_events and float(np.max(np.abs(x[iv]))) < settle_velocity)
+            static = T_emu is None and (
+                (friction_events and not np.any(modes)
+                 and (not pid.active or pid.I == 0 or not np.any(pid.e_prev)))
+                or (not friction_events and float(np.max(np.abs(x[iv]))) < settle_velocity))
             if static and caught:
                 # nothing moves any more: the sensors hold this state to the end of the recording
                 t_static, settled = t, True
@@ -240,6 +250,8 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         # -- one step to the next boundary (a servo tick or a substep) -------------------------
         sub = substeps_contact if contact_v0 is not None else substeps_free
         t_tick = k_tick * T
+        if T_emu is not None:
+            t_tick = min(t_tick, k_emu * T_emu)
         h = min(T / sub, t_tick - t)
         if t_catch is not None and not caught and t_catch - t <= h:
             if t_catch - t <= 1e-15:
@@ -328,10 +340,15 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
                 xs[-1] = x.copy()
                 continue
         # -- servo tick ----------------------------------------------------------------------
-        if t_tick - t <= 1e-12:
-            t = t_tick
+        if T_emu is not None and k_emu * T_emu - t <= 1e-12:
+            t = k_emu * T_emu
             ts[-1] = t
-            tau = pid.update(x[:nv])
+            plant.on_emulator_tick(t, x, tau)
+            k_emu += 1
+        if k_tick * T - t <= 1e-12:
+            t = k_tick * T
+            ts[-1] = t
+            tau = plant.servo(pid.update(x[arm_q]))
             servo_t.append(t)
             servo_tau.append(tau.copy())
             k_tick += 1
@@ -339,6 +356,7 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
             if friction_events and pid.active:
                 settle_modes(x)   # a new torque may break a stuck joint loose at once
 
+    t_stage = t
     xds.append(f(x))
     if contacts[-1][1] is None:
         raise SimulationError("the contact had not ended by the end of the trial (hammer pressed against the arm)")

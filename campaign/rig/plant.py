@@ -85,6 +85,10 @@ class FixedBasePlant:
         self.i_thd = 2 * nv + 1
         self.i_P = 2 * nv + 2
         self.size = 2 * nv + 3
+        # the integrator's view: which dofs can stick, which are the servo's, no emulator
+        self.sticky = (self.tc_pos > 0) | (self.tc_neg > 0)
+        self.arm_q = slice(0, nv)
+        self.emulator_period = None
         # does this Pinocchio fill both triangles of the CRBA matrix? (checked once)
         H = pin.crba(self.model, self.data, self.q0)
         self._crba_full = bool(np.allclose(H, H.T))
@@ -158,7 +162,11 @@ class FixedBasePlant:
         lam = H[stuck] @ a - b[stuck]
         return lam, a
 
-    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught):
+    def servo(self, tau_arm):
+        """Generalised servo torque from the arm's joint torques (identity for a fixed base)."""
+        return tau_arm
+
+    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught, t=0.0):
         """State derivative.
 
         Parameters
@@ -174,6 +182,8 @@ class FixedBasePlant:
             Approach speed at first touch while in contact, else None.
         caught : bool
             The hammer has been caught after its rebound (held still).
+        t : float
+            Time [s] (unused on a fixed base; a prescribed base motion needs it).
         """
         nv = self.nv
         q = x[:nv]
