@@ -1,0 +1,1361 @@
+"""The campaign's data archive: self-describing trial files, campaign folders, verification.
+
+One trial is one NetCDF4/HDF5 file (design brief section 6)::
+
+    /                 ACDD-1.3 global attributes, schema version, scene JSON + sha256,
+                      provenance (package version, git commit, library versions), seed
+    /measured         what a real VES-II records (campaign.schema.MEASURED), one time
+                      dimension per sampling clock
+    /truth            what only the simulator knows (campaign.schema.TRUTH)
+
+Every variable carries CF ``units`` and ``long_name``; every time coordinate is float64
+seconds with ``standard_name = "time"``. Time series are chunked along time and compressed
+losslessly (deflate + shuffle, the filters every netCDF-4 reader has). Anyone opens a trial
+with plain xarray, no project import needed::
+
+    xr.open_dataset(path, engine="h5netcdf", group="measured")
+
+**Writer.** Files are written with h5py in exactly the layout xarray's h5netcdf engine
+writes (HDF5 dimension scales, ``_Netcdf4Dimid``, creation order tracked), and read back with
+xarray. Writing through xarray/h5netcdf costs about 5 ms per variable on the reference
+machine, i.e. 200-280 ms for a trial's 36-50 variables, four to six times the archive's
+50 ms budget; h5py writes the same file in about a fifth of that (``benchmarks/
+bench_archive.py``). The test suite checks that xarray decodes our files identically to
+files xarray writes itself (values, dtypes, attributes, encodings).
+
+**Integrity.** Each group stores ``content_sha256``: a digest of its attributes and of every
+variable's bytes and attributes (:func:`_digest`). Readers recompute it, so a flipped byte
+anywhere in the content is reported even for a file outside any campaign. A campaign
+folder's ``MANIFEST.sha256`` (``sha256sum`` format) checks whole files; HDF5 bytes are not
+reproducible run to run (``date_created``), so reproducibility is checked on decoded arrays
+with ``xarray.testing`` instead.
+
+**Safe I/O.** Writes go to a temporary file in the target folder, then ``os.replace``: a
+killed writer never leaves a file under the final name. Reads open, load and close.
+
+Campaign folder (``archive/<name>/``)::
+
+    <base>/config<N>/<gain>/v<speed>/r<NN>.nc     one file per trial (Scene.cell)
+    index.csv                                      one row per trial with its scene parameters
+    README.md                                      every variable, unit and clock (generated)
+    MANIFEST.sha256                                sha256 of every other file
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import datetime as _dt
+import functools
+import hashlib
+import io
+import json
+import math
+import os
+import re
+import secrets
+import subprocess
+from importlib.metadata import PackageNotFoundError, version as _dist_version
+from pathlib import Path
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
+
+import h5py
+import numpy as np
+from h5py import h5a, h5d, h5ds, h5p, h5s, h5t
+import xarray as xr
+
+from . import __version__
+from .errors import InputError, TrialFileError
+from .scene import BASES, GAINS, Scene
+from .schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH, variables
+
+__all__ = [
+    "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "FILTER_KEYS", "REFERENCES",
+    "TrialRecord", "Problem",
+    "provenance", "prepare_trial", "write_trial", "open_trial", "open_trial_tree", "trial_path",
+    "list_trials", "open_campaign", "to_cell_dataset",
+    "write_manifest", "write_index", "write_readme", "finalize_campaign", "verify",
+]
+
+GROUPS = ("measured", "truth")
+TRIAL_SUFFIX = ".nc"
+MANIFEST = "MANIFEST.sha256"
+INDEX = "index.csv"
+README = "README.md"
+
+#: the campaign cell: the dimensions of :func:`open_campaign` and :func:`to_cell_dataset`
+CELL_KEYS = ("base", "config", "gain", "speed", "repeat")
+#: columns of index.csv, in order
+INDEX_COLUMNS = ("path", "base", "config", "gain", "speed", "repeat", "seed", "scene", "scene_sha256",
+                 "robot", "schema_version")
+#: keys accepted by :func:`list_trials` filters, with the type a value is read as
+FILTER_KEYS = {"base": str, "config": int, "gain": str, "speed": float, "repeat": int, "seed": int,
+               "scene": str, "scene_sha256": str, "robot": str}
+
+REFERENCES = ("Yoshida, K., Mavroidis, C. and Dubowsky, S., \"Impact Dynamics of Space Long Reach "
+              "Manipulators\", Proc. 1996 IEEE International Conference on Robotics and Automation, "
+              "Minneapolis, MN, pp. 1909-1916")
+
+# Chosen with benchmarks/bench_archive.py: deflate level 1 + shuffle compresses float channels
+# as well as level 4 or 9 (the noise bits dominate) at the lowest cost; one chunk holds up to
+# 256 KiB, so a trial's channels are one chunk each and long recordings still split along time.
+_DEFLATE_LEVEL = 1
+_CHUNK_BYTES = 1 << 18
+
+_SCHEMA_MAJOR = int(SCHEMA_VERSION.split(".")[0])
+_ROOT_REQUIRED = ("scene_json", "scene_sha256", "seed", "base", "config", "gain", "speed", "repeat", "robot")
+# attributes HDF5/netCDF-4 bookkeeping owns: not content, excluded from content_sha256
+_STRUCTURAL = frozenset({"CLASS", "NAME", "REFERENCE_LIST", "DIMENSION_LIST", "_Netcdf4Dimid",
+                         "_Netcdf4Coordinates", "_NCProperties", "content_sha256"})
+_GROUP_COMMENT = {
+    "measured": "channels a real VES-II records (noisy, quantised, each on its own clock) and the instrument "
+                "constants an experimenter knows; identification reads only this group",
+    "truth": "simulator truth (exact states, contact force and interval); kept apart from the measured "
+             "channels, identification never reads it",
+}
+_LABEL_LONG_NAMES = {"joint": "active joint name", "axis": "Cartesian axis, base frame",
+                     "axis2": "Cartesian axis, base frame (second index of a tensor)"}
+_TEMP_RE = re.compile(r"^\..+\.tmp$")
+
+
+# ---------------------------------------------------------------------------------------
+# provenance
+# ---------------------------------------------------------------------------------------
+@functools.cache
+def _git_commit() -> str:
+    """Commit of the source tree this package runs from, ``-dirty`` if modified; else "unknown"."""
+    here = Path(__file__).resolve().parent
+    try:
+        top = subprocess.run(["git", "-C", str(here), "rev-parse", "--show-toplevel"], capture_output=True,
+                             text=True, timeout=10, check=True).stdout.strip()
+        # an installed copy inside some other repository must not report that repository's commit
+        if not top or not here.is_relative_to(Path(top).resolve()):
+            return "unknown"
+        head = subprocess.run(["git", "-C", top, "rev-parse", "HEAD"], capture_output=True, text=True,
+                              timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", top, "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=30, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    return f"{head}-dirty" if dirty else head or "unknown"
+
+
+def _dist(name: str) -> str:
+    try:
+        return _dist_version(name)
+    except PackageNotFoundError:
+        return "not installed"
+
+
+@functools.cache
+def _provenance() -> tuple[tuple[str, str], ...]:
+    return (
+        ("campaign_version", __version__),
+        ("git_commit", _git_commit()),
+        ("numpy_version", _dist("numpy")),
+        ("scipy_version", _dist("scipy")),
+        ("pinocchio_version", _dist("pin")),
+        ("xarray_version", _dist("xarray")),
+        ("h5py_version", _dist("h5py")),
+        ("h5netcdf_version", _dist("h5netcdf")),
+        ("hdf5_version", h5py.version.hdf5_version),
+    )
+
+
+def provenance() -> dict[str, str]:
+    """Package version, git commit and library versions stored in every trial (computed once).
+
+    Returns
+    -------
+    dict of str to str
+        ``campaign_version``, ``git_commit`` (``"unknown"`` outside a git checkout, suffixed
+        ``-dirty`` when tracked files are modified), and ``numpy_version``, ``scipy_version``,
+        ``pinocchio_version``, ``xarray_version``, ``h5py_version``, ``h5netcdf_version``,
+        ``hdf5_version``.
+    """
+    return dict(_provenance())
+
+
+# ---------------------------------------------------------------------------------------
+# content digest (shared by the writer and every reader)
+# ---------------------------------------------------------------------------------------
+def _canon(value: Any) -> bytes:
+    """Canonical bytes of an attribute value or array, equal for what is written and read back.
+
+    h5py returns variable-length strings as ``str`` (attributes) or ``bytes`` (datasets) and
+    scalars as numpy scalars; the canonical form only keeps what the value means.
+    """
+    if isinstance(value, str):
+        return b"s" + value.encode()
+    if isinstance(value, bytes):
+        return b"s" + value
+    a = np.asarray(value)
+    if a.dtype.kind in "OUS":
+        parts = [x.encode() if isinstance(x, str) else bytes(x) for x in a.ravel().tolist()]
+        return b"S" + repr(a.shape).encode() + b"".join(len(p).to_bytes(8, "little") + p for p in parts)
+    a = np.asarray(a, order="C")
+    return b"n" + a.dtype.str.encode() + repr(a.shape).encode() + a.tobytes()
+
+
+def _digest(attrs: Mapping[str, Any], variables_: Mapping[str, tuple[Any, Mapping[str, Any]]]) -> str:
+    """sha256 of one group's content: its attributes and each variable's data and attributes."""
+    h = hashlib.sha256()
+
+    def feed_attrs(a: Mapping[str, Any]) -> None:
+        for key in sorted(k for k in a if k not in _STRUCTURAL):
+            for part in (key.encode(), _canon(a[key])):
+                h.update(len(part).to_bytes(8, "little"))
+                h.update(part)
+
+    feed_attrs(attrs)
+    for name in sorted(variables_):
+        data, vattrs = variables_[name]
+        for part in (b"\x00var", name.encode(), _canon(data)):
+            h.update(len(part).to_bytes(8, "little"))
+            h.update(part)
+        feed_attrs(vattrs)
+    return h.hexdigest()
+
+
+# ---------------------------------------------------------------------------------------
+# checking and completing a trial before it is written
+# ---------------------------------------------------------------------------------------
+def _check_attr(where: str, key: str, value: Any) -> None:
+    """Attributes must be str, numbers or numeric/str arrays: what every netCDF reader keeps."""
+    if key in _STRUCTURAL or key.startswith("_"):
+        raise InputError(f"attribute {key!r} of {where}: names starting with '_' and HDF5 dimension-scale "
+                         "names are reserved for the file format")
+    ok = False
+    if isinstance(value, str):
+        ok = True
+    elif isinstance(value, (bool, np.bool_)) or value is None:
+        ok = False
+    elif isinstance(value, (int, float, np.integer, np.floating)):
+        ok = True
+    elif isinstance(value, np.ndarray) and value.dtype.kind in "iufU" and value.ndim == 1:
+        ok = True
+    if not ok:
+        raise InputError(f"attribute {key!r} of {where} is a {type(value).__name__} ({value!r:.60}); "
+                         "trial attributes must be str, numbers or 1-d numeric/str arrays (no dict, None, bool)")
+
+
+@dataclasses.dataclass
+class _Var:
+    """One variable as it will be stored (plain numpy + dicts: cheaper than xarray objects)."""
+
+    name: str
+    dims: tuple[str, ...]
+    data: np.ndarray
+    attrs: dict[str, Any]
+    encoding: dict[str, Any]
+
+
+@dataclasses.dataclass
+class _Group:
+    attrs: dict[str, Any]
+    variables: list[_Var]  # dimension coordinates first, then the schema's variables in schema order
+
+
+def _validate_group(group: str, ds: xr.Dataset, base: str) -> _Group:
+    """Check one group against the schema; fill units/long_name the rig left out."""
+    expected = {v.name: v for v in variables(group, base)}
+    names = set(ds.data_vars)
+    missing = [n for n in expected if n not in names]
+    if missing:
+        raise InputError(f"trial group /{group} ({base} base) is missing {', '.join(missing)} "
+                         f"(schema {SCHEMA_VERSION}, campaign/schema.py)")
+    unknown = sorted(names - set(expected))
+    if unknown:
+        raise InputError(f"trial group /{group} ({base} base) has variables not in schema {SCHEMA_VERSION}: "
+                         f"{', '.join(unknown)}; add them to campaign/schema.py with a version bump")
+    out = []
+    for name, spec in expected.items():
+        var = ds.variables[name]
+        if var.dims != spec.dims:
+            raise InputError(f"/{group}/{name} has dims {var.dims}, schema says {spec.dims}")
+        if var.dtype.kind not in "iuf":
+            raise InputError(f"/{group}/{name} has dtype {var.dtype}; channels must be integer or float")
+        attrs = dict(var.attrs)
+        if "units" in attrs and attrs["units"] != spec.units:
+            raise InputError(f"/{group}/{name} has units {attrs['units']!r}, schema says {spec.units!r}")
+        attrs.setdefault("units", spec.units)
+        attrs.setdefault("long_name", spec.long_name)
+        for key, value in attrs.items():
+            _check_attr(f"/{group}/{name}", key, value)
+        data = np.asarray(var.values, order="C")
+        out.append(_Var(name, var.dims, data, attrs, _encoding(var.dims, data)))
+    coords = []
+    for dim in ds.dims:
+        if dim in CLOCKS:
+            if dim not in ds.coords:
+                raise InputError(f"/{group} time dimension {dim} has no coordinate (seconds from recording start)")
+            c = ds.variables[dim]
+            if c.dtype != np.float64:
+                raise InputError(f"/{group} time coordinate {dim} has dtype {c.dtype}, expected float64 seconds")
+            attrs = dict(c.attrs)
+            if attrs.get("units", "s") != "s":
+                raise InputError(f"/{group} time coordinate {dim} has units {attrs['units']!r}, expected 's'")
+            attrs.update(units="s", standard_name="time")
+            attrs.setdefault("long_name", CLOCKS[dim].long_name)
+            values = c.values
+        elif dim in COORDS:
+            if dim in ds.coords:
+                values = np.asarray(ds.variables[dim].values)
+                attrs = dict(ds.variables[dim].attrs)
+            elif COORDS[dim] is not None:
+                values, attrs = np.asarray(COORDS[dim]), {}
+            else:
+                raise InputError(f"/{group} dimension {dim} has no coordinate (the robot's active joint names)")
+            if values.dtype.kind not in "UO" or not all(isinstance(x, str) for x in values.tolist()):
+                raise InputError(f"/{group} coordinate {dim} must hold names (str), got dtype {values.dtype}")
+            if COORDS[dim] is not None and tuple(values.tolist()) != tuple(COORDS[dim]):
+                raise InputError(f"/{group} coordinate {dim} is {values.tolist()}, schema says {list(COORDS[dim])}")
+            values = values.astype(str)
+            attrs.setdefault("long_name", _LABEL_LONG_NAMES[dim])
+        else:
+            raise InputError(f"/{group} has dimension {dim!r}, which is neither a schema clock nor a label dimension")
+        for key, value in attrs.items():
+            _check_attr(f"/{group}/{dim}", key, value)
+        coords.append(_Var(dim, (dim,), values, attrs, _encoding((dim,), values)))
+    extra = sorted(set(ds.coords) - set(ds.dims))
+    if extra:
+        raise InputError(f"/{group} has non-dimension coordinates {extra}; the schema has none")
+    for key, value in ds.attrs.items():
+        _check_attr(f"/{group}", key, value)
+    attrs = {"comment": _GROUP_COMMENT[group], **ds.attrs, "schema_version": SCHEMA_VERSION}
+    variables_ = coords + out
+    attrs["content_sha256"] = _digest(attrs, {v.name: (v.data, v.attrs) for v in variables_})
+    return _Group(attrs, variables_)
+
+
+def _scene_of(attrs: Mapping[str, Any]) -> Scene:
+    """The Scene a trial's root attributes describe, checked against the cell attributes."""
+    missing = [k for k in _ROOT_REQUIRED if k not in attrs]
+    if missing:
+        raise InputError(f"trial root attributes are missing {', '.join(missing)}")
+    text = attrs["scene_json"]
+    if not isinstance(text, str) or hashlib.sha256(text.encode()).hexdigest() != attrs["scene_sha256"]:
+        raise InputError("trial attribute scene_sha256 is not the sha256 of scene_json")
+    try:
+        scene = Scene.from_json(text)
+    except (KeyError, TypeError, json.JSONDecodeError) as exc:
+        raise InputError(f"trial attribute scene_json is not a scene: {exc}") from None
+    for key in ("base", "config", "gain", "speed", "repeat", "seed"):
+        if attrs[key] != getattr(scene, key):
+            raise InputError(f"trial attribute {key}={attrs[key]!r} disagrees with its scene ({getattr(scene, key)!r})")
+    return scene
+
+
+def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
+    """Storage of one variable (xarray encoding keys): time series chunked along time and
+    deflated, constants and labels contiguous."""
+    if data.ndim and dims[0] in CLOCKS:
+        row_bytes = data.dtype.itemsize * int(np.prod(data.shape[1:], dtype=np.int64))
+        rows = int(min(data.shape[0], max(1, _CHUNK_BYTES // max(row_bytes, 1))))
+        return {"dtype": data.dtype, "zlib": True, "complevel": _DEFLATE_LEVEL, "shuffle": True,
+                "fletcher32": False, "chunksizes": (rows,) + tuple(data.shape[1:]), "_FillValue": None}
+    if data.dtype.kind in "UO":
+        return {}
+    return {"dtype": data.dtype, "zlib": False, "shuffle": False, "fletcher32": False, "chunksizes": None,
+            "_FillValue": None}
+
+
+def _plan(tree: xr.DataTree) -> tuple[dict[str, Any], dict[str, _Group]]:
+    """Validate a trial and return exactly what will be stored: (root attributes, groups)."""
+    if not isinstance(tree, xr.DataTree):
+        raise InputError(f"a trial is an xarray.DataTree with groups measured and truth, got {type(tree).__name__}")
+    children = set(tree.children)
+    if children != set(GROUPS):
+        raise InputError(f"a trial has exactly the groups {list(GROUPS)}, got {sorted(children)}")
+    if tree.ds.variables:
+        raise InputError(f"a trial's root group holds attributes only, got variables {sorted(tree.ds.variables)}")
+    attrs = dict(tree.attrs)
+    scene = _scene_of(attrs)
+    for key, value in attrs.items():
+        _check_attr("the trial root", key, value)
+    version = attrs.get("schema_version", SCHEMA_VERSION)
+    if version != SCHEMA_VERSION:
+        raise InputError(f"trial says schema_version {version!r}, this archive writes {SCHEMA_VERSION}")
+    groups = {g: _validate_group(g, tree[g].to_dataset(inherit=False), scene.base) for g in GROUPS}
+    root = {
+        "title": f"Simulated VES-II impact trial {scene.cell}",
+        "summary": (
+            "One trial of a simulated re-run of the impact experiments of Yoshida, Mavroidis and Dubowsky "
+            f"on the MIT Vehicle Emulation System II: a {scene.p('robot')} arm on a {scene.base} base, struck "
+            f"by a pendulum hammer at {scene.speed:g} m/s (configuration {scene.config}, {scene.gain} gains, "
+            f"repeat {scene.repeat}). Group /measured holds what a real rig records, each channel on its own "
+            "clock; group /truth holds the simulator's exact states, kept apart."),
+        "keywords": ("space robotics, impact dynamics, effective mass, virtual rotor inertia, restitution "
+                     "coefficient, long-reach manipulator, flexible base, VES-II, PUMA 560, simulation"),
+        "id": f"campaign-trial-{scene.sha256}",
+        "creator_name": "The campaign developers",
+        "creator_type": "group",
+        "project": ("campaign: a reproducible simulated re-run of Yoshida, Mavroidis and Dubowsky, "
+                    "Impact Dynamics of Space Long Reach Manipulators"),
+        "references": REFERENCES,
+        "license": "BSD-3-Clause",
+        "processing_level": ("simulated raw sensor channels (noisy, quantised, unprocessed) and simulator "
+                             "truth, no derived quantities"),
+        "source": "numerical simulation: campaign rig (simulated MIT VES-II)",
+        **attrs,
+        "Conventions": "CF-1.11, ACDD-1.3",
+        "date_created": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "schema_version": SCHEMA_VERSION,
+        **provenance(),
+        "seed": int(scene.seed),
+    }
+    root["content_sha256"] = _digest(root, {})
+    return root, groups
+
+
+def prepare_trial(tree: xr.DataTree) -> xr.DataTree:
+    """Validate a trial against the schema and complete it exactly as it will be stored.
+
+    Parameters
+    ----------
+    tree : xarray.DataTree
+        The rig's trial: children ``measured`` and ``truth`` following
+        :mod:`campaign.schema`, root attributes ``scene_json``, ``scene_sha256``, ``seed``,
+        ``base``, ``config``, ``gain``, ``speed``, ``repeat``, ``robot``.
+
+    Returns
+    -------
+    xarray.DataTree
+        A new tree: ``units``/``long_name`` filled from the schema where the rig left them
+        out, ACDD-1.3 and provenance global attributes added, and each variable's
+        ``encoding`` set to what the file stores (what :func:`open_trial_tree` reads back).
+
+    Raises
+    ------
+    InputError
+        A group, variable, dimension, coordinate or attribute that breaks the schema or the
+        attribute rules (str, numbers or arrays only), named in the message.
+    """
+    root, groups = _plan(tree)
+    nodes: dict[str, xr.Dataset] = {"/": xr.Dataset(attrs=root)}
+    for name, group in groups.items():
+        made = {}
+        for v in group.variables:
+            var = xr.Variable(v.dims, v.data, v.attrs)
+            var.encoding = dict(v.encoding)
+            made[v.name] = var
+        coords = {k: made.pop(k) for k in list(made) if made[k].dims == (k,)}
+        nodes[f"/{name}"] = xr.Dataset(made, coords=coords, attrs=group.attrs)
+    return xr.DataTree.from_dict(nodes)
+
+
+# ---------------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------------
+# The writer uses h5py's low-level API: the high-level one costs about 0.1 ms of Python per
+# attribute or dataset, a third of the write budget for a trial's ~50 variables and ~150
+# attributes. What it creates is what h5py's high-level API (and so h5netcdf) creates:
+# variable-length UTF-8 string attributes, scalar dataspaces for scalars, no timestamps,
+# shuffle then deflate on chunked variables.
+_VLEN_STR = h5py.string_dtype()
+_VLEN_STR_TYPE = h5t.py_create(_VLEN_STR, logical=True)
+
+
+def _lcpl() -> h5p.PropLCID:
+    lcpl = h5p.create(h5p.LINK_CREATE)
+    lcpl.set_char_encoding(h5t.CSET_UTF8)
+    return lcpl
+
+
+def _space(shape: tuple[int, ...]) -> h5s.SpaceID:
+    return h5s.create(h5s.SCALAR) if shape == () else h5s.create_simple(shape)
+
+
+def _put_attr(oid: Any, key: str, value: Any) -> None:
+    """One attribute, as ``obj.attrs[key] = value`` would store it."""
+    if isinstance(value, str) or (isinstance(value, np.ndarray) and value.dtype.kind in "UO"):
+        data = np.array(value if isinstance(value, str) else value.tolist(), dtype=_VLEN_STR)
+        tid = _VLEN_STR_TYPE
+    else:
+        data = np.asarray(value)
+        tid = h5t.py_create(data.dtype)
+    attr = h5a.create(oid, key.encode(), tid, _space(data.shape))
+    attr.write(data)
+
+
+def _create_dataset(gid: Any, name: str, data: np.ndarray, *, chunks: tuple[int, ...] | None = None,
+                    level: int = 0, shuffle: bool = False, fletcher32: bool = False) -> Any:
+    """One dataset, as ``group.create_dataset(name, data=..., chunks=..., compression="gzip", ...)``."""
+    dcpl = h5p.create(h5p.DATASET_CREATE)
+    dcpl.set_obj_track_times(False)  # h5py's default: no timestamps in the file
+    if data.dtype.kind in "UO":
+        data = np.array(data.tolist(), dtype=_VLEN_STR)
+        tid = _VLEN_STR_TYPE
+    else:
+        tid = h5t.py_create(data.dtype, logical=True)
+    if chunks is not None:
+        dcpl.set_chunk(chunks)
+        if shuffle:
+            dcpl.set_shuffle()
+        if level:
+            dcpl.set_deflate(level)
+        if fletcher32:
+            dcpl.set_fletcher32()
+    dsid = h5d.create(gid, name.encode(), tid, _space(data.shape), dcpl=dcpl, lcpl=_lcpl())
+    if data.size:
+        dsid.write(h5s.ALL, h5s.ALL, data)
+    return dsid
+
+
+def _write_group(gid: Any, group: _Group, next_dimid: Iterator[int], *, level: int, fletcher32: bool) -> None:
+    """Write one planned group in the netCDF-4 layout h5netcdf produces (dimension scales first).
+
+    The arrays written are the ones :func:`_plan` digested, so the stored ``content_sha256``
+    holds for the file.
+    """
+    scales = {}
+    for var in group.variables:
+        if var.encoding.get("zlib"):
+            dsid = _create_dataset(gid, var.name, var.data, chunks=tuple(var.encoding["chunksizes"]), level=level,
+                                   shuffle=bool(var.encoding.get("shuffle")), fletcher32=fletcher32)
+        else:
+            dsid = _create_dataset(gid, var.name, var.data)
+        if var.dims == (var.name,):
+            h5ds.set_scale(dsid, var.name.encode())
+            _put_attr(dsid, "_Netcdf4Dimid", np.int32(next(next_dimid)))
+            scales[var.name] = dsid
+        else:
+            for i, dim in enumerate(var.dims):
+                h5ds.attach_scale(dsid, scales[dim], i)
+        for key, value in var.attrs.items():
+            _put_attr(dsid, key, value)
+    for key, value in group.attrs.items():
+        _put_attr(gid, key, value)
+
+
+def _write_h5(plan: tuple[dict[str, Any], dict[str, _Group]], path: Path, *, level: int = _DEFLATE_LEVEL,
+              fletcher32: bool = False) -> None:
+    """Write a planned trial to ``path`` (no atomicity here; see :func:`write_trial`)."""
+    root, groups = plan
+    # track_order: netCDF-4 files keep creation order, and readers list variables in it
+    with h5py.File(path, "w", track_order=True) as f:
+        f.attrs["_NCProperties"] = np.bytes_(
+            f"version=2,campaign={__version__},hdf5={h5py.version.hdf5_version},h5py={h5py.__version__}".encode())
+        for key, value in root.items():
+            _put_attr(f.id, key, value)
+        dimids = iter(range(1 << 30))
+        for name in GROUPS:
+            _write_group(f.create_group(name, track_order=True).id, groups[name], dimids, level=level,
+                         fletcher32=fletcher32)
+
+
+def _temp_name(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+
+
+def _replace_atomically(path: Path, write: Callable[[Path], None], *, fsync: bool = False) -> Path:
+    """Run ``write(tmp)`` on a temp file beside ``path``, then rename it over ``path``.
+
+    Stale temp files of ``path`` (left by a killed writer) are removed first: there is one
+    writer per file, so any such file is an abandoned attempt.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for stale in path.parent.glob(f".{_glob_escape(path.name)}.*.tmp"):
+        stale.unlink(missing_ok=True)
+    tmp = _temp_name(path)
+    try:
+        write(tmp)
+        if fsync:
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _glob_escape(name: str) -> str:
+    """``name`` with glob metacharacters escaped (``[``, ``*``, ``?``)."""
+    return re.sub(r"([\[\]*?])", r"[\1]", name)
+
+
+def write_trial(tree: xr.DataTree, path: str | os.PathLike, *, fsync: bool = False) -> Path:
+    """Validate a trial and write it atomically as one NetCDF4/HDF5 file.
+
+    Parameters
+    ----------
+    tree : xarray.DataTree
+        The trial as the rig returns it (see :func:`prepare_trial`).
+    path : path-like
+        Final file name; its folder is created. Usually ``trial_path(campaign_dir, scene)``.
+    fsync : bool
+        Flush the file to disk before the rename. The rename alone is atomic against a
+        killed process; ``fsync`` adds durability against power loss at a few ms per file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        The trial breaks the schema (nothing is written).
+    """
+    plan = _plan(tree)
+    return _replace_atomically(Path(path), lambda tmp: _write_h5(plan, tmp), fsync=fsync)
+
+
+def trial_path(campaign_dir: str | os.PathLike, scene: Scene) -> Path:
+    """Where a scene's trial lives in a campaign folder: ``<campaign_dir>/<scene.cell>.nc``."""
+    if not isinstance(scene, Scene):
+        raise InputError(f"trial_path needs a Scene, got {type(scene).__name__}")
+    return Path(campaign_dir) / f"{scene.cell}{TRIAL_SUFFIX}"
+
+
+# ---------------------------------------------------------------------------------------
+# reading
+# ---------------------------------------------------------------------------------------
+# _CORRUPT: a corrupt HDF5 file can make h5py/h5netcdf raise nearly any exception type (OSError,
+# KeyError, TypeError for an attribute name that is no longer UTF-8, ...). Readers of a trial
+# file therefore turn every Exception into a problem or TrialFileError naming the file.
+
+
+def _read_attrs(obj: h5py.HLObject) -> dict[str, Any]:
+    return {k: obj.attrs[k] for k in obj.attrs.keys() if k not in _STRUCTURAL}
+
+
+def _parse_version(value: Any) -> tuple[int, int] | None:
+    m = re.fullmatch(r"(\d+)\.(\d+)", str(value))
+    return (int(m.group(1)), int(m.group(2))) if m else None
+
+
+def _inspect(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None
+             ) -> tuple[dict[str, Any], list[str], dict[str, Any]]:
+    """Check a trial file with h5py: readable, schema version, every channel, content digests.
+
+    Returns (root attributes, problems, values of the variables asked for in ``want`` as
+    ``{"group/name": value}``). Never raises for a bad file: each problem is a message.
+    """
+    problems: list[str] = []
+    values: dict[str, Any] = {}
+    if not path.is_file():
+        return {}, ["file does not exist"], values
+    try:
+        f = h5py.File(path, "r")
+    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        return {}, [f"not a readable HDF5 file (truncated or corrupt): {exc}"], values
+    try:
+        with f:
+            root = _read_attrs(f)
+            version = _parse_version(root.get("schema_version"))
+            if version is None:
+                return root, [f"no valid schema_version attribute ({root.get('schema_version')!r}): "
+                              "not a campaign trial file"], values
+            if version[0] > _SCHEMA_MAJOR:
+                return root, [f"schema version {version[0]}.{version[1]} is newer than this campaign reads "
+                              f"({SCHEMA_VERSION}); upgrade the campaign package"], values
+            if version[0] < _SCHEMA_MAJOR:
+                return root, [f"schema version {version[0]}.{version[1]} is older than this campaign reads "
+                              f"({SCHEMA_VERSION}) and there is no converter"], values
+            base = root.get("base")
+            if base not in BASES:
+                return root, [f"root attribute base is {base!r}, expected one of {list(BASES)}"], values
+            stored = f.attrs.get("content_sha256")
+            if stored is None:
+                problems.append("root group has no content_sha256")
+            elif stored != _digest(root, {}):
+                problems.append("root attributes do not match their content_sha256 (altered or corrupt)")
+            for group in groups:
+                if group not in f:
+                    problems.append(f"group /{group} is missing")
+                    continue
+                grp = f[group]
+                present = set(grp.keys())
+                for spec in variables(group, base):
+                    if spec.name not in present:
+                        problems.append(f"channel {group}/{spec.name} is missing")
+                contents = {}
+                for name in grp.keys():
+                    dset = grp[name]
+                    if not isinstance(dset, h5py.Dataset):
+                        problems.append(f"{group}/{name} is not a variable")
+                        continue
+                    try:
+                        data = dset[()]
+                        vattrs = _read_attrs(dset)
+                    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+                        problems.append(f"{group}/{name}: cannot read data (corrupt): {exc}")
+                        continue
+                    if name not in CLOCKS and name not in COORDS:
+                        for key in ("units", "long_name"):
+                            if key not in vattrs:
+                                problems.append(f"{group}/{name} has no {key} attribute")
+                    contents[name] = (data, vattrs)
+                    if want and name in want.get(group, ()):
+                        values[f"{group}/{name}"] = data
+                stored = grp.attrs.get("content_sha256")
+                if stored is None:
+                    problems.append(f"group /{group} has no content_sha256")
+                elif stored != _digest(_read_attrs(grp), contents):
+                    problems.append(f"group /{group} does not match its content_sha256 (altered or corrupt)")
+    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        problems.append(f"cannot read the file (corrupt): {exc}")
+        return {}, problems, values
+    return root, problems, values
+
+
+def _checked_root(path: Path, groups: Sequence[str]) -> dict[str, Any]:
+    root, problems, _ = _inspect(path, groups=groups)
+    if problems:
+        raise TrialFileError(f"{path}: {problems[0]}" + (f" (and {len(problems) - 1} more problems)"
+                                                          if len(problems) > 1 else ""))
+    return root
+
+
+def _plain(value: Any) -> Any:
+    """numpy scalars from h5py attributes -> Python numbers (what the trial was written with)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Dataset:
+    """Open one group of a trial file, loaded into memory, the file closed again.
+
+    Parameters
+    ----------
+    path : path-like
+        A trial file.
+    group : {"measured", "truth"}
+        ``measured`` (what identification may read) by default.
+
+    Returns
+    -------
+    xarray.Dataset
+        The group's variables; its attributes are the file's global attributes (scene JSON,
+        provenance, ACDD) followed by the group's own.
+
+    Raises
+    ------
+    TrialFileError
+        Naming the file: it is missing, unreadable or truncated, of another schema major
+        version, lacks a channel, or its content does not match its ``content_sha256``.
+    InputError
+        ``group`` is not one of ``measured``, ``truth``.
+    """
+    if group not in GROUPS:
+        raise InputError(f"unknown trial group {group!r}; expected one of {list(GROUPS)}")
+    path = Path(path)
+    root = _checked_root(path, (group,))
+    try:
+        with xr.open_dataset(path, engine="h5netcdf", group=group) as ds:
+            ds.load()
+    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        raise TrialFileError(f"{path}: cannot read group /{group}: {exc}") from exc
+    ds.attrs = {**{k: _plain(v) for k, v in root.items() if k != "content_sha256"}, **ds.attrs}
+    return ds
+
+
+def open_trial_tree(path: str | os.PathLike) -> xr.DataTree:
+    """Open a whole trial file (both groups), loaded into memory, the file closed again.
+
+    Returns the tree exactly as stored: ``open_trial_tree(p)`` is identical to
+    ``prepare_trial(tree)`` of the tree written to ``p``. Raises :class:`TrialFileError`
+    like :func:`open_trial`.
+    """
+    path = Path(path)
+    _checked_root(path, GROUPS)
+    try:
+        with xr.open_datatree(path, engine="h5netcdf") as tree:
+            tree.load()
+    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        raise TrialFileError(f"{path}: cannot read the trial: {exc}") from exc
+    return tree
+
+
+# ---------------------------------------------------------------------------------------
+# campaign folders
+# ---------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class TrialRecord:
+    """One trial of a campaign folder, as listed by :func:`list_trials` and ``index.csv``.
+
+    Attributes
+    ----------
+    path : str
+        Trial file relative to the campaign folder (``fixed/config1/zero/v1.500/r00.nc``).
+    file : pathlib.Path
+        The trial file itself.
+    base, config, gain, speed, repeat, seed
+        The scene's cell and RNG seed.
+    scene : str
+        Scene preset name (``default``, ``ideal``).
+    scene_sha256, robot, schema_version : str
+    scene_json : str
+        The full scene (``Scene.from_json``).
+    """
+
+    path: str
+    file: Path
+    base: str
+    config: int
+    gain: str
+    speed: float
+    repeat: int
+    seed: int
+    scene: str
+    scene_sha256: str
+    robot: str
+    schema_version: str
+    scene_json: str = dataclasses.field(repr=False)
+
+    def row(self) -> dict[str, Any]:
+        """The ``index.csv`` row."""
+        return {k: getattr(self, k) for k in INDEX_COLUMNS}
+
+
+@dataclasses.dataclass(frozen=True)
+class Problem:
+    """One problem :func:`verify` found: the file (relative to the campaign) and what is wrong."""
+
+    file: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.file}: {self.message}"
+
+
+def _campaign(campaign_dir: str | os.PathLike) -> Path:
+    path = Path(campaign_dir)
+    if not path.is_dir():
+        raise InputError(f"{path} is not a campaign folder: no such directory")
+    if not (path / MANIFEST).is_file() and not any(_trial_files(path)):
+        raise InputError(f"{path} is not a campaign folder: it has no {MANIFEST} and no trial files "
+                         f"(<base>/config<N>/<gain>/v<speed>/r<NN>{TRIAL_SUFFIX})")
+    return path
+
+
+def _trial_files(campaign: Path) -> Iterator[Path]:
+    """Trial files at the Scene.cell layout, sorted."""
+    for base in BASES:
+        yield from sorted((campaign / base).glob(f"*/*/*/*{TRIAL_SUFFIX}"))
+
+
+def _rel(campaign: Path, file: Path) -> str:
+    return file.relative_to(campaign).as_posix()
+
+
+def _record(campaign: Path, file: Path) -> TrialRecord:
+    """A trial's record from its root attributes (h5py: a few ms, no data read)."""
+    try:
+        with h5py.File(file, "r") as f:
+            attrs = {k: _plain(f.attrs[k]) for k in f.attrs.keys() if k not in _STRUCTURAL}
+    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        raise TrialFileError(f"{file}: not a readable HDF5 file (truncated or corrupt): {exc}") from exc
+    try:
+        scene = json.loads(attrs["scene_json"])
+        return TrialRecord(
+            path=_rel(campaign, file), file=file, base=str(attrs["base"]), config=int(attrs["config"]),
+            gain=str(attrs["gain"]), speed=float(attrs["speed"]), repeat=int(attrs["repeat"]),
+            seed=int(attrs["seed"]), scene=str(scene["name"]), scene_sha256=str(attrs["scene_sha256"]),
+            robot=str(attrs["robot"]), schema_version=str(attrs["schema_version"]),
+            scene_json=str(attrs["scene_json"]))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise TrialFileError(f"{file}: not a campaign trial file (root attribute {exc} missing or malformed)") from exc
+
+
+def _filter_values(key: str, value: Any) -> set:
+    """A filter's accepted values, read as the key's type (a list, or "a,b" from the CLI)."""
+    kind = FILTER_KEYS[key]
+    items = value.split(",") if isinstance(value, str) else (
+        list(value) if isinstance(value, (list, tuple, set, frozenset)) else [value])
+    out = set()
+    for item in items:
+        try:
+            v = kind(item.strip() if isinstance(item, str) else item)
+        except (TypeError, ValueError):
+            raise InputError(f"filter {key}={item!r}: expected {kind.__name__}") from None
+        # speeds are matched at the precision of the cell path (v1.500)
+        out.add(f"{v:.3f}" if key == "speed" else v)
+    return out
+
+
+def list_trials(campaign_dir: str | os.PathLike, **filters: Any) -> list[TrialRecord]:
+    """The trials of a campaign folder, optionally filtered, sorted by path.
+
+    Parameters
+    ----------
+    campaign_dir : path-like
+        A campaign folder (``archive/<name>/``).
+    **filters
+        ``key=value`` with a key of :data:`FILTER_KEYS` (base, config, gain, speed, repeat,
+        seed, scene, scene_sha256, robot). A value may be a list (any of) or a
+        comma-separated string; speeds match to 1 mm/s (the cell path's precision).
+
+    Returns
+    -------
+    list of TrialRecord
+
+    Raises
+    ------
+    InputError
+        Not a campaign folder, or an unknown filter key or unreadable filter value.
+    TrialFileError
+        A trial file whose root attributes cannot be read (named).
+    """
+    unknown = sorted(set(filters) - set(FILTER_KEYS))
+    if unknown:
+        raise InputError(f"unknown filter key(s) {', '.join(map(repr, unknown))}; known keys: {', '.join(FILTER_KEYS)}")
+    wanted = {k: _filter_values(k, v) for k, v in filters.items()}
+    campaign = _campaign(campaign_dir)
+    out = []
+    for file in _trial_files(campaign):
+        rec = _record(campaign, file)
+        if all((f"{rec.speed:.3f}" if k == "speed" else getattr(rec, k)) in vals for k, vals in wanted.items()):
+            out.append(rec)
+    return out
+
+
+def _resolve_scalar(spec: str) -> tuple[str, Any]:
+    """``"truth/v_a_pre"`` or ``"hammer_mass_eff"`` -> (group, schema Var) of a scalar variable."""
+    if "/" in spec:
+        group, name = spec.split("/", 1)
+        if group not in GROUPS:
+            raise InputError(f"variable {spec!r}: unknown group {group!r}; expected one of {list(GROUPS)}")
+        table = {"measured": MEASURED, "truth": TRUTH}[group]
+        found = [(group, v) for v in table if v.name == name]
+    else:
+        found = [(g, v) for g, table in (("measured", MEASURED), ("truth", TRUTH)) for v in table if v.name == spec]
+    if not found:
+        raise InputError(f"variable {spec!r} is not in schema {SCHEMA_VERSION}")
+    if len(found) > 1:
+        raise InputError(f"variable {spec!r} is in both groups; write measured/{spec} or truth/{spec}")
+    group, var = found[0]
+    if var.dims:
+        raise InputError(f"open_campaign collects scalar per-trial variables; {group}/{var.name} has dims "
+                         f"{var.dims}: open it per trial with open_trial")
+    return group, var
+
+
+def open_campaign(campaign_dir: str | os.PathLike, *, variables: Sequence[str] = (),
+                  func: Callable[[xr.Dataset], Mapping[str, Any]] | None = None, group: str = "measured",
+                  **filters: Any) -> xr.Dataset:
+    """Per-trial results of a campaign as one labelled Dataset over (base, config, gain, speed, repeat).
+
+    Parameters
+    ----------
+    campaign_dir : path-like
+        A campaign folder.
+    variables : sequence of str
+        Scalar schema variables to collect, ``"group/name"`` or a bare name found in one
+        group (``"hammer_mass_eff"``, ``"truth/v_a_pre"``, ``"truth/impulse"``). Read with
+        h5py and checked against each group's ``content_sha256``.
+    func : callable, optional
+        Called with each trial's ``group`` Dataset (:func:`open_trial`); returns a mapping of
+        result name to a scalar (number or str) or a 0-d DataArray (its attributes, e.g.
+        units, are kept). This is how identification reruns on an archive without
+        re-simulating.
+    group : {"measured", "truth"}
+        The group ``func`` receives.
+    **filters
+        As :func:`list_trials`.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dims (base, config, gain, speed, repeat) over the values present; cells without a
+        trial hold NaN (numbers) or "" (strings). Always has ``path`` (the trial file relative
+        to the campaign folder); schema variables carry their units and long_name.
+    """
+    if group not in GROUPS:
+        raise InputError(f"unknown trial group {group!r}; expected one of {list(GROUPS)}")
+    if isinstance(variables, str):
+        variables = [variables]
+    resolved = list(dict.fromkeys(_resolve_scalar(v) for v in variables))
+    records = list_trials(campaign_dir, **filters)
+    if not records:
+        raise InputError(f"{campaign_dir}: no trial matches the filters {filters}")
+    want: dict[str, list[str]] = {}
+    for g, var in resolved:
+        want.setdefault(g, []).append(var.name)
+    rows = []
+    attrs: dict[str, dict[str, Any]] = {}
+    for rec in records:
+        row: dict[str, Any] = {k: getattr(rec, k) for k in CELL_KEYS}
+        row["path"] = rec.path
+        if resolved:
+            _, problems, values = _inspect(rec.file, groups=tuple(want), want=want)
+            if problems:
+                raise TrialFileError(f"{rec.file}: {problems[0]}")
+            for g, var in resolved:
+                # a variable the trial's base does not carry (base_mass of a fixed base) stays NaN
+                value = values.get(f"{g}/{var.name}")
+                row[var.name] = float(value) if value is not None else math.nan
+                attrs[var.name] = {"units": var.units, "long_name": var.long_name}
+        if func is not None:
+            result = func(open_trial(rec.file, group=group))
+            if not isinstance(result, Mapping):
+                raise InputError(f"open_campaign func must return a mapping of name to scalar, got "
+                                 f"{type(result).__name__} for {rec.path}")
+            for key, value in result.items():
+                if key in row:
+                    raise InputError(f"open_campaign func returned {key!r}, which clashes with a cell key or variable")
+                row[key] = value
+        rows.append(row)
+    ds = to_cell_dataset(rows, attrs=attrs)
+    ds.attrs.update(campaign=Path(campaign_dir).name, schema_version=SCHEMA_VERSION, trials=len(records))
+    return ds
+
+
+_CELL_TYPES = {"base": str, "config": int, "gain": str, "speed": float, "repeat": int}
+_CELL_ATTRS = {
+    "base": {"long_name": "base of the arm (fixed or flexible)"},
+    "config": {"long_name": "arm configuration (paper Table 1; 0 = custom pose)"},
+    "gain": {"long_name": "controller gain set (paper Table 1)"},
+    "speed": {"units": "m s-1", "long_name": "impact speed of the hammer along n"},
+    "repeat": {"long_name": "repeat index"},
+}
+
+
+def _coord_order(key: str, values: set) -> list:
+    known = {"base": BASES, "gain": GAINS}.get(key)
+    if known:
+        return [v for v in known if v in values] + sorted(v for v in values if v not in known)
+    return sorted(values)
+
+
+def to_cell_dataset(records: Iterable[Mapping[str, Any]] | str | os.PathLike | Any, *,
+                    attrs: Mapping[str, Mapping[str, Any]] | None = None) -> xr.Dataset:
+    """Per-trial records -> a labelled Dataset with dims (base, config, gain, speed, repeat).
+
+    Parameters
+    ----------
+    records : iterable of mapping, pandas.DataFrame, or path to a CSV file
+        One record per trial with the cell keys ``base``, ``config``, ``gain``, ``speed``,
+        ``repeat`` and any result columns (numbers, strings or 0-d DataArrays), e.g. the
+        identified ``m_eff`` and ``e`` of each trial.
+    attrs : mapping, optional
+        Attributes per result column (``{"m_eff": {"units": "kg", "long_name": ...}}``).
+
+    Returns
+    -------
+    xarray.Dataset
+        Numeric columns as float64 with NaN in cells without a record (int64 if every cell is
+        filled), strings with "" there.
+
+    Raises
+    ------
+    InputError
+        A record without a cell key, a cell value of the wrong type, or two records of the
+        same cell (named).
+    """
+    if isinstance(records, (str, os.PathLike)):
+        with open(records, newline="") as fh:
+            records = list(csv.DictReader(fh))
+    elif hasattr(records, "to_dict") and hasattr(records, "columns"):
+        records = records.to_dict("records")
+    rows = list(records)
+    if not rows:
+        raise InputError("to_cell_dataset needs at least one record")
+    cells = []
+    columns: dict[str, None] = {}
+    col_attrs: dict[str, dict[str, Any]] = {k: dict(v) for k, v in (attrs or {}).items()}
+    for i, row in enumerate(rows):
+        missing = [k for k in CELL_KEYS if k not in row]
+        if missing:
+            raise InputError(f"record {i} has no {', '.join(missing)} (each record needs {', '.join(CELL_KEYS)})")
+        try:
+            cell = tuple(_CELL_TYPES[k](row[k]) for k in CELL_KEYS)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"record {i}: bad cell value ({exc})") from None
+        cells.append(cell)
+        for k in row:
+            if k not in CELL_KEYS:
+                columns.setdefault(k)
+    seen: dict[tuple, int] = {}
+    for i, cell in enumerate(cells):
+        if cell in seen:
+            raise InputError(f"records {seen[cell]} and {i} are the same cell {dict(zip(CELL_KEYS, cell))}")
+        seen[cell] = i
+    coords = {k: _coord_order(k, {c[j] for c in cells}) for j, k in enumerate(CELL_KEYS)}
+    index = [{v: n for n, v in enumerate(coords[k])} for k in CELL_KEYS]
+    shape = tuple(len(coords[k]) for k in CELL_KEYS)
+    positions = [tuple(index[j][c[j]] for j in range(len(CELL_KEYS))) for c in cells]
+    data_vars = {}
+    for col in columns:
+        values = []
+        for row in rows:
+            v = row.get(col)
+            if isinstance(v, xr.DataArray):
+                col_attrs.setdefault(col, dict(v.attrs))
+                v = v.item()
+            values.append(v)
+        present = [v for v in values if v is not None]
+        if present and all(isinstance(v, str) for v in present):
+            arr = np.full(shape, "", dtype=object)
+        elif len(present) == len(cells) == math.prod(shape) and all(
+                isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)) for v in present):
+            arr = np.zeros(shape, dtype=np.int64)
+        else:
+            arr = np.full(shape, np.nan)
+        for i, (pos, v) in enumerate(zip(positions, values)):
+            if v is None:
+                continue
+            try:
+                arr[pos] = v
+            except (TypeError, ValueError):
+                raise InputError(f"column {col!r}: value {v!r} of cell {dict(zip(CELL_KEYS, cells[i]))} "
+                                 "is neither a number nor a string (mixed types in one column?)") from None
+        if arr.dtype == object:
+            arr = arr.astype(str)
+        data_vars[col] = xr.Variable(CELL_KEYS, arr, col_attrs.get(col, {}))
+    coord_vars = {k: xr.Variable(k, np.asarray(coords[k]), _CELL_ATTRS[k]) for k in CELL_KEYS}
+    return xr.Dataset(data_vars, coords=coord_vars)
+
+
+# ---------------------------------------------------------------------------------------
+# manifest, index, README
+# ---------------------------------------------------------------------------------------
+def _sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _all_files(campaign: Path) -> list[Path]:
+    return sorted(p for p in campaign.rglob("*") if p.is_file() and p.name != MANIFEST)
+
+
+def _write_text(path: Path, text: str) -> Path:
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+    return _replace_atomically(path, write)
+
+
+def write_manifest(campaign_dir: str | os.PathLike) -> Path:
+    """Write ``MANIFEST.sha256``: the sha256 of every file of the campaign folder.
+
+    The format is ``sha256sum``'s (``<hex>  <relative path>``, sorted), so
+    ``cd <campaign_dir> && sha256sum -c MANIFEST.sha256`` checks it without this package.
+
+    Raises
+    ------
+    InputError
+        Not a campaign folder, or it holds a temporary file of an interrupted write (named)
+        or a file name ``sha256sum`` cannot list plainly (newline or backslash).
+    """
+    campaign = _campaign(campaign_dir)
+    lines = []
+    for file in _all_files(campaign):
+        rel = _rel(campaign, file)
+        if _TEMP_RE.match(file.name):
+            raise InputError(f"{campaign / rel} is a temporary file of an interrupted write: delete it "
+                             "(or rerun that trial) before finalizing")
+        if "\n" in rel or "\\" in rel:
+            raise InputError(f"{campaign / rel}: file names with newlines or backslashes cannot be listed")
+        lines.append(f"{_sha256_file(file)}  {rel}\n")
+    return _write_text(campaign / MANIFEST, "".join(lines))
+
+
+def write_index(campaign_dir: str | os.PathLike) -> Path:
+    """Write ``index.csv``: one row per trial (:data:`INDEX_COLUMNS`), sorted by path."""
+    campaign = _campaign(campaign_dir)
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=INDEX_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for rec in list_trials(campaign):
+        writer.writerow(rec.row())
+    return _write_text(campaign / INDEX, buf.getvalue())
+
+
+def _md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
+    rates: dict[str, set] = {dim: set() for dim in CLOCKS}
+    for rec in records:
+        params = json.loads(rec.scene_json)["params"]
+        for dim, clock in CLOCKS.items():
+            if clock.rate_key in params:
+                rates[dim].add(float(params[clock.rate_key]))
+    counts = {b: sum(r.base == b for r in records) for b in BASES}
+    clock_rows = [(f"`{dim}`", c.long_name, f"`{c.rate_key}`",
+                   ", ".join(f"{r:g}" for r in sorted(rates[dim])) or "-") for dim, c in CLOCKS.items()]
+
+    def var_rows(table):
+        return [(f"`{v.name}`", "(" + ", ".join(v.dims) + ")" if v.dims else "scalar", f"`{v.units}`",
+                 v.long_name, ", ".join(v.bases)) for v in table]
+
+    label_rows = [(f"`{d}`", _LABEL_LONG_NAMES[d], ", ".join(COORDS[d]) if COORDS[d] else "the robot's active joints")
+                  for d in COORDS]
+    header = ("variable", "dims", "units", "long_name", "bases")
+    parts = [
+        f"# Campaign archive `{name}`",
+        "",
+        f"Generated from `campaign/schema.py` (schema {SCHEMA_VERSION}) by `campaign archive finalize`; "
+        "do not edit, regenerate it.",
+        "",
+        f"{len(records)} trials: " + ", ".join(f"{counts[b]} {b}-base" for b in BASES) + ".",
+        "",
+        "## Files",
+        "",
+        f"- `<base>/config<N>/<gain>/v<speed m/s>/r<repeat>{TRIAL_SUFFIX}`: one trial, NetCDF4/HDF5 "
+        "(`config-custom` for a pose that is not a paper configuration).",
+        f"- `{INDEX}`: one row per trial: " + ", ".join(f"`{c}`" for c in INDEX_COLUMNS) + ".",
+        f"- `{MANIFEST}`: sha256 of every other file; check with `sha256sum -c {MANIFEST}` in this folder, "
+        "or `campaign archive verify <folder>` (also checks every trial against the schema).",
+        "",
+        "## Opening a trial",
+        "",
+        "```python",
+        "import xarray as xr",
+        f'with xr.open_dataset("fixed/config1/zero/v1.500/r00{TRIAL_SUFFIX}", engine="h5netcdf", group="measured") as ds:',
+        "    ds.load()",
+        "```",
+        "",
+        "Group `measured` holds what a real VES-II records (noisy, quantised, each channel on its own "
+        "clock) plus the instrument constants an experimenter knows; group `truth` holds the simulator's "
+        "exact states, kept apart (identification never reads it). The root group holds the global "
+        "attributes: ACDD-1.3 (`title`, `summary`, `keywords`, `Conventions`, `id`, `date_created`, "
+        "`creator_name`, `project`, `references`, `license`, `processing_level`), `schema_version`, the "
+        "full scene as `scene_json` with its `scene_sha256`, the RNG `seed`, the cell (`base`, `config`, "
+        "`gain`, `speed`, `repeat`, `robot`) and provenance (`campaign_version`, `git_commit`, library "
+        "versions). Each group also stores `content_sha256`, a digest of its attributes and data that "
+        "`campaign` checks on every read.",
+        "",
+        "## Clocks (time dimensions)",
+        "",
+        "Each time coordinate is float64 seconds from the start of the recording (`units = \"s\"`, "
+        "`standard_name = \"time\"`); the contact happens at a seeded, jittered instant inside it.",
+        "",
+        _md_table(("dimension", "clock", "rate key (scene parameter)", "rate in this campaign [Hz]"), clock_rows),
+        "",
+        "## Label dimensions",
+        "",
+        _md_table(("dimension", "long_name", "values"), label_rows),
+        "",
+        "## Group `/measured`",
+        "",
+        _md_table(header, var_rows(MEASURED)),
+        "",
+        "## Group `/truth`",
+        "",
+        _md_table(header, var_rows(TRUTH)),
+        "",
+    ]
+    return "\n".join(parts)
+
+
+def write_readme(campaign_dir: str | os.PathLike) -> Path:
+    """Write ``README.md``: every variable, unit, dims and clock of the schema, and the rates used.
+
+    Generated from :mod:`campaign.schema` and the trials' scenes, without a date, so the same
+    campaign always gets the same README.
+    """
+    campaign = _campaign(campaign_dir)
+    return _write_text(campaign / README, _readme_text(campaign.resolve().name, list_trials(campaign)))
+
+
+def finalize_campaign(campaign_dir: str | os.PathLike) -> dict[str, Path]:
+    """Check every trial, then write ``index.csv``, ``README.md`` and ``MANIFEST.sha256`` (last).
+
+    Returns
+    -------
+    dict
+        ``{"index": path, "readme": path, "manifest": path}``.
+
+    Raises
+    ------
+    TrialFileError
+        A trial fails its schema or content check (each named): a broken file is never
+        entered into the manifest.
+    InputError
+        Not a campaign folder, or a leftover temporary file.
+    """
+    campaign = _campaign(campaign_dir)
+    bad = []
+    for file in _trial_files(campaign):
+        _, problems, _ = _inspect(file)
+        bad += [f"{file}: {p}" for p in problems]
+    if bad:
+        raise TrialFileError("cannot finalize, broken trial files: " + "; ".join(bad))
+    return {"index": write_index(campaign), "readme": write_readme(campaign), "manifest": write_manifest(campaign)}
+
+
+_MANIFEST_LINE = re.compile(r"^([0-9a-f]{64}) [ *](.+)$")
+
+
+def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
+    """Check a campaign folder against its manifest and every trial against the schema.
+
+    Reports, each with the file it concerns: a missing or malformed manifest, a file listed
+    but missing, a sha256 mismatch (altered, flipped bytes, truncated), a file not in the
+    manifest (including temporary files of interrupted writes), and for every trial file an
+    unreadable or truncated file, a schema version of another major, a missing channel or
+    group, content that does not match its ``content_sha256``; and an index that disagrees
+    with the trial files. Nothing is skipped: every file is looked at.
+
+    Returns
+    -------
+    list of Problem
+        Empty when the campaign is intact.
+
+    Raises
+    ------
+    InputError
+        Not a campaign folder.
+    """
+    campaign = _campaign(campaign_dir)
+    problems: list[Problem] = []
+    listed: dict[str, str] = {}
+    manifest = campaign / MANIFEST
+    if not manifest.is_file():
+        problems.append(Problem(MANIFEST, "missing: the campaign is not finalized (campaign archive finalize)"))
+    else:
+        for n, line in enumerate(manifest.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+            m = _MANIFEST_LINE.match(line)
+            if not m:
+                problems.append(Problem(MANIFEST, f"line {n} is not '<sha256>  <path>': {line[:80]!r}"))
+                continue
+            rel = m.group(2)
+            if rel.startswith("/") or ".." in Path(rel).parts:
+                problems.append(Problem(MANIFEST, f"line {n} names a path outside the campaign: {rel!r}"))
+                continue
+            listed[rel] = m.group(1)
+        for rel, digest in listed.items():
+            file = campaign / rel
+            if not file.is_file():
+                problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
+            elif _sha256_file(file) != digest:
+                problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
+    on_disk = {_rel(campaign, f) for f in _all_files(campaign)}
+    for rel in sorted(on_disk - set(listed)):
+        if _TEMP_RE.match(Path(rel).name):
+            problems.append(Problem(rel, "temporary file of an interrupted write (delete it)"))
+        elif manifest.is_file():
+            problems.append(Problem(rel, f"not in {MANIFEST}"))
+    trials = [_rel(campaign, f) for f in _trial_files(campaign)]
+    for rel in trials:
+        _, found, _ = _inspect(campaign / rel)
+        problems += [Problem(rel, p) for p in found]
+    index = campaign / INDEX
+    if index.is_file():
+        try:
+            with open(index, newline="", encoding="utf-8") as fh:
+                indexed = {row["path"] for row in csv.DictReader(fh)}
+        except (KeyError, csv.Error, UnicodeDecodeError) as exc:
+            problems.append(Problem(INDEX, f"unreadable: {exc}"))
+        else:
+            for rel in sorted(indexed - set(trials)):
+                problems.append(Problem(INDEX, f"lists {rel}, which is not a trial file of this campaign"))
+            for rel in sorted(set(trials) - indexed):
+                problems.append(Problem(rel, f"trial file not listed in {INDEX}"))
+    elif manifest.is_file():
+        problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
+    return problems
