@@ -203,7 +203,11 @@ def _digest(attrs: Mapping[str, Any], variables_: Mapping[str, tuple[Any, Mappin
 
     def feed_attrs(a: Mapping[str, Any]) -> None:
         for key in sorted(k for k in a if k not in _STRUCTURAL):
-            for part in (key.encode(), _canon(a[key])):
+            value = a[key]
+            # netCDF attributes are 1-d: a number may come back as a scalar or a 1-element array
+            if not isinstance(value, (str, bytes)):
+                value = np.ravel(value)
+            for part in (key.encode(), _canon(value)):
                 h.update(len(part).to_bytes(8, "little"))
                 h.update(part)
 
@@ -320,9 +324,10 @@ def _validate_group(group: str, ds: xr.Dataset, base: str) -> _Group:
     extra = sorted(set(ds.coords) - set(ds.dims))
     if extra:
         raise InputError(f"/{group} has non-dimension coordinates {extra}; the schema has none")
-    for key, value in ds.attrs.items():
+    given = {k: v for k, v in ds.attrs.items() if k != "content_sha256"}
+    for key, value in given.items():
         _check_attr(f"/{group}", key, value)
-    attrs = {"comment": _GROUP_COMMENT[group], **ds.attrs, "schema_version": SCHEMA_VERSION}
+    attrs = {"comment": _GROUP_COMMENT[group], **given, "schema_version": SCHEMA_VERSION}
     variables_ = coords + out
     attrs["content_sha256"] = _digest(attrs, {v.name: (v.data, v.attrs) for v in variables_})
     return _Group(attrs, variables_)
@@ -360,6 +365,11 @@ def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
             "_FillValue": None}
 
 
+def _now() -> str:
+    """ACDD date_created: UTC, ISO 8601, to the second."""
+    return _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
 def _plan(tree: xr.DataTree) -> tuple[dict[str, Any], dict[str, _Group]]:
     """Validate a trial and return exactly what will be stored: (root attributes, groups)."""
     if not isinstance(tree, xr.DataTree):
@@ -369,7 +379,8 @@ def _plan(tree: xr.DataTree) -> tuple[dict[str, Any], dict[str, _Group]]:
         raise InputError(f"a trial has exactly the groups {list(GROUPS)}, got {sorted(children)}")
     if tree.ds.variables:
         raise InputError(f"a trial's root group holds attributes only, got variables {sorted(tree.ds.variables)}")
-    attrs = dict(tree.attrs)
+    # a tree read back from a file (or prepared) carries digests: they are recomputed here
+    attrs = {k: v for k, v in tree.attrs.items() if k != "content_sha256"}
     scene = _scene_of(attrs)
     for key, value in attrs.items():
         _check_attr("the trial root", key, value)
@@ -399,7 +410,7 @@ def _plan(tree: xr.DataTree) -> tuple[dict[str, Any], dict[str, _Group]]:
         "source": "numerical simulation: campaign rig (simulated MIT VES-II)",
         **attrs,
         "Conventions": "CF-1.11, ACDD-1.3",
-        "date_created": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "date_created": _now(),
         "schema_version": SCHEMA_VERSION,
         **provenance(),
         "seed": int(scene.seed),
@@ -1050,8 +1061,11 @@ def to_cell_dataset(records: Iterable[Mapping[str, Any]] | str | os.PathLike | A
         same cell (named).
     """
     if isinstance(records, (str, os.PathLike)):
-        with open(records, newline="") as fh:
-            records = list(csv.DictReader(fh))
+        import pandas as pd  # xarray's own dependency; it reads numbers back as numbers
+
+        if not Path(records).is_file():
+            raise InputError(f"results table {records} does not exist")
+        records = pd.read_csv(records).to_dict("records")
     elif hasattr(records, "to_dict") and hasattr(records, "columns"):
         records = records.to_dict("records")
     rows = list(records)

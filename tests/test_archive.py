@@ -1,0 +1,542 @@
+"""The data archive (issue 5): trial file format, safe I/O, campaign folders, verify, reuse.
+
+Trials here are synthetic (tests/synthetic.py): random channels of the schema's shapes, so
+these tests pin the archive without waiting for the rig.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import xarray as xr
+
+from campaign import archive
+from campaign.archive import (
+    finalize_campaign, list_trials, open_campaign, open_trial, open_trial_tree, prepare_trial, to_cell_dataset,
+    trial_path, verify, write_trial,
+)
+from campaign.cli import main as cli_main
+from campaign.errors import InputError, TrialFileError
+from campaign.schema import CLOCKS, MEASURED, SCHEMA_VERSION, TRUTH, variables
+
+from synthetic import synthetic_scene, synthetic_trial
+
+DURATION = 0.3  # s: short recordings keep every write/read in the tens of ms
+ENCODING_KEYS = ("dtype", "zlib", "complevel", "shuffle", "fletcher32", "chunksizes")
+CELLS = [  # a small campaign: both bases, two configurations, two gains, two speeds
+    dict(base="fixed", config=1, gain="zero", speed=1.5),
+    dict(base="fixed", config=2, gain="zero", speed=1.5),
+    dict(base="fixed", config=1, gain="high", speed=2.0),
+    dict(base="flexible", config=1, gain="low", speed=1.5),
+]
+
+
+@pytest.fixture(autouse=True)
+def _fixed_clock(monkeypatch):
+    """date_created is the one attribute that changes run to run; freeze it for comparisons."""
+    monkeypatch.setattr(archive, "_now", lambda: "2026-01-01T00:00:00Z")
+
+
+@pytest.fixture(scope="module")
+def trees():
+    return {(c["base"], c["config"], c["gain"], c["speed"]): synthetic_trial(duration=DURATION, **c) for c in CELLS}
+
+
+@pytest.fixture(scope="module")
+def campaign_master(tmp_path_factory, trees):
+    """A finalized campaign folder, built once; tests that damage it work on a copy."""
+    folder = tmp_path_factory.mktemp("archive") / "small"
+    for tree in trees.values():
+        write_trial(tree, folder / f"{_scene(tree).cell}.nc")
+    finalize_campaign(folder)
+    return folder
+
+
+@pytest.fixture
+def campaign(campaign_master, tmp_path):
+    folder = tmp_path / "small"
+    shutil.copytree(campaign_master, folder)
+    return folder
+
+
+def _scene(tree):
+    from campaign.scene import Scene
+    return Scene.from_json(tree.attrs["scene_json"])
+
+
+def _first_trial(folder: Path) -> Path:
+    return folder / "fixed/config1/zero/v1.500/r00.nc"
+
+
+# ---------------------------------------------------------------------------------------
+# file format
+# ---------------------------------------------------------------------------------------
+@pytest.mark.parametrize("base", ["fixed", "flexible"])
+def test_roundtrip_identical_values_dtypes_attributes_encodings(tmp_path, base):
+    tree = synthetic_trial(base=base, duration=DURATION)
+    expected = prepare_trial(tree)
+    path = write_trial(tree, tmp_path / "trial.nc")
+    actual = open_trial_tree(path)
+    xr.testing.assert_identical(actual, expected)
+    for group in archive.GROUPS:
+        for name, var in expected[group].variables.items():
+            got = actual[group].variables[name]
+            assert got.dtype == var.dtype, (group, name)
+            for key in ENCODING_KEYS:
+                if key in var.encoding:
+                    assert got.encoding[key] == var.encoding[key], (group, name, key)
+    # the rig's numbers go through untouched, and time series are chunked along time and deflated
+    xr.testing.assert_equal(actual["measured"].to_dataset(), tree["measured"].to_dataset())
+    assert actual["measured"]["f_piezo"].encoding["zlib"] and actual["measured"]["f_piezo"].encoding["shuffle"]
+
+
+def test_files_decode_like_files_xarray_writes_itself(tmp_path):
+    """Our h5py writer and xarray's h5netcdf engine give files xarray decodes identically."""
+    prepared = prepare_trial(synthetic_trial(base="flexible", duration=DURATION))
+    ours = write_trial(prepared, tmp_path / "ours.nc")
+    reference = tmp_path / "xarray.nc"
+    prepared.to_netcdf(reference, engine="h5netcdf")
+    for group in archive.GROUPS:
+        with xr.open_dataset(ours, engine="h5netcdf", group=group) as a, \
+                xr.open_dataset(reference, engine="h5netcdf", group=group) as b:
+            a.load()
+            b.load()
+        xr.testing.assert_identical(a, b)
+        for name in a.variables:
+            ea = {k: v for k, v in a[name].encoding.items() if k != "source"}
+            eb = {k: v for k, v in b[name].encoding.items() if k != "source"}
+            assert ea == eb, (group, name)
+    # and the reference file passes our own checks: the digests describe content, not bytes
+    open_trial(reference)
+
+
+def test_plain_xarray_shows_units_and_long_names_without_campaign(tmp_path):
+    path = write_trial(synthetic_trial(base="flexible", duration=DURATION), tmp_path / "t.nc")
+    script = textwrap.dedent("""
+        import json, sys
+        import xarray as xr
+        out = {}
+        with xr.open_dataset(sys.argv[1], engine="h5netcdf") as root:
+            out["root"] = {k: str(v) for k, v in root.attrs.items()}
+        for group in ("measured", "truth"):
+            with xr.open_dataset(sys.argv[1], engine="h5netcdf", group=group) as ds:
+                ds.load()
+                out[group] = {n: {k: str(v) for k, v in ds[n].attrs.items()} for n in ds.variables}
+        out["imported_campaign"] = any(m == "campaign" or m.startswith("campaign.") for m in sys.modules)
+        print(json.dumps(out))
+    """)
+    result = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True, text=True,
+                            check=True, cwd=tmp_path)
+    seen = json.loads(result.stdout)
+    assert not seen["imported_campaign"]
+    for group, table in (("measured", MEASURED), ("truth", TRUTH)):
+        for var in table:
+            attrs = seen[group][var.name]
+            assert attrs["units"] == var.units and attrs["long_name"] == var.long_name, (group, var.name)
+        for dim in seen[group]:
+            if dim in CLOCKS:
+                attrs = seen[group][dim]
+                assert attrs["units"] == "s" and attrs["standard_name"] == "time" and attrs["long_name"]
+            assert "long_name" in seen[group][dim], (group, dim)
+    root = seen["root"]
+    for key in ("title", "summary", "keywords", "Conventions", "id", "date_created", "creator_name", "project",
+                "references", "license", "processing_level", "schema_version", "scene_json", "scene_sha256",
+                "seed", "campaign_version", "git_commit", "numpy_version", "scipy_version", "pinocchio_version",
+                "xarray_version", "h5py_version", "h5netcdf_version"):
+        assert root.get(key), key
+    assert root["Conventions"] == "CF-1.11, ACDD-1.3"
+    assert root["schema_version"] == SCHEMA_VERSION
+    assert "Impact Dynamics of Space Long Reach Manipulators" in root["references"]
+
+
+def test_fixed_trials_carry_no_flexible_base_channels(tmp_path):
+    path = write_trial(synthetic_trial(base="fixed", duration=DURATION), tmp_path / "t.nc")
+    ds = open_trial(path)
+    assert "base_position" not in ds and "t_base" not in ds.dims
+    assert set(ds.data_vars) == {v.name for v in variables("measured", "fixed")}
+
+
+def test_open_trial_returns_measured_by_default_with_the_file_attributes(tmp_path):
+    tree = synthetic_trial(duration=DURATION)
+    path = write_trial(tree, tmp_path / "t.nc")
+    measured = open_trial(path)
+    assert set(measured.data_vars) == {v.name for v in variables("measured", "fixed")}
+    assert measured.attrs["scene_json"] == tree.attrs["scene_json"]
+    assert measured.attrs["seed"] == tree.attrs["seed"]
+    truth = open_trial(path, group="truth")
+    assert "f_contact" in truth and "f_contact" not in measured
+    with pytest.raises(InputError, match="unknown trial group 'raw'"):
+        open_trial(path, group="raw")
+
+
+def test_determinism_same_scene_same_channels(tmp_path, monkeypatch):
+    a = write_trial(synthetic_trial(seed=11, duration=DURATION), tmp_path / "a.nc")
+    monkeypatch.setattr(archive, "_now", lambda: "2030-06-01T12:00:00Z")  # written at another time
+    b = write_trial(synthetic_trial(seed=11, duration=DURATION), tmp_path / "b.nc")
+    ta, tb = open_trial_tree(a), open_trial_tree(b)
+    for group in archive.GROUPS:
+        xr.testing.assert_identical(ta[group].to_dataset(), tb[group].to_dataset())
+    assert ta.attrs["date_created"] != tb.attrs["date_created"]
+    c = write_trial(synthetic_trial(seed=12, duration=DURATION), tmp_path / "c.nc")
+    assert open_trial_tree(c)["measured"].attrs["content_sha256"] != ta["measured"].attrs["content_sha256"]
+
+
+def test_provenance_is_plain_strings_and_names_the_commit():
+    prov = archive.provenance()
+    assert all(isinstance(v, str) and v for v in prov.values())
+    commit = prov["git_commit"]
+    assert commit == "unknown" or len(commit.split("-")[0]) == 40
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda t: t["measured"].to_dataset().drop_vars("f_piezo"), "missing f_piezo"),
+    (lambda t: t["measured"].to_dataset().assign(extra=xr.DataArray(1.0)), "not in schema"),
+    (lambda t: t["measured"].to_dataset().assign_attrs(meta={"a": 1}), "'meta'.*dict"),
+    (lambda t: t["measured"].to_dataset().assign_attrs(flag=True), "'flag'.*bool"),
+    (lambda t: t["measured"].to_dataset().assign_attrs(missing=None), "'missing'.*NoneType"),
+    (lambda t: _with_attrs(t["measured"].to_dataset(), "f_piezo", units="kN"), "units 'kN'"),
+    (lambda t: t["measured"].to_dataset().assign(f_piezo=lambda d: d.f_piezo.rename(t_force="t_x")),
+     "f_piezo has dims"),
+])
+def test_write_refuses_trials_that_break_the_schema(tmp_path, damage, message):
+    tree = synthetic_trial(duration=DURATION)
+    bad = xr.DataTree.from_dict({"/": xr.Dataset(attrs=tree.attrs), "/measured": damage(tree),
+                                 "/truth": tree["truth"].to_dataset()})
+    target = tmp_path / "t.nc"
+    with pytest.raises(InputError, match=message):
+        write_trial(bad, target)
+    assert not target.exists() and not list(tmp_path.iterdir())
+
+
+def _with_attrs(ds, name, **attrs):
+    ds = ds.copy()
+    ds[name].attrs.update(attrs)
+    return ds
+
+
+def test_write_refuses_a_scene_that_disagrees_with_its_hash(tmp_path):
+    tree = synthetic_trial(duration=DURATION)
+    bad = tree.copy()
+    bad.attrs = {**tree.attrs, "scene_sha256": "0" * 64}
+    with pytest.raises(InputError, match="scene_sha256"):
+        write_trial(bad, tmp_path / "t.nc")
+
+
+# ---------------------------------------------------------------------------------------
+# safe I/O
+# ---------------------------------------------------------------------------------------
+_KILL_SCRIPT = """
+import sys, time
+sys.path.insert(0, {tests!r})
+from campaign import archive
+from synthetic import synthetic_trial
+tree = synthetic_trial(duration={duration})
+real = archive._create_dataset
+count = [0]
+def slow(*args, **kwargs):
+    count[0] += 1
+    if count[0] == 20:          # well inside the write: groups, scales and channels half done
+        print("writing", flush=True)
+        time.sleep(60)
+    return real(*args, **kwargs)
+archive._create_dataset = slow
+archive.write_trial(tree, sys.argv[1])
+"""
+
+
+def test_writer_killed_mid_write_leaves_no_file_and_a_rerun_completes(tmp_path):
+    final = tmp_path / "fixed/config1/zero/v1.500/r00.nc"
+    script = _KILL_SCRIPT.format(tests=str(Path(__file__).parent), duration=DURATION)
+    proc = subprocess.Popen([sys.executable, "-c", script, str(final)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "writing"
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait(timeout=30)
+    assert proc.returncode == -signal.SIGKILL
+    assert not final.exists()
+    leftovers = list(final.parent.glob(".*.tmp"))
+    assert len(leftovers) == 1 and leftovers[0].stat().st_size > 0  # the half-written temp file
+    # a rerun completes, and clears the abandoned temp file
+    write_trial(synthetic_trial(duration=DURATION), final)
+    assert open_trial(final)["f_piezo"].size > 0
+    assert sorted(p.name for p in final.parent.iterdir()) == ["r00.nc"]
+
+
+def test_failed_write_removes_its_temp_file_and_keeps_the_old_file(tmp_path, monkeypatch):
+    final = write_trial(synthetic_trial(duration=DURATION), tmp_path / "t.nc")
+    before = final.read_bytes()
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(archive, "_create_dataset", broken)
+    with pytest.raises(OSError, match="disk full"):
+        write_trial(synthetic_trial(seed=5, duration=DURATION), final)
+    assert final.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["t.nc"]
+
+
+def test_reads_leave_no_open_handles(tmp_path):
+    path = write_trial(synthetic_trial(duration=DURATION), tmp_path / "t.nc")
+    open_trial(path)
+    open_trial_tree(path)
+    # HDF5 refuses to open a file for writing while any handle to it is open in this process
+    with h5py.File(path, "r+"):
+        pass
+    os.replace(path, tmp_path / "moved.nc")
+
+
+# ---------------------------------------------------------------------------------------
+# campaign folder
+# ---------------------------------------------------------------------------------------
+def test_campaign_layout_manifest_index_readme(campaign, trees):
+    for tree in trees.values():
+        assert trial_path(campaign, _scene(tree)).is_file()
+    names = sorted(p.name for p in campaign.iterdir())
+    assert names == sorted(["MANIFEST.sha256", "README.md", "index.csv", "fixed", "flexible"])
+    # sha256sum itself accepts the manifest
+    sha = shutil.which("sha256sum")
+    if sha:
+        out = subprocess.run([sha, "-c", "MANIFEST.sha256"], cwd=campaign, capture_output=True, text=True)
+        assert out.returncode == 0, out.stdout + out.stderr
+    listed = [line.split("  ", 1)[1] for line in (campaign / "MANIFEST.sha256").read_text().splitlines()]
+    assert "index.csv" in listed and "README.md" in listed and len(listed) == len(CELLS) + 2
+    with open(campaign / "index.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["path"] for r in rows] == sorted(r["path"] for r in rows)
+    assert {(r["base"], int(r["config"]), r["gain"], float(r["speed"])) for r in rows} == set(trees)
+    for r in rows:
+        assert set(r) == set(archive.INDEX_COLUMNS) and r["scene"] == "default" and len(r["scene_sha256"]) == 64
+    readme = (campaign / "README.md").read_text()
+    for var in MEASURED + TRUTH:
+        assert f"`{var.name}`" in readme and f"`{var.units}`" in readme and var.long_name in readme
+    for dim, clock in CLOCKS.items():
+        assert f"`{dim}`" in readme and f"`{clock.rate_key}`" in readme
+    assert "| `t_force` | piezo force sample time | `sensors.piezo_rate` | 10000 |" in readme
+
+
+def test_verify_accepts_an_intact_campaign(campaign):
+    assert verify(campaign) == []
+    assert cli_main(["archive", "verify", str(campaign)]) == 0
+
+
+def test_list_trials_and_filters(campaign):
+    assert len(list_trials(campaign)) == len(CELLS)
+    assert [r.path for r in list_trials(campaign, base="flexible")] == ["flexible/config1/low/v1.500/r00.nc"]
+    assert len(list_trials(campaign, config="1,2", gain="zero")) == 2
+    assert len(list_trials(campaign, config=[2], speed=1.5)) == 1
+    assert len(list_trials(campaign, speed="2.0")) == 1
+    assert list_trials(campaign, gain="low", base="fixed") == []
+    rec = list_trials(campaign, base="flexible")[0]
+    assert rec.file.is_file() and rec.seed == _scene(synthetic_trial(base="flexible", gain="low")).seed
+
+
+def test_open_campaign_collects_scalar_variables_over_the_cells(campaign):
+    ds = open_campaign(campaign, variables=["hammer_mass_eff", "truth/impulse", "base_mass"])
+    assert ds["impulse"].dims == archive.CELL_KEYS
+    assert list(ds.base.values) == ["fixed", "flexible"] and list(ds.gain.values) == ["zero", "low", "high"]
+    assert ds["impulse"].attrs == {"units": "N s", "long_name": TRUTH[[v.name for v in TRUTH].index("impulse")].long_name}
+    cell = dict(base="fixed", config=1, gain="zero", speed=1.5, repeat=0)
+    value = open_trial(campaign / ds["path"].sel(cell).item(), group="truth")["impulse"].item()
+    assert ds["impulse"].sel(cell).item() == value
+    # a fixed base has no base mass; cells without a trial are NaN
+    assert np.isnan(ds["base_mass"].sel(cell).item())
+    assert np.isfinite(ds["base_mass"].sel(base="flexible", config=1, gain="low", speed=1.5, repeat=0).item())
+    assert np.isnan(ds["impulse"].sel(base="flexible", config=2, gain="zero", speed=1.5, repeat=0).item())
+    assert ds["path"].sel(base="flexible", config=2, gain="zero", speed=1.5, repeat=0).item() == ""
+
+
+def test_open_campaign_runs_a_function_per_trial_on_measured_data(campaign):
+    def identify(ds):
+        assert "f_contact" not in ds  # measured only
+        peak = ds["f_piezo"].max()
+        return {"peak_force": xr.DataArray(float(peak), attrs={"units": "N"}), "n_force": int(ds.sizes["t_force"])}
+
+    ds = open_campaign(campaign, func=identify, gain="zero")
+    assert ds.sizes == {"base": 1, "config": 2, "gain": 1, "speed": 1, "repeat": 1}
+    assert ds["peak_force"].attrs == {"units": "N"}
+    assert ds["n_force"].dtype == np.int64
+    with pytest.raises(InputError, match="scalar per-trial"):
+        open_campaign(campaign, variables=["f_piezo"])
+    with pytest.raises(InputError, match="not in schema"):
+        open_campaign(campaign, variables=["m_eff"])
+
+
+def test_to_cell_dataset_from_records_frames_and_csv(tmp_path):
+    records = [
+        {"base": "fixed", "config": 1, "gain": "low", "speed": 1.5, "repeat": 0, "m_eff": 12.9, "e": 0.55},
+        {"base": "fixed", "config": 1, "gain": "low", "speed": 1.5, "repeat": 1, "m_eff": 13.1, "e": 0.56},
+        {"base": "fixed", "config": 3, "gain": "high", "speed": 2.0, "repeat": 0, "m_eff": 19.0, "e": 0.5},
+    ]
+    ds = to_cell_dataset(records, attrs={"m_eff": {"units": "kg", "long_name": "effective mass"}})
+    assert ds["m_eff"].dims == archive.CELL_KEYS and ds["m_eff"].attrs["units"] == "kg"
+    assert ds["m_eff"].sel(base="fixed", config=1, gain="low", speed=1.5, repeat=1).item() == 13.1
+    assert np.isnan(ds["m_eff"].sel(base="fixed", config=3, gain="low", speed=1.5, repeat=0).item())
+    assert ds["speed"].attrs["units"] == "m s-1"
+    frame = ds["m_eff"].to_dataframe()  # and back through pandas and CSV: same Dataset
+    import pandas as pd
+    xr.testing.assert_identical(to_cell_dataset(pd.DataFrame(records)).drop_attrs(),
+                                ds.drop_attrs())
+    path = tmp_path / "results.csv"
+    pd.DataFrame(records).to_csv(path, index=False)
+    xr.testing.assert_equal(to_cell_dataset(path), ds)
+    assert len(frame) == ds["m_eff"].size
+    with pytest.raises(InputError, match="same cell"):
+        to_cell_dataset(records + records[:1])
+    with pytest.raises(InputError, match="no gain"):
+        to_cell_dataset([{"base": "fixed", "config": 1, "speed": 1.5, "repeat": 0}])
+
+
+# ---------------------------------------------------------------------------------------
+# faults: each reported by verify and by the loader, naming the file
+# ---------------------------------------------------------------------------------------
+def _flip_bytes_in_data(path: Path) -> None:
+    with h5py.File(path, "r") as f:
+        info = f["measured/f_piezo"].id.get_chunk_info(0)
+    with open(path, "r+b") as fh:
+        fh.seek(info.byte_offset + info.size // 2)
+        chunk = bytearray(fh.read(4))
+        fh.seek(info.byte_offset + info.size // 2)
+        fh.write(bytes(b ^ 0x5A for b in chunk))
+
+
+def _truncate(path: Path) -> None:
+    with open(path, "r+b") as fh:
+        fh.truncate(path.stat().st_size // 2)
+
+
+def _newer_major(path: Path) -> None:
+    with h5py.File(path, "r+") as f:
+        f.attrs["schema_version"] = f"{int(SCHEMA_VERSION.split('.')[0]) + 1}.0"
+
+
+def _drop_channel(path: Path) -> None:
+    with h5py.File(path, "r+") as f:
+        del f["measured/f_piezo"]
+
+
+def _alter_attribute(path: Path) -> None:
+    with h5py.File(path, "r+") as f:
+        f["measured/q_enc"].attrs["units"] = "deg"
+
+
+FAULTS = {
+    "flipped bytes": (_flip_bytes_in_data, ["sha256 differs", "content_sha256"], "content_sha256|corrupt"),
+    "truncated": (_truncate, ["sha256 differs", "truncated or corrupt"], "truncated or corrupt"),
+    "missing file": (lambda p: p.unlink(), ["listed in MANIFEST.sha256 but missing"], "does not exist"),
+    "newer schema major": (_newer_major, ["schema version 2.0 is newer"], "schema version 2.0 is newer"),
+    "missing channel": (_drop_channel, ["channel measured/f_piezo is missing"], "measured/f_piezo is missing"),
+    "altered attribute": (_alter_attribute, ["sha256 differs", "content_sha256"], "content_sha256"),
+}
+
+
+@pytest.mark.parametrize("fault", list(FAULTS))
+def test_faults_are_reported_by_verify_and_by_the_loader(campaign, fault, capsys):
+    damage, verify_says, loader_says = FAULTS[fault]
+    target = _first_trial(campaign)
+    rel = target.relative_to(campaign).as_posix()
+    damage(target)
+    problems = verify(campaign)
+    assert problems and all(p.file for p in problems)
+    for text in verify_says:
+        assert any(p.file == rel and text in p.message for p in problems), (text, [str(p) for p in problems])
+    # the other trials are still fine and nothing else is blamed
+    assert {p.file for p in problems} <= {rel, "index.csv"}
+    with pytest.raises(TrialFileError, match=loader_says) as err:
+        open_trial(target)
+    assert str(target) in str(err.value)
+    # the CLI prints each problem with its file and exits non-zero
+    assert cli_main(["archive", "verify", str(campaign)]) == 1
+    out = capsys.readouterr().out
+    assert rel in out
+
+
+def test_verify_reports_unlisted_and_leftover_temp_files(campaign):
+    (campaign / "notes.txt").write_text("not part of the campaign")
+    (campaign / "fixed/config1/zero/v1.500/.r01.nc.123-abcd.tmp").write_bytes(b"\x89HDF")
+    found = {(p.file, p.message.split(" (")[0]) for p in verify(campaign)}
+    assert ("notes.txt", "not in MANIFEST.sha256") in found
+    assert ("fixed/config1/zero/v1.500/.r01.nc.123-abcd.tmp", "temporary file of an interrupted write") in found
+    with pytest.raises(InputError, match="interrupted write"):
+        finalize_campaign(campaign)
+
+
+def test_finalize_refuses_a_broken_trial(campaign):
+    _drop_channel(_first_trial(campaign))
+    with pytest.raises(TrialFileError, match="f_piezo is missing"):
+        finalize_campaign(campaign)
+
+
+def test_random_byte_flips_never_load_silently_wrong_data(tmp_path):
+    """Flip one byte anywhere: the loader raises naming the file, or returns the very same trial."""
+    path = write_trial(synthetic_trial(duration=0.1), tmp_path / "t.nc")
+    original = open_trial(path)
+    raw = path.read_bytes()
+    rng = np.random.default_rng(3)
+    outcomes = {"raised": 0, "unchanged": 0}
+    for pos in rng.integers(0, len(raw), 8):
+        damaged = tmp_path / f"flip{pos}.nc"
+        data = bytearray(raw)
+        data[pos] ^= 0xFF
+        damaged.write_bytes(bytes(data))
+        try:
+            loaded = open_trial(damaged)
+        except TrialFileError as exc:
+            assert str(damaged) in str(exc)
+            outcomes["raised"] += 1
+        else:
+            xr.testing.assert_identical(loaded.drop_attrs(), original.drop_attrs())
+            assert {k: v for k, v in loaded.attrs.items()} == original.attrs
+            outcomes["unchanged"] += 1
+    assert outcomes["raised"] > 0
+
+
+# ---------------------------------------------------------------------------------------
+# bad input: clear errors, exit status 2
+# ---------------------------------------------------------------------------------------
+def test_not_a_campaign_folder(tmp_path, capsys):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    for call in (lambda: verify(empty), lambda: list_trials(empty), lambda: finalize_campaign(empty),
+                 lambda: open_campaign(empty), lambda: verify(tmp_path / "nope")):
+        with pytest.raises(InputError, match="is not a campaign folder"):
+            call()
+    for action in ("verify", "finalize", "ls"):
+        assert cli_main(["archive", action, str(empty)]) == 2
+        assert "is not a campaign folder" in capsys.readouterr().err
+
+
+def test_unknown_filter_key(campaign, capsys):
+    with pytest.raises(InputError, match="unknown filter key.*'colour'.*known keys: base"):
+        list_trials(campaign, colour="red")
+    with pytest.raises(InputError, match="filter config='one': expected int"):
+        list_trials(campaign, config="one")
+    assert cli_main(["archive", "ls", str(campaign), "--filter", "colour=red"]) == 2
+    assert "unknown filter key" in capsys.readouterr().err
+    assert cli_main(["archive", "ls", str(campaign), "--filter", "gain"]) == 2
+    assert "key=value" in capsys.readouterr().err
+
+
+def test_cli_ls_and_finalize(campaign, capsys):
+    assert cli_main(["archive", "ls", str(campaign), "--filter", "base=fixed", "--filter", "config=1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].split()[:4] == ["path", "base", "config", "gain"] and len(out) == 3
+    assert cli_main(["archive", "ls", str(campaign), "--format", "csv"]) == 0
+    rows = list(csv.DictReader(capsys.readouterr().out.splitlines()))
+    assert len(rows) == len(CELLS)
+    (campaign / "MANIFEST.sha256").unlink()
+    assert [p.file for p in verify(campaign)] == ["MANIFEST.sha256"]
+    assert cli_main(["archive", "finalize", str(campaign)]) == 0
+    assert verify(campaign) == []
