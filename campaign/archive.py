@@ -589,7 +589,7 @@ def _glob_escape(name: str) -> str:
     return re.sub(r"([\[\]*?])", r"[\1]", name)
 
 
-def write_trial(tree: xr.DataTree, path: str | os.PathLike, *, fsync: bool = False) -> Path:
+def write_trial(tree: xr.DataTree, path: str | os.PathLike, *, fsync: bool = True) -> Path:
     """Validate a trial and write it atomically as one NetCDF4/HDF5 file.
 
     Parameters
@@ -599,8 +599,9 @@ def write_trial(tree: xr.DataTree, path: str | os.PathLike, *, fsync: bool = Fal
     path : path-like
         Final file name; its folder is created. Usually ``trial_path(campaign_dir, scene)``.
     fsync : bool
-        Flush the file to disk before the rename. The rename alone is atomic against a
-        killed process; ``fsync`` adds durability against power loss at a few ms per file.
+        Flush the file to disk before the rename (default). The rename alone is atomic
+        against a killed process; the flush also keeps a power loss from leaving an empty
+        file under the final name. It costs about 1 ms per trial on a local disk.
 
     Returns
     -------
@@ -1046,7 +1047,7 @@ def open_campaign(campaign_dir: str | os.PathLike, *, variables: Sequence[str] =
                 row[key] = value
         rows.append(row)
     ds = to_cell_dataset(rows, attrs=attrs)
-    ds.attrs.update(campaign=Path(campaign_dir).name, schema_version=SCHEMA_VERSION, trials=len(records))
+    ds.attrs.update(campaign=Path(campaign_dir).resolve().name, schema_version=SCHEMA_VERSION, trials=len(records))
     return ds
 
 
