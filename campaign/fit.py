@@ -1,0 +1,434 @@
+"""Virtual Rotor Inertia lambda from identified effective masses (paper eqs 11, 15).
+
+:class:`LambdaFit` is a scikit-learn-shaped estimator: construct it with its settings,
+``fit(Q, m_eff)`` does the work, fitted values end in ``_``, ``predict(Q)`` gives m*
+from eq 11. It fits
+
+    ln m*_i = -ln( n^T J_i (H_i + lambda)^-1 J_i^T n ) + r_i        (eq 11 with eq 7)
+
+over the trials of one gain class (all configurations, speeds and repeats of the fixed
+base) by nonlinear least squares on the log (``scipy.optimize.least_squares``): relative
+errors weigh the light folded arm and the heavy stretched arm alike. ``lambda`` is
+diagonal and >= 0 by default (eq 15; bounds), or a full symmetric positive semi-definite
+matrix ``L L^T`` (Cholesky factor ``L`` as the parameters). The Jacobian is analytic:
+with ``x = (H + lambda)^-1 J^T n`` and ``s = n^T J x = 1/m*``,
+``d ln m* / d lambda_jk = x_j x_k / s``.
+
+Uncertainty: a bootstrap over trials, stratified by configuration (each resample draws,
+with replacement, as many trials of each configuration as the data has, so no resample
+loses a configuration and turns the problem singular); percentile intervals.
+
+Identifiability: the sensitivity matrix ``S_cj = d ln m*_c / d ln lambda_j`` at the
+solution, one row per distinct configuration, and its 2-norm condition number. A component
+is flagged as not identifiable (a :class:`IdentifiabilityWarning` and the attributes
+``identifiable_`` / ``identifiability_`` / ``warnings_``) when its largest sensitivity is
+below ``min_sensitivity`` (doubling it changes no configuration's m* by more than that
+fraction) or its confidence interval is wider than ``max_relative_ci`` times its value.
+With the paper's three configurations and n = -x, d ln m*/d ln lambda is about
+0.005-0.024 for lambda_1 and lambda_2 but about 0.43 for lambda_3 (condition number
+about 350): lambda_1 and lambda_2 are nearly unidentifiable from that design, and the fit
+says so.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .errors import InputError
+
+__all__ = ["LambdaFit", "IdentifiabilityWarning", "sensitivity_matrix", "design_arrays"]
+
+
+class IdentifiabilityWarning(UserWarning):
+    """A lambda component is not identifiable from the fitted trials."""
+
+
+def design_arrays(robot, Q, n):
+    """Joint-space inertia and the impact row of the Jacobian for each configuration.
+
+    Parameters
+    ----------
+    robot : campaign.robot.Robot
+    Q : array_like, shape (N, nv)
+        DH joint angles [rad].
+    n : array_like, shape (3,)
+        Unit impact direction, base frame.
+
+    Returns
+    -------
+    H : ndarray, shape (N, nv, nv)
+        ``H(q)`` with the reflected rotor inertia [kg m^2].
+    Jn : ndarray, shape (N, nv)
+        ``n^T J_lin(q)`` [m].
+    """
+    import pinocchio as pin
+
+    from .exiit import impact_jacobian, inertia
+
+    model = robot.model
+    data = model.createData()
+    Q = np.asarray(Q, float)
+    H = np.empty((Q.shape[0], model.nv, model.nv))
+    Jn = np.empty((Q.shape[0], model.nv))
+    for i, q in enumerate(Q):
+        H[i] = inertia(model, data, q)
+        pin.framesForwardKinematics(model, data, q)
+        Jn[i] = n @ impact_jacobian(model, data, q, robot.impact_frame_id)[:3]
+    return H, Jn
+
+
+def _solve(H, Jn, lam_m):
+    """x = (H + lambda)^-1 Jn and s = Jn . x (= 1/m*) for every configuration."""
+    x = np.linalg.solve(H + lam_m, Jn[:, :, None])[:, :, 0]
+    s = np.einsum("ij,ij->i", Jn, x)
+    return x, s
+
+
+def sensitivity_matrix(H, Jn, lam) -> np.ndarray:
+    """``d ln m* / d ln lambda_j`` for a diagonal lambda, one row per configuration.
+
+    ``= lambda_j x_j^2 / s`` with ``x = (H + lambda)^-1 J^T n`` and ``s = 1/m*``.
+    """
+    lam = np.asarray(lam, float)
+    x, s = _solve(H, Jn, np.diag(lam))
+    return lam[None, :] * x**2 / s[:, None]
+
+
+class LambdaFit:
+    """Fit the Virtual Rotor Inertia lambda to identified effective masses (eq 11, 15).
+
+    Parameters
+    ----------
+    robot : campaign.robot.Robot or str, optional
+        The arm (default: the paper's robot, ``config/paper.yaml``).
+    direction : array_like, shape (3,), optional
+        Impact direction n in the arm's base frame (default: the paper's, -x).
+    structure : {"diagonal", "full"}
+        Diagonal lambda >= 0 (eq 15), or a full symmetric PSD matrix.
+    n_bootstrap : int
+        Bootstrap resamples for the confidence intervals (0: none).
+    ci : float
+        Confidence level of the percentile intervals.
+    random_state : int or numpy.random.Generator, optional
+        Seed of the bootstrap.
+    min_sensitivity : float
+        A component whose largest ``|d ln m*/d ln lambda_j|`` is below this is not
+        identifiable.
+    max_relative_ci : float
+        A component whose CI width exceeds this multiple of its value is not identifiable.
+    warn : bool
+        Issue :class:`IdentifiabilityWarning` (the findings are stored either way).
+
+    Attributes
+    ----------
+    lambda_ : ndarray, shape (nv,) or (nv, nv)
+        Fitted lambda [kg m^2] (diagonal as a vector, full as a matrix).
+    lambda_matrix_ : ndarray, shape (nv, nv)
+    lambda_ci_ : ndarray, shape (2, nv) or (2, nv, nv)
+        Lower and upper percentile bounds [kg m^2] (nan without bootstrap).
+    lambda_boot_ : ndarray
+        The bootstrap estimates.
+    sensitivity_ : ndarray, shape (n_configurations, nv)
+        ``d ln m*/d ln lambda_j`` at the solution per distinct configuration (diagonal
+        structure; for ``full``, per independent element ``j <= k``).
+    configurations_ : ndarray, shape (n_configurations, nv)
+        The distinct configurations (rows of ``sensitivity_``).
+    condition_number_ : float
+        2-norm condition number of ``sensitivity_`` (``inf`` if rank deficient).
+    residuals_ : ndarray, shape (N,)
+        ``ln m*_model - ln m*_identified`` per trial.
+    rms_log_residual_ : float
+    n_trials_ : int
+    identifiable_ : ndarray of bool
+    identifiability_ : list of str
+        One finding per component ("ok" or why not).
+    warnings_ : list of str
+    """
+
+    def __init__(self, robot=None, *, direction=None, structure: str = "diagonal", n_bootstrap: int = 200,
+                 ci: float = 0.95, random_state=None, min_sensitivity: float = 0.05,
+                 max_relative_ci: float = 1.0, warn: bool = True):
+        self.robot = robot
+        self.direction = direction
+        self.structure = structure
+        self.n_bootstrap = n_bootstrap
+        self.ci = ci
+        self.random_state = random_state
+        self.min_sensitivity = min_sensitivity
+        self.max_relative_ci = max_relative_ci
+        self.warn = warn
+
+    # -- scikit-learn protocol ---------------------------------------------------------
+    _PARAMS = ("robot", "direction", "structure", "n_bootstrap", "ci", "random_state", "min_sensitivity",
+               "max_relative_ci", "warn")
+
+    def get_params(self, deep: bool = True) -> dict:
+        return {k: getattr(self, k) for k in self._PARAMS}
+
+    def set_params(self, **params) -> "LambdaFit":
+        for k, v in params.items():
+            if k not in self._PARAMS:
+                raise InputError(f"LambdaFit has no parameter {k!r}; parameters: {list(self._PARAMS)}")
+            setattr(self, k, v)
+        return self
+
+    def __repr__(self) -> str:
+        name = getattr(self.robot, "name", self.robot)
+        return f"LambdaFit(robot={name!r}, structure={self.structure!r}, n_bootstrap={self.n_bootstrap})"
+
+    # -- helpers ---------------------------------------------------------------------
+    def _setup(self):
+        from .paper import impact_direction, load_paper
+        from .robot import Robot, load_robot
+
+        robot = self.robot
+        if robot is None:
+            robot = load_paper()["robot"]
+        if not isinstance(robot, Robot):
+            try:
+                robot = load_robot(str(robot))
+            except ValueError as exc:
+                raise InputError(str(exc)) from None
+        n = impact_direction() if self.direction is None else np.asarray(self.direction, float)
+        if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
+            raise InputError(f"direction = {np.asarray(self.direction).tolist()} must be a non-zero 3-vector")
+        if self.structure not in ("diagonal", "full"):
+            raise InputError(f"structure must be 'diagonal' or 'full', got {self.structure!r}")
+        if not (isinstance(self.n_bootstrap, (int, np.integer)) and self.n_bootstrap >= 0):
+            raise InputError(f"n_bootstrap must be an integer >= 0, got {self.n_bootstrap!r}")
+        if not (0 < self.ci < 1):
+            raise InputError(f"ci must be in (0, 1), got {self.ci!r}")
+        return robot, n / np.linalg.norm(n)
+
+    def _unpack(self, theta, nv):
+        """Parameters -> lambda matrix."""
+        if self.structure == "diagonal":
+            return np.diag(theta)
+        L = np.zeros((nv, nv))
+        L[np.tril_indices(nv)] = theta
+        return L @ L.T
+
+    def _fit_once(self, H, Jn, y, w, theta0):
+        """Least squares on log m*; returns the optimizer result."""
+        nv = Jn.shape[1]
+        sw = np.sqrt(w)
+        tril = np.tril_indices(nv)
+
+        def resid(theta):
+            _, s = _solve(H, Jn, self._unpack(theta, nv))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return sw * (-np.log(s) - y)
+
+        def jac(theta):
+            lam_m = self._unpack(theta, nv)
+            x, s = _solve(H, Jn, lam_m)
+            if self.structure == "diagonal":
+                g = x**2 / s[:, None]                      # d ln m*/d lambda_j
+            else:
+                L = np.zeros((nv, nv))
+                L[tril] = theta
+                # d ln m*/dL_ab = (1/s) d(x^T lambda x)/dL_ab with lambda = L L^T:
+                # x^T (E_ab L^T + L E_ba) x = 2 x_a (L^T x)_b
+                Ltx = L.T @ x.T                            # (nv, N)
+                g = np.stack([2 * x[:, a] * Ltx[b] / s for a, b in zip(*tril)], axis=1)
+            return sw[:, None] * g
+
+        if self.structure == "diagonal":
+            bounds = (np.zeros(nv), np.full(nv, np.inf))
+        else:
+            bounds = (-np.inf, np.inf)
+        best = None
+        for t0 in theta0:
+            r = least_squares(resid, t0, jac=jac, bounds=bounds, method="trf", x_scale="jac",
+                              xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+            if best is None or r.cost < best.cost:
+                best = r
+        return best
+
+    def _starts(self, robot, nv):
+        arm = np.maximum(np.asarray(robot.armature, float), 1e-3)
+        diag = [arm * f for f in (0.1, 1.0, 10.0)]
+        if self.structure == "diagonal":
+            return diag
+        out = []
+        for d in diag:
+            L = np.diag(np.sqrt(d))
+            out.append(L[np.tril_indices(nv)])
+        return out
+
+    # -- public --------------------------------------------------------------------------
+    def fit(self, Q, m_eff, sample_weight=None) -> "LambdaFit":
+        """Fit lambda to effective masses identified at configurations ``Q``.
+
+        Parameters
+        ----------
+        Q : array_like, shape (N, nv)
+            DH joint angles of the trials [rad] (their commanded configurations).
+        m_eff : array_like, shape (N,)
+            Identified effective masses [kg], finite and > 0.
+        sample_weight : array_like, shape (N,), optional
+            Weights of the log residuals (e.g. inverse variances), > 0.
+
+        Returns
+        -------
+        self
+        """
+        robot, n = self._setup()
+        nv = robot.nv
+        Q = np.asarray(Q, float)
+        m = np.asarray(m_eff, float)
+        if Q.ndim != 2 or Q.shape[1] != nv:
+            raise InputError(f"Q must have shape (N, {nv}) (DH radians), got {Q.shape}")
+        if m.shape != (Q.shape[0],):
+            raise InputError(f"m_eff must have shape ({Q.shape[0]},), got {m.shape}")
+        if Q.shape[0] == 0:
+            raise InputError("no trials to fit lambda to")
+        bad = ~(np.isfinite(m) & (m > 0))
+        if bad.any():
+            raise InputError(f"m_eff must be finite and > 0 kg; bad values {m[bad].tolist()} at rows "
+                             f"{np.flatnonzero(bad).tolist()}")
+        if not np.all(np.isfinite(Q)):
+            raise InputError("Q has non-finite joint angles")
+        w = np.ones(Q.shape[0]) if sample_weight is None else np.asarray(sample_weight, float)
+        if w.shape != (Q.shape[0],) or not np.all(np.isfinite(w) & (w > 0)):
+            raise InputError("sample_weight must hold one finite weight > 0 per trial")
+        H, Jn = design_arrays(robot, Q, n)
+        y = np.log(m)
+        n_par = nv if self.structure == "diagonal" else nv * (nv + 1) // 2
+
+        # distinct configurations (strata of the bootstrap, rows of the sensitivity matrix)
+        keys = np.round(Q, 9)
+        configs, groups = np.unique(keys, axis=0, return_inverse=True)
+        groups = np.ravel(groups)
+        self.configurations_ = configs
+
+        res = self._fit_once(H, Jn, y, w, self._starts(robot, nv))
+        theta = res.x
+        lam_m = self._unpack(theta, nv)
+        lam_m = 0.5 * (lam_m + lam_m.T)
+        self.lambda_matrix_ = lam_m
+        self.lambda_ = np.diag(lam_m).copy() if self.structure == "diagonal" else lam_m.copy()
+        _, s = _solve(H, Jn, lam_m)
+        self.residuals_ = -np.log(s) - y
+        self.rms_log_residual_ = float(np.sqrt(np.mean(self.residuals_**2)))
+        self.n_trials_ = int(Q.shape[0])
+        self.n_configurations_ = int(configs.shape[0])
+        self.robot_ = robot
+        self.direction_ = n
+        self.success_ = bool(res.success)
+
+        # sensitivity d ln m*/d ln lambda at the solution, per distinct configuration
+        Hc, Jc = design_arrays(robot, configs, n)
+        xc, sc = _solve(Hc, Jc, lam_m)
+        if self.structure == "diagonal":
+            S = self.lambda_[None, :] * xc**2 / sc[:, None]
+        else:
+            idx = np.tril_indices(nv)
+            S = np.stack([(1.0 if a == b else 2.0) * lam_m[a, b] * xc[:, a] * xc[:, b] / sc for a, b in zip(*idx)],
+                         axis=1)
+        self.sensitivity_ = S
+        sv = np.linalg.svd(S, compute_uv=False)
+        rank_ok = S.shape[0] >= S.shape[1] and sv.size and sv[-1] > 1e-12 * max(sv[0], 1e-300)
+        self.condition_number_ = float(sv[0] / sv[-1]) if rank_ok else float("inf")
+
+        # bootstrap over trials, stratified by configuration
+        B = int(self.n_bootstrap)
+        shape = self.lambda_.shape
+        if B > 0:
+            rng = self.random_state if isinstance(self.random_state, np.random.Generator) \
+                else np.random.default_rng(self.random_state)
+            members = [np.flatnonzero(groups == g) for g in range(configs.shape[0])]
+            boot = np.empty((B,) + shape)
+            for b in range(B):
+                idx = np.concatenate([rng.choice(mb, size=mb.size, replace=True) for mb in members])
+                rb = self._fit_once(H[idx], Jn[idx], y[idx], w[idx], [theta])
+                Lb = self._unpack(rb.x, nv)
+                Lb = 0.5 * (Lb + Lb.T)
+                boot[b] = np.diag(Lb) if self.structure == "diagonal" else Lb
+            alpha = (1 - self.ci) / 2
+            self.lambda_ci_ = np.quantile(boot, [alpha, 1 - alpha], axis=0)
+            self.lambda_boot_ = boot
+        else:
+            self.lambda_ci_ = np.full((2,) + shape, np.nan)
+            self.lambda_boot_ = np.empty((0,) + shape)
+
+        self._assess(n_par, nv)
+        return self
+
+    def _assess(self, n_par: int, nv: int) -> None:
+        """Identifiability findings per component; warns."""
+        S = self.sensitivity_
+        msgs: list[str] = []
+        findings: list[str] = []
+        ok = np.ones(S.shape[1], bool)
+        names = ([f"lambda_{j + 1}" for j in range(nv)] if self.structure == "diagonal"
+                 else [f"lambda_{a + 1}{b + 1}" for a, b in zip(*np.tril_indices(nv))])
+        est = self.lambda_ if self.structure == "diagonal" else self.lambda_matrix_[np.tril_indices(nv)]
+        lo = self.lambda_ci_[0] if self.structure == "diagonal" else self.lambda_ci_[0][np.tril_indices(nv)]
+        hi = self.lambda_ci_[1] if self.structure == "diagonal" else self.lambda_ci_[1][np.tril_indices(nv)]
+        if self.n_configurations_ < n_par:
+            msgs.append(f"{self.n_configurations_} distinct configurations cannot determine {n_par} lambda "
+                        f"parameters ({self.structure} structure)")
+        for j, name in enumerate(names):
+            why = []
+            smax = float(np.max(np.abs(S[:, j]))) if S.size else 0.0
+            if est[j] == 0:
+                why.append("at its bound 0 (no measurable effect on m*)")
+            elif smax < self.min_sensitivity:
+                why.append(f"max |d ln m*/d ln {name}| = {smax:.3g} < {self.min_sensitivity:g} "
+                           f"(doubling it changes m* by < {100 * smax:.2g} %)")
+            if np.isfinite(lo[j]) and np.isfinite(hi[j]) and est[j] != 0:
+                rel = (hi[j] - lo[j]) / abs(est[j])
+                if rel > self.max_relative_ci:
+                    why.append(f"{100 * self.ci:.0f} % CI [{lo[j]:.3g}, {hi[j]:.3g}] is {rel:.2g} times its "
+                               f"value {est[j]:.3g}")
+            if why:
+                ok[j] = False
+                findings.append(f"{name}: not identifiable: " + "; ".join(why))
+                msgs.append(f"{name} is not identifiable from these trials: " + "; ".join(why))
+            else:
+                findings.append(f"{name}: ok (max |d ln m*/d ln {name}| = {smax:.3g})")
+        if np.isfinite(self.condition_number_) and self.condition_number_ > 100:
+            msgs.append(f"sensitivity matrix condition number {self.condition_number_:.3g}: the components are "
+                        f"poorly separated by these configurations")
+        self.identifiable_ = ok
+        self.identifiability_ = findings
+        self.warnings_ = msgs
+        if self.warn:
+            for m in msgs:
+                warnings.warn(m, IdentifiabilityWarning, stacklevel=3)
+
+    def _check_fitted(self):
+        if not hasattr(self, "lambda_"):
+            raise InputError("this LambdaFit is not fitted yet; call fit(Q, m_eff) first")
+
+    def predict(self, Q) -> np.ndarray:
+        """Effective mass from eq 11 with the fitted lambda [kg], shape (N,)."""
+        from .exiit import effective_mass_batch
+
+        self._check_fitted()
+        Q = np.asarray(Q, float)
+        if Q.ndim == 1:
+            Q = Q[None, :]
+        return effective_mass_batch(self.robot_, Q, self.direction_, self.lambda_matrix_)
+
+    def summary(self) -> dict:
+        """JSON-safe dict of the fitted values."""
+        self._check_fitted()
+
+        def js(a):
+            a = np.asarray(a, float)
+            return [js(x) for x in a] if a.ndim else (float(a) if math.isfinite(a) else None)
+
+        return {
+            "structure": self.structure, "lambda": js(self.lambda_), "lambda_ci": js(self.lambda_ci_),
+            "ci": self.ci, "n_bootstrap": int(self.n_bootstrap), "sensitivity": js(self.sensitivity_),
+            "configurations": js(self.configurations_), "condition_number": js(self.condition_number_),
+            "rms_log_residual": self.rms_log_residual_, "n_trials": self.n_trials_,
+            "identifiable": [bool(x) for x in self.identifiable_], "identifiability": list(self.identifiability_),
+            "warnings": list(self.warnings_),
+        }

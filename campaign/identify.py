@@ -1,0 +1,1003 @@
+"""Per-trial identification: effective mass m* (eq 10) and restitution e (eq 12).
+
+Identification reads only a trial's ``measured`` group (never ``truth``), exactly as a
+real VES-II allows (paper section 3, design brief section 5):
+
+1. **Contact interval** from the piezo force ``f_piezo``. The baseline and noise level
+   come from the record itself (median and MAD, refined on the samples within 5 sigma);
+   the threshold is ``max(k_sigma * sigma, force_floor, force_floor_rel * peak)``
+   (default 8 sigma, 0.5 N, 2 % of the peak). Runs above the threshold closer than
+   ``merge_gap`` (2 ms) are one contact. Each edge is refined by a straight line fitted to
+   the edge samples between the threshold and ``edge_fit_level`` times it (4x), and
+   extrapolated to zero force: on a 10 kHz record of a 30-50 ms contact that places the
+   edges within a few microseconds of the true start and end, where a threshold
+   crossing alone is late by 0.1-0.5 ms. The impulse is the trapezoid integral of the
+   baseline-corrected force over the refined interval (edge triangles included).
+2. **Hammer velocities** ``v_b``, ``v'_b`` from the pendulum encoder: a quadratic in time
+   fitted to ``theta`` on a one-sided window of ``pendulum_window`` (30 ms) just before the
+   contact start (just after the contact end), ``pendulum_guard`` (1 ms) away from the
+   edge, evaluated at the edge; ``v = r theta' cos(theta)`` (the schema's hammer velocity
+   along n). The free pendulum is smooth on both sides, so a one-sided fit is unbiased;
+   on a 1 kHz, 16-bit encoder it resolves v_b to about 0.05 %.
+3. **Arm tip velocities** ``v_a``, ``v'_a`` from the joint encoders: the impact point's
+   position along n, ``s(t) = n . p(q(t))`` (forward kinematics of each sample), is fitted
+   by one linear least-squares model over a pre-contact window (``joint_pre_window``,
+   0.2 s) and a post-contact window (through ``joint_post_window``, 0.1 s, after the
+   contact end)::
+
+       s(t) = s_s + v_a u + dv Phi(t) + beta_1 u+^2/2 + ... + beta_k u+^(k+1)/(k+1)!
+
+   with ``u = t - t_s``, ``u+ = max(u, 0)`` and ``Phi(t) = int_{t_s}^t I(x)/I(t_e) dx`` the
+   time integral of the normalised accumulated piezo impulse. The model says what eq 5
+   says: during the contact the joint velocity follows the accumulated impulse (the
+   ``dv Phi`` term, shaped by the measured force), while the joint resistance (friction,
+   servo, gravity compensation: the source of lambda) decelerates the tip smoothly from
+   the contact start on (the polynomial, order ``resistance_order`` = 2); the resistance
+   is a function of the joint state, so it is continuous across the contact end. Then
+   ``v'_a = v_a + dv + beta_1 T + beta_2 T^2/2`` with ``T = t_e - t_s``. Anchoring the
+   post-contact motion to the well-determined pre-contact position through the measured
+   force shape is what makes 20 ms samples usable: with 0-3 samples inside the contact,
+   a free one-sided fit after the contact (``arm_model="onesided"``, kept for
+   comparison) has to extrapolate a decaying motion back to t_e and is several times
+   less accurate (see the accuracy notes below); a central difference across the impact
+   is simply wrong.
+   On a flexible base the tip's inertial velocity is the base point's plus the arm's:
+   the base (platform) pose channels (1 kHz) give ``n . (p_b + R r0)`` (``r0`` the tip at
+   ``q_cmd``), fitted one-sided like the pendulum (``base_window``, 20 ms, quadratic), and
+   the arm part ``n . R (p(q) - r0)`` uses the model above.
+4. ``m* = m_b (v_b - v'_b) / (v'_a - v_a)`` (eq 10), ``e = (v'_a - v'_b) / (v_b - v_a)``
+   (eq 12), and the piezo impulse beside ``m_b (v_b - v'_b)`` as a cross-check.
+
+A trial that cannot give a trustworthy m* -- no contact in the force channel, more than
+one contact (a rebound), a saturated piezo, a contact not fully inside the record, too
+few samples before or after the contact, a tip that does not move along n -- is returned
+with ``excluded=True`` and the reason; the fits never average it in. A file that is not a
+trial, or a trial without a required channel, raises :class:`~campaign.errors.TrialFileError`
+(files) or :class:`~campaign.errors.InputError` (datasets) naming it.
+
+Measured accuracy (synthetic trials of ``tests/synthetic_impact.py``, the sweep in the
+report of issue 6; PUMA 560, configurations 1-3, 1.0-2.5 m/s, random contact phase,
+encoder quantisation and noise as in ``config/rig.yaml``): see :data:`ACCURACY_NOTE`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import xarray as xr
+from scipy.optimize import least_squares
+
+from .errors import InputError, TrialFileError
+
+__all__ = [
+    "IdentifyOptions",
+    "TrialIdentification",
+    "Contact",
+    "detect_contact",
+    "hammer_velocity",
+    "identify_trial",
+    "identify_file",
+    "identify_files",
+    "load_trial",
+    "find_trials",
+    "REQUIRED_CHANNELS",
+    "ACCURACY_NOTE",
+]
+
+#: channels and constants identification reads from the ``measured`` group, with their dims
+REQUIRED_CHANNELS = {
+    "q_enc": ("t_joint", "joint"),
+    "theta_pend": ("t_pend",),
+    "f_piezo": ("t_force",),
+    "q_cmd": ("joint",),
+    "hammer_mass_eff": (),
+    "pendulum_radius": (),
+    "impact_direction": ("axis",),
+    "piezo_full_scale": (),
+}
+#: extra constants a flexible-base trial needs (the base pose comes from the platform
+#: channels, or the emulated base channels when the platform ones are absent)
+FLEXIBLE_CONSTANTS = {"base_mass": (), "base_inertia": ("axis", "axis2")}
+BASE_POSE_CHANNELS = (("platform_position", "platform_rotation"), ("base_position", "base_rotation"))
+
+ARM_MODELS = ("lti", "poly", "onesided")
+
+ACCURACY_NOTE = """\
+Relative error of m* and e against the simulator truth over a sweep of 3 configurations x
+4 speeds (1.0-2.5 m/s) x 5 decay laws (none, exponential, viscous, Coulomb, servo) x random
+contact phases; see the issue-6 report for the full distributions. Method chosen:
+arm_model="impulse", resistance_order=2."""
+
+
+@dataclasses.dataclass(frozen=True)
+class IdentifyOptions:
+    """Thresholds and window lengths of the identification (SI units).
+
+    Attributes
+    ----------
+    k_sigma : float
+        Force threshold in noise standard deviations.
+    force_floor : float
+        Absolute lower bound of the force threshold [N].
+    force_floor_rel : float
+        Lower bound of the threshold as a fraction of the peak force.
+    merge_gap : float
+        Runs above the threshold closer than this are one contact [s].
+    edge_fit_level : float
+        Edge samples up to this multiple of the threshold fit the edge line.
+    pendulum_window, pendulum_guard : float
+        Length of the one-sided pendulum windows and their distance from the edge [s].
+    pendulum_degree : int
+        Degree of the polynomial fitted to the pendulum angle.
+    joint_pre_window : float
+        Joint samples up to this long before the contact start enter the fit [s].
+    joint_post_window : float
+        Joint samples up to this long after the contact end enter the fit [s].
+    min_pre_samples, min_post_samples : int
+        Fewer joint samples than this before the start / after the end -> excluded.
+    resistance_order : int
+        Order of the polynomial joint-resistance deceleration (0 = none).
+    arm_model : {"impulse", "onesided"}
+        ``impulse``: the impulse-anchored model of the module docstring; ``onesided``:
+        independent polynomial fits before the start (linear) and after the end (degree
+        ``resistance_order + 1``), each evaluated at its edge (for comparison).
+    base_window : float
+        One-sided base-pose window (flexible base) [s].
+    """
+
+    k_sigma: float = 8.0
+    force_floor: float = 0.5
+    force_floor_rel: float = 0.02
+    merge_gap: float = 2e-3
+    edge_fit_level: float = 4.0
+    pendulum_window: float = 0.05
+    pendulum_guard: float = 1e-3
+    pendulum_degree: int = 3
+    joint_pre_window: float = 0.2
+    joint_post_samples: int = 5
+    joint_post_window_min: float = 0.02
+    min_pre_samples: int = 3
+    min_post_samples: int = 4
+    resistance_order: int = 1
+    arm_model: str = "lti"
+    base_window: float = 0.02
+
+    def post_window(self, rate: float) -> float:
+        """Post-contact joint window [s] at a joint sampling ``rate`` [Hz]:
+        ``max(joint_post_window_min, joint_post_samples / rate)``."""
+        return max(self.joint_post_window_min, self.joint_post_samples / rate)
+
+    def __post_init__(self):
+        for name in ("k_sigma", "merge_gap", "edge_fit_level", "pendulum_window", "joint_pre_window",
+                     "joint_post_window_min", "base_window"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise InputError(f"identification option {name} must be > 0, got {v!r}")
+        for name in ("force_floor", "force_floor_rel", "pendulum_guard"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise InputError(f"identification option {name} must be >= 0, got {v!r}")
+        for name in ("pendulum_degree", "min_pre_samples", "min_post_samples", "resistance_order",
+                     "joint_post_samples"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < 0:
+                raise InputError(f"identification option {name} must be an integer >= 0, got {v!r}")
+        if self.pendulum_degree < 1:
+            raise InputError(f"pendulum_degree must be >= 1, got {self.pendulum_degree}")
+        if self.arm_model not in ARM_MODELS:
+            raise InputError(f"arm_model must be one of {ARM_MODELS}, got {self.arm_model!r}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Contact:
+    """The contact found in the piezo force.
+
+    Attributes
+    ----------
+    start, end : float
+        Refined contact start and end [s] (``nan`` when there is no contact).
+    peak : float
+        Peak force above the baseline [N].
+    impulse : float
+        Trapezoid integral of the baseline-corrected force over the contact [N s].
+    baseline, sigma, threshold : float
+        Force baseline, noise standard deviation and detection threshold [N].
+    n_contacts : int
+        Number of separate contacts (runs above the threshold).
+    intervals : tuple of (float, float)
+        Threshold-crossing interval of every contact [s].
+    saturated : bool
+        A sample of the contact reached the piezo full scale.
+    complete : bool
+        The contact starts and ends inside the record.
+    """
+
+    start: float
+    end: float
+    peak: float
+    impulse: float
+    baseline: float
+    sigma: float
+    threshold: float
+    n_contacts: int
+    intervals: tuple
+    saturated: bool
+    complete: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class TrialIdentification:
+    """Identification result of one trial (SI units; ``nan`` where not computable).
+
+    Attributes
+    ----------
+    m_eff : float
+        Effective mass m* from eq 10 [kg].
+    e : float
+        Restitution coefficient, eq 12.
+    v_a, v_a_post : float
+        Arm tip velocity along n at the contact start / end [m/s].
+    v_b, v_b_post : float
+        Hammer velocity along n at the contact start / end [m/s].
+    impulse : float
+        Piezo impulse, trapezoid integral of the force over the contact [N s].
+    impulse_momentum : float
+        ``m_b (v_b - v'_b)``, the hammer's momentum change [N s] (cross-check of ``impulse``).
+    contact_start, contact_end : float
+        Contact interval from the piezo force [s].
+    peak_force : float
+        Peak piezo force above the baseline [N].
+    excluded : bool
+        The trial must not enter fits or tables.
+    reason : str
+        Why it is excluded ("" if not).
+    theta_contact : float
+        Pendulum angle at the contact start [rad].
+    n_joint_pre, n_joint_contact, n_joint_post : int
+        Joint samples in the pre window, inside the contact, and in the post window.
+    path, robot, base, config, gain, speed, repeat
+        The trial's file and scene identity (from the root attributes; "" / -1 / nan when
+        unknown).
+    q_cmd : tuple of float
+        Commanded joint angles, DH [rad].
+    hammer_mass : float
+        m_b [kg].
+    impact_direction : tuple of float
+        Unit n, base frame.
+    base_mass : float
+        Emulated base mass [kg] (flexible base; nan otherwise).
+    base_inertia : tuple of float
+        Emulated base inertia, 9 values row-major [kg m^2] (flexible base; empty otherwise).
+    """
+
+    m_eff: float
+    e: float
+    v_a: float
+    v_a_post: float
+    v_b: float
+    v_b_post: float
+    impulse: float
+    impulse_momentum: float
+    contact_start: float
+    contact_end: float
+    peak_force: float
+    excluded: bool
+    reason: str
+    theta_contact: float = float("nan")
+    n_joint_pre: int = 0
+    n_joint_contact: int = 0
+    n_joint_post: int = 0
+    path: str = ""
+    robot: str = ""
+    base: str = ""
+    config: int = -1
+    gain: str = ""
+    speed: float = float("nan")
+    repeat: int = -1
+    q_cmd: tuple = ()
+    hammer_mass: float = float("nan")
+    impact_direction: tuple = ()
+    base_mass: float = float("nan")
+    base_inertia: tuple = ()
+
+    def to_dict(self) -> dict:
+        """A JSON-safe dict: non-finite numbers become ``None``, tuples lists."""
+        out = {}
+        for f in dataclasses.fields(self):
+            out[f.name] = _json_safe(getattr(self, f.name))
+        return out
+
+
+def _json_safe(v):
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return [_json_safe(x) for x in v]
+    return v
+
+
+# ----------------------------------------------------------------------------------------
+# contact
+# ----------------------------------------------------------------------------------------
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of every run of True."""
+    if not mask.any():
+        return []
+    d = np.diff(mask.astype(np.int8))
+    starts = list(np.flatnonzero(d == 1) + 1)
+    ends = list(np.flatnonzero(d == -1))
+    if mask[0]:
+        starts.insert(0, 0)
+    if mask[-1]:
+        ends.append(mask.size - 1)
+    return list(zip(starts, ends))
+
+
+def _edge_zero(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_cross: float, sign: float) -> float:
+    """Extrapolate a contact edge to zero force.
+
+    A quadratic in time (a line when fewer than 4 samples) is fitted to the edge samples
+    ``(t[idx], r[idx])``; the edge is its zero nearest to the threshold crossing
+    ``t_cross`` on the outer side, where the fitted slope has the expected ``sign`` (+1 on
+    the rising edge, -1 on the falling edge). Falls back to ``t_cross``.
+    """
+    if idx.size < 2:
+        return float(t_cross)
+    t0 = t[idx].mean()
+    x = t[idx] - t0
+    deg = 2 if idx.size >= 4 else 1
+    c = np.polynomial.polynomial.polyfit(x, r[idx], deg)
+    roots = np.polynomial.polynomial.polyroots(c)
+    roots = roots[np.isreal(roots)].real
+    dc = np.polynomial.polynomial.polyder(c)
+    ok = [z for z in roots if np.polynomial.polynomial.polyval(z, dc) * sign > 0
+          and (z + t0 - t_cross) * sign <= 0]
+    if not ok:
+        return float(t_cross)
+    z = max(ok) if sign > 0 else min(ok)
+    return float(z + t0)
+
+
+def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = None) -> Contact:
+    """Find the contact in a piezo force record.
+
+    Parameters
+    ----------
+    t : array_like, shape (N,)
+        Sample times [s], increasing.
+    f : array_like, shape (N,)
+        Piezo force [N].
+    full_scale : float
+        Sensor saturation level [N].
+    options : IdentifyOptions
+
+    Returns
+    -------
+    Contact
+        ``n_contacts == 0`` when nothing crosses the threshold.
+    """
+    opt = options or IdentifyOptions()
+    t = np.asarray(t, float)
+    f = np.asarray(f, float)
+    base = float(np.median(f))
+    r = f - base
+    sigma = 1.4826 * float(np.median(np.abs(r)))
+    if sigma > 0:
+        quiet = np.abs(r) < 5 * sigma
+        base = float(np.mean(f[quiet]))
+        r = f - base
+        sigma = float(np.std(r[quiet]))
+    peak = float(r.max())
+    thr = max(opt.k_sigma * sigma, opt.force_floor, opt.force_floor_rel * peak)
+    runs = _runs(r > thr)
+    # merge runs separated by less than merge_gap
+    merged: list[list[int]] = []
+    for a, b in runs:
+        if merged and t[a] - t[merged[-1][1]] < opt.merge_gap:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    if not merged:
+        return Contact(float("nan"), float("nan"), peak, float("nan"), base, sigma, thr, 0, (), False, True)
+    intervals = tuple((float(t[a]), float(t[b])) for a, b in merged)
+    # the main contact: the one with the largest peak
+    k = int(np.argmax([r[a:b + 1].max() for a, b in merged]))
+    a, b = merged[k]
+    complete = a > 0 and b < t.size - 1
+    lvl = opt.edge_fit_level * thr
+    # rising edge: samples from the crossing up to lvl (monotone part)
+    i = a
+    while i + 1 <= b and r[i + 1] <= lvl and r[i + 1] >= r[i]:
+        i += 1
+    t_cross_s = t[a] if a == 0 else t[a - 1] + (thr - r[a - 1]) * (t[a] - t[a - 1]) / (r[a] - r[a - 1])
+    t_s = _edge_zero(t, r, np.arange(a, i + 1), t_cross_s, 1.0)
+    lo = t[merged[k - 1][1]] if k > 0 else t[0] - (t[1] - t[0])
+    t_s = min(max(t_s, lo), t[a])
+    j = b
+    while j - 1 >= a and r[j - 1] <= lvl and r[j - 1] >= r[j]:
+        j -= 1
+    t_cross_e = t[b] if b == t.size - 1 else t[b] + (r[b] - thr) * (t[b + 1] - t[b]) / (r[b] - r[b + 1])
+    t_e = _edge_zero(t, r, np.arange(j, b + 1), t_cross_e, -1.0)
+    hi = t[merged[k + 1][0]] if k + 1 < len(merged) else t[-1] + (t[-1] - t[-2])
+    t_e = max(min(t_e, hi), t[b])
+    # impulse: samples strictly inside (t_s, t_e) plus the edge triangles (force 0 at the edges)
+    inside = (t > t_s) & (t < t_e)
+    tt = np.concatenate([[t_s], t[inside], [t_e]])
+    rr = np.concatenate([[0.0], r[inside], [0.0]])
+    imp = float(np.trapezoid(rr, tt))
+    saturated = bool(np.any(f[a:b + 1] >= full_scale * (1 - 1e-9)))
+    return Contact(float(t_s), float(t_e), float(r[a:b + 1].max()), imp, base, sigma, thr, len(merged),
+                   intervals, saturated, bool(complete))
+
+
+class _ContactInput:
+    """The measured force shape of the contact, the input of the arm models.
+
+    ``g(t)``: baseline-corrected force over the contact divided by its impulse (integral
+    1, zero outside the contact), on a uniform grid from the contact start; ``phi(t)``:
+    the time integral of the normalised accumulated impulse ``I(t)/I(t_e)`` [s], 0 before
+    the start, growing with slope 1 after the end.
+    """
+
+    def __init__(self, t, f, contact: Contact, t_stop: float):
+        t = np.asarray(t, float)
+        r = np.asarray(f, float) - contact.baseline
+        self.start, self.end = contact.start, contact.end
+        inside = (t > contact.start) & (t < contact.end)
+        tt = np.concatenate([[contact.start], t[inside], [contact.end]])
+        rr = np.concatenate([[0.0], np.clip(r[inside], 0.0, None), [0.0]])
+        I = np.concatenate([[0.0], np.cumsum(0.5 * (rr[1:] + rr[:-1]) * np.diff(tt))])
+        total = I[-1] if I[-1] > 0 else 1.0
+        self._tt, self._I = tt, I / total
+        Phi = np.concatenate([[0.0], np.cumsum(0.5 * (self._I[1:] + self._I[:-1]) * np.diff(tt))])
+        self._Phi = Phi
+        dt = min(float(np.median(np.diff(t))), (contact.end - contact.start) / 100.0)
+        dt = max(dt, (t_stop - contact.start) / 20000.0)
+        n = int(np.ceil((t_stop - contact.start) / dt)) + 2
+        self.grid = contact.start + dt * np.arange(n)
+        self.dt = dt
+        self.g = np.interp(self.grid, tt, rr / total, left=0.0, right=0.0)
+
+    def phi(self, x):
+        x = np.asarray(x, float)
+        out = np.interp(x, self._tt, self._Phi, left=0.0, right=self._Phi[-1])
+        after = x > self.end
+        out[after] = self._Phi[-1] + (x[after] - self.end)
+        return out
+
+
+# ----------------------------------------------------------------------------------------
+# hammer
+# ----------------------------------------------------------------------------------------
+def hammer_velocity(t, theta, t_edge: float, side: str, radius: float,
+                    options: IdentifyOptions | None = None) -> tuple[float, float, int]:
+    """Hammer velocity along n at a contact edge from the pendulum encoder.
+
+    A polynomial of degree ``pendulum_degree`` in time is fitted to ``theta`` on the
+    one-sided window of ``pendulum_window`` ending (``side="pre"``) or starting
+    (``side="post"``) ``pendulum_guard`` away from ``t_edge``, and evaluated at ``t_edge``:
+    ``v = r theta' cos(theta)`` [m/s].
+
+    Returns
+    -------
+    v : float
+        Hammer velocity along n [m/s] (``nan`` when the window has too few samples).
+    theta_edge : float
+        Pendulum angle at the edge [rad].
+    n : int
+        Samples in the window.
+    """
+    opt = options or IdentifyOptions()
+    t = np.asarray(t, float)
+    th = np.asarray(theta, float)
+    if side == "pre":
+        sel = (t <= t_edge - opt.pendulum_guard) & (t >= t_edge - opt.pendulum_guard - opt.pendulum_window)
+    elif side == "post":
+        sel = (t >= t_edge + opt.pendulum_guard) & (t <= t_edge + opt.pendulum_guard + opt.pendulum_window)
+    else:
+        raise ValueError(f"side must be 'pre' or 'post', got {side!r}")
+    nsel = int(sel.sum())
+    if nsel < opt.pendulum_degree + 3:
+        return float("nan"), float("nan"), nsel
+    x = t[sel] - t_edge
+    scale = opt.pendulum_window
+    c = np.polynomial.polynomial.polyfit(x / scale, th[sel], opt.pendulum_degree)
+    th_e = float(c[0])
+    thd_e = float(c[1]) / scale
+    return float(radius * thd_e * math.cos(th_e)), th_e, nsel
+
+
+# ----------------------------------------------------------------------------------------
+# arm
+# ----------------------------------------------------------------------------------------
+def _rotate(rotvec: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate ``v`` ((3,) or (N, 3)) by the rotation vectors ``rotvec`` (N, 3) (Rodrigues)."""
+    rotvec = np.atleast_2d(np.asarray(rotvec, float))
+    v = np.broadcast_to(np.asarray(v, float), rotvec.shape)
+    th = np.linalg.norm(rotvec, axis=1)[:, None]
+    k = rotvec / np.where(th > 0, th, 1.0)
+    c, s = np.cos(th), np.sin(th)
+    return v * c + np.cross(k, v) * s + k * np.sum(k * v, axis=1, keepdims=True) * (1 - c)
+
+
+def _tip_positions(robot, Q: np.ndarray) -> np.ndarray:
+    """Impact-point positions (N, 3) in the arm's base frame [m] (forward kinematics)."""
+    model = robot.model
+    data = model.createData()
+    out = np.empty((Q.shape[0], 3))
+    for i, q in enumerate(Q):
+        pin.framesForwardKinematics(model, data, q)
+        out[i] = data.oMf[robot.impact_frame_id].translation
+    return out
+
+
+def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: IdentifyOptions):
+    """Velocities along n at the contact edges from a position series ``s(t)`` [m].
+
+    Returns ``(v_a, v'_a, n_pre, n_contact, n_post, reason)``; ``reason`` is non-empty
+    (and the velocities nan) when a window has too few samples.
+    """
+    pre = (t < t_s) & (t >= t_s - opt.joint_pre_window)
+    contact = (t >= t_s) & (t <= t_e)
+    post = (t > t_e) & (t <= t_e + post_window)
+    n_pre, n_con, n_post = int(pre.sum()), int(contact.sum()), int(post.sum())
+    k = opt.resistance_order
+    reasons = []
+    if n_pre < opt.min_pre_samples:
+        reasons.append(f"only {n_pre} joint samples in the {opt.joint_pre_window:g} s before the contact "
+                       f"(need {opt.min_pre_samples})")
+    need_post = max(opt.min_post_samples, k + 2 if opt.arm_model == "onesided" else 0)
+    if n_post < need_post:
+        reasons.append(f"only {n_post} joint samples in the {post_window:g} s after the contact "
+                       f"(need {need_post})")
+    if reasons:
+        return float("nan"), float("nan"), n_pre, n_con, n_post, "; ".join(reasons)
+    T = t_e - t_s
+    sel = pre | contact | post
+    if opt.arm_model == "lti":
+        v_pre, v_post = _lti_fit(t[sel], s[sel], t_s, t_e, cin)
+    elif opt.arm_model == "poly":
+        tt, ss = t[sel], s[sel]
+        u = tt - t_s
+        up = np.clip(u, 0.0, None)
+        cols = [np.ones_like(u), u, cin.phi(tt)]
+        for m in range(1, k + 1):
+            cols.append(up ** (m + 1) / math.factorial(m + 1))
+        A = np.column_stack(cols)
+        sc = np.abs(A).max(axis=0)
+        sc[sc == 0] = 1.0
+        p, *_ = np.linalg.lstsq(A / sc, ss, rcond=None)
+        p = p / sc
+        v_pre = float(p[1])
+        v_post = float(p[1] + p[2] + sum(p[2 + m] * T**m / math.factorial(m) for m in range(1, k + 1)))
+    else:  # onesided
+        c = np.polynomial.polynomial.polyfit(t[pre] - t_s, s[pre], 1)
+        v_pre = float(c[1])
+        c = np.polynomial.polynomial.polyfit((t[post] - t_e) / post_window, s[post], k + 1)
+        v_post = float(c[1]) / post_window
+    return v_pre, v_post, n_pre, n_con, n_post, ""
+
+
+def _lti_kernels(a1: float, a0: float, x: np.ndarray):
+    """Impulse responses of ``y'' + a1 y' + a0 y = delta``: position ``h`` and velocity ``h'``.
+
+    Closed form with the (possibly complex) roots of ``s^2 + a1 s + a0``; the repeated-root
+    limit ``t exp(r t)`` is used when the roots nearly coincide (including a1 = a0 = 0,
+    the free double integrator ``h = t``).
+    """
+    disc = complex(a1 * a1 - 4.0 * a0)
+    sq = np.sqrt(disc)
+    r1, r2 = (-a1 + sq) / 2.0, (-a1 - sq) / 2.0
+    span = float(x[-1]) if x.size else 0.0
+    if abs(r1 - r2) * max(span, 1e-12) < 1e-6:
+        r = -a1 / 2.0
+        e = np.exp(r * x)
+        return x * e, (1.0 + r * x) * e
+    e1, e2 = np.exp(r1 * x), np.exp(r2 * x)
+    h = ((e1 - e2) / (r1 - r2)).real
+    hd = ((r1 * e1 - r2 * e2) / (r1 - r2)).real
+    return h, hd
+
+
+def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool):
+    """Position and velocity responses of ``y'' + a1 y' + a0 y = input`` on ``cin.grid``.
+
+    Inputs: the normalised contact force ``g`` (integral 1) and, with ``with_step``, a
+    unit step from the contact start. Trapezoid-rule convolutions with the closed-form
+    impulse responses. Returns a list of (position, velocity) arrays.
+    """
+    dt = cin.dt
+    x = cin.grid - cin.grid[0]
+    h, hd = _lti_kernels(a1, a0, x)
+    n = x.size
+    out = []
+    pos = np.convolve(cin.g, h)[:n] * dt                              # h(0) = 0
+    vel = np.convolve(cin.g, hd)[:n] * dt - 0.5 * dt * cin.g * hd[0]  # trapezoid end weight
+    out.append((pos, vel))
+    if with_step:
+        # response to a unit step: the integrals of h and h' from 0 to t
+        ipos = np.concatenate([[0.0], np.cumsum(0.5 * (h[1:] + h[:-1]) * dt)])
+        ivel = h
+        out.append((ipos, ivel))
+    return out
+
+
+def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True):
+    """Fit ``s = s_s + v_a u + w y_f(t) + c y_step(t)`` (module docstring, ``arm_model="lti"``).
+
+    ``y_f`` and ``y_step`` are the responses of the joint-resistance law
+    ``y'' + a1 y' + a0 y = input`` to the normalised measured force and to a unit step
+    (Coulomb friction) from the contact start; ``(a1, a0) >= 0`` by bounded nonlinear least
+    squares, the linear coefficients by variable projection, three starting points.
+    Returns ``(v_a, v'_a)`` [m/s].
+    """
+    u = t - t_s
+    after = t >= t_s
+
+    def design(x):
+        resp = _lti_responses(cin, x[0], x[1], with_step)
+        cols = [np.ones_like(u), u]
+        for pos, _ in resp:
+            col = np.zeros_like(u)
+            col[after] = np.interp(t[after], cin.grid, pos)
+            cols.append(col)
+        return np.column_stack(cols), resp
+
+    def solve(x):
+        A, resp = design(x)
+        sc = np.abs(A).max(axis=0)
+        sc[sc == 0] = 1.0
+        p, *_ = np.linalg.lstsq(A / sc, s, rcond=None)
+        return p / sc, A, resp
+
+    def resid(x):
+        p, A, _ = solve(x)
+        return A @ p - s
+
+    best = None
+    for x0 in ((1.0, 0.0), (30.0, 100.0), (60.0, 1500.0)):
+        r = least_squares(resid, x0, bounds=([0.0, 0.0], [1000.0, 1e5]), x_scale=[10.0, 500.0], method="trf")
+        if best is None or r.cost < best.cost:
+            best = r
+    p, A, resp = solve(best.x)
+    v_post = p[1] + sum(p[2 + i] * np.interp(t_e, cin.grid, vel) for i, (_, vel) in enumerate(resp))
+    return float(p[1]), float(v_post)
+
+
+def _base_fit(t, s, t_edge, side, opt: IdentifyOptions) -> float:
+    """One-sided quadratic fit of the base-point position, slope at the edge [m/s]."""
+    if side == "pre":
+        sel = (t <= t_edge) & (t >= t_edge - opt.base_window)
+    else:
+        sel = (t >= t_edge) & (t <= t_edge + opt.base_window)
+    if sel.sum() < 5:
+        return float("nan")
+    x = (t[sel] - t_edge) / opt.base_window
+    c = np.polynomial.polynomial.polyfit(x, s[sel], 2)
+    return float(c[1]) / opt.base_window
+
+
+# ----------------------------------------------------------------------------------------
+# the trial
+# ----------------------------------------------------------------------------------------
+def _check_channels(ds: xr.Dataset, names: Mapping[str, tuple], where: str) -> None:
+    for name, dims in names.items():
+        if name not in ds.variables:
+            raise InputError(f"{where}: the measured group has no channel {name!r}")
+        if tuple(ds[name].dims) != tuple(dims):
+            raise InputError(f"{where}: channel {name!r} has dims {tuple(ds[name].dims)}, expected {dims}")
+
+
+def _time(ds: xr.Dataset, dim: str, where: str) -> np.ndarray:
+    if dim not in ds.coords:
+        raise InputError(f"{where}: time coordinate {dim!r} is missing")
+    t = np.asarray(ds[dim].values, dtype=float)
+    if t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise InputError(f"{where}: time coordinate {dim!r} must be finite and strictly increasing "
+                         f"with at least 2 samples")
+    return t
+
+
+def _finite_scalar(ds, name, where, positive=True) -> float:
+    v = float(ds[name].values)
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise InputError(f"{where}: constant {name} = {v!r} must be a finite number > 0")
+    return v
+
+
+def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = None,
+                   options: IdentifyOptions | None = None, where: str = "trial") -> TrialIdentification:
+    """Identify m* (eq 10) and e (eq 12) of one trial from its measured channels.
+
+    Parameters
+    ----------
+    measured : xarray.Dataset
+        The trial's ``measured`` group (schema 1.0).
+    robot : campaign.robot.Robot or str, optional
+        The arm; by default ``meta["robot"]`` (the trial's root attribute), else
+        ``measured.attrs["robot"]``.
+    meta : mapping, optional
+        The trial's root attributes (``robot``, ``base``, ``config``, ``gain``, ``speed``,
+        ``repeat``) and optionally ``path``; copied into the result.
+    options : IdentifyOptions, optional
+    where : str
+        Name of the trial in error messages (the file path).
+
+    Returns
+    -------
+    TrialIdentification
+        ``excluded=True`` with a reason when the trial cannot give a trustworthy m*.
+
+    Raises
+    ------
+    InputError
+        A required channel or constant is missing, has the wrong dims, or a bad value.
+    """
+    from .robot import Robot, load_robot
+
+    opt = options or IdentifyOptions()
+    meta = dict(meta or {})
+    if not isinstance(measured, xr.Dataset):
+        raise InputError(f"{where}: expected the measured group as an xarray.Dataset, got {type(measured).__name__}")
+    _check_channels(measured, REQUIRED_CHANNELS, where)
+    base_kind = str(meta.get("base", "") or "")
+    flexible = base_kind == "flexible" or (not base_kind and "base_mass" in measured.variables)
+    if flexible:
+        _check_channels(measured, FLEXIBLE_CONSTANTS, where)
+        pose_names = next((pair for pair in BASE_POSE_CHANNELS if all(p in measured.variables for p in pair)), None)
+        if pose_names is None:
+            raise InputError(f"{where}: flexible-base trial has no base pose channels "
+                             f"(platform_position/platform_rotation or base_position/base_rotation)")
+        _check_channels(measured, {p: ("t_base", "axis") for p in pose_names}, where)
+
+    # robot
+    if robot is None:
+        robot = meta.get("robot") or measured.attrs.get("robot")
+        if not robot:
+            raise InputError(f"{where}: no robot given and no 'robot' attribute in the trial")
+    if not isinstance(robot, Robot):
+        try:
+            robot = load_robot(str(robot))
+        except ValueError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    nv = robot.nv
+    if measured.sizes["joint"] != nv:
+        raise InputError(f"{where}: q_enc has {measured.sizes['joint']} joints, robot {robot.name} has {nv}")
+
+    tj = _time(measured, "t_joint", where)
+    tp = _time(measured, "t_pend", where)
+    tf = _time(measured, "t_force", where)
+    Q = np.asarray(measured["q_enc"].values, float)
+    theta = np.asarray(measured["theta_pend"].values, float)
+    f = np.asarray(measured["f_piezo"].values, float)
+    for name, arr in (("q_enc", Q), ("theta_pend", theta), ("f_piezo", f)):
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"{where}: channel {name} has non-finite samples")
+    m_b = _finite_scalar(measured, "hammer_mass_eff", where)
+    radius = _finite_scalar(measured, "pendulum_radius", where)
+    full_scale = _finite_scalar(measured, "piezo_full_scale", where)
+    n = np.asarray(measured["impact_direction"].values, float)
+    if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
+        raise InputError(f"{where}: impact_direction = {n.tolist()} must be a non-zero 3-vector")
+    n = n / np.linalg.norm(n)
+    q_cmd = np.asarray(measured["q_cmd"].values, float)
+    if not np.all(np.isfinite(q_cmd)):
+        raise InputError(f"{where}: q_cmd = {q_cmd.tolist()} is not finite")
+    base_mass, base_inertia = float("nan"), ()
+    if flexible:
+        base_mass = _finite_scalar(measured, "base_mass", where)
+        base_inertia = tuple(float(x) for x in np.asarray(measured["base_inertia"].values, float).ravel())
+
+    ident = dict(
+        path=str(meta.get("path", "")), robot=robot.name, base=base_kind or ("flexible" if flexible else "fixed"),
+        config=_int_or(meta.get("config"), -1), gain=str(meta.get("gain", "") or ""),
+        speed=_float_or(meta.get("speed")), repeat=_int_or(meta.get("repeat"), -1),
+        q_cmd=tuple(float(x) for x in q_cmd), hammer_mass=m_b, impact_direction=tuple(float(x) for x in n),
+        base_mass=base_mass, base_inertia=base_inertia,
+    )
+    nan = float("nan")
+
+    def fail(reason, **vals):
+        rec = dict(m_eff=nan, e=nan, v_a=nan, v_a_post=nan, v_b=nan, v_b_post=nan, impulse=nan,
+                   impulse_momentum=nan, contact_start=nan, contact_end=nan, peak_force=nan)
+        rec.update(vals)
+        return TrialIdentification(excluded=True, reason=reason, **rec, **ident)
+
+    # 1. contact
+    c = detect_contact(tf, f, full_scale, opt)
+    if c.n_contacts == 0:
+        return fail(f"no contact in f_piezo (peak {c.peak:.3g} N above the baseline, threshold {c.threshold:.3g} N)",
+                    peak_force=c.peak)
+    reasons = []
+    if c.n_contacts > 1:
+        times = ", ".join(f"{a:.4f}-{b:.4f}" for a, b in c.intervals)
+        reasons.append(f"{c.n_contacts} contacts in f_piezo (rebound) at t = {times} s")
+    if c.saturated:
+        reasons.append(f"f_piezo saturated at its full scale {full_scale:g} N")
+    if not c.complete:
+        reasons.append("the contact is not fully inside the f_piezo record")
+
+    # 2. hammer
+    v_b, th_s, nb_pre = hammer_velocity(tp, theta, c.start, "pre", radius, opt)
+    v_b_post, _, nb_post = hammer_velocity(tp, theta, c.end, "post", radius, opt)
+    if not math.isfinite(v_b):
+        reasons.append(f"only {nb_pre} pendulum samples in the {opt.pendulum_window:g} s before the contact")
+    if not math.isfinite(v_b_post):
+        reasons.append(f"only {nb_post} pendulum samples in the {opt.pendulum_window:g} s after the contact")
+
+    # 3. arm tip along n
+    post_window = opt.post_window(1.0 / float(np.median(np.diff(tj))))
+    cin = _ContactInput(tf, f, c, c.end + post_window + 1e-3)
+    win = (tj >= c.start - opt.joint_pre_window) & (tj <= c.end + post_window)
+    tw = tj[win]
+    P = _tip_positions(robot, Q[win]) if tw.size else np.empty((0, 3))
+    if flexible:
+        tb = _time(measured, "t_base", where)
+        pb = np.asarray(measured[pose_names[0]].values, float)
+        rb = np.asarray(measured[pose_names[1]].values, float)
+        if not (np.all(np.isfinite(pb)) and np.all(np.isfinite(rb))):
+            raise InputError(f"{where}: base pose channels {pose_names} have non-finite samples")
+        r0 = _tip_positions(robot, q_cmd[None, :])[0]
+        s_base = (pb + _rotate(rb, r0)) @ n
+        rb_w = np.column_stack([np.interp(tw, tb, rb[:, k]) for k in range(3)])
+        s_arm = _rotate(rb_w, P - r0) @ n
+        vbase_pre = _base_fit(tb, s_base, c.start, "pre", opt)
+        vbase_post = _base_fit(tb, s_base, c.end, "post", opt)
+        if not (math.isfinite(vbase_pre) and math.isfinite(vbase_post)):
+            reasons.append("too few base pose samples around the contact")
+    else:
+        s_arm = P @ n
+        vbase_pre = vbase_post = 0.0
+    va_rel, va_post_rel, n_pre, n_con, n_post, why = _arm_fit(tw, s_arm, c.start, c.end, cin, post_window, opt)
+    if why:
+        reasons.append(why)
+    v_a = va_rel + vbase_pre
+    v_a_post = va_post_rel + vbase_post
+
+    imp_mom = m_b * (v_b - v_b_post)
+    dva = v_a_post - v_a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m_eff = imp_mom / dva if dva != 0 else float("inf")
+        e = (v_a_post - v_b_post) / (v_b - v_a) if (v_b - v_a) != 0 else float("nan")
+    if not reasons:
+        if not v_b - v_a > 0:
+            reasons.append(f"the hammer does not approach the tip (v_b - v_a = {v_b - v_a:.4g} m/s)")
+        if not dva > 0:
+            reasons.append(f"the arm tip did not move along n (v'_a - v_a = {dva:.4g} m/s)")
+    return TrialIdentification(
+        m_eff=float(m_eff), e=float(e), v_a=float(v_a), v_a_post=float(v_a_post), v_b=float(v_b),
+        v_b_post=float(v_b_post), impulse=c.impulse, impulse_momentum=float(imp_mom),
+        contact_start=c.start, contact_end=c.end, peak_force=c.peak,
+        excluded=bool(reasons), reason="; ".join(reasons), theta_contact=th_s,
+        n_joint_pre=n_pre, n_joint_contact=n_con, n_joint_post=n_post, **ident,
+    )
+
+
+def _int_or(v, default: int) -> int:
+    try:
+        return int(v)
+    except (TypeError, ValueError):
+        return default
+
+
+def _float_or(v) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+# ----------------------------------------------------------------------------------------
+# files
+# ----------------------------------------------------------------------------------------
+def _open_group(path: Path, group: str | None) -> xr.Dataset:
+    try:
+        with xr.open_dataset(path, engine="h5netcdf", group=group) as ds:
+            return ds.load()
+    except FileNotFoundError:
+        raise TrialFileError(f"{path}: no such trial file") from None
+    except OSError as exc:
+        if group is not None and ("group" in str(exc).lower() or "not found" in str(exc).lower()):
+            raise TrialFileError(f"{path}: not a trial file (no {group!r} group)") from None
+        raise TrialFileError(f"{path}: not a trial file (cannot read it as NetCDF4/HDF5: {exc})") from None
+    except (ValueError, KeyError, TypeError) as exc:
+        raise TrialFileError(f"{path}: not a trial file ({exc})") from None
+
+
+def load_trial(path) -> tuple[xr.Dataset, dict]:
+    """Read a trial file: (its ``measured`` group, its root attributes).
+
+    Uses :func:`campaign.archive.open_trial` when the archive module provides it, else
+    xarray with the h5netcdf engine.
+
+    Raises
+    ------
+    TrialFileError
+        The file is missing, is not NetCDF4/HDF5, or has no ``measured`` group.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise TrialFileError(f"{path}: no such trial file")
+    try:
+        from .archive import open_trial  # type: ignore[attr-defined]
+    except ImportError:
+        open_trial = None
+    if open_trial is not None:
+        try:
+            measured = open_trial(path, group="measured")
+        except TrialFileError:
+            raise
+        except (OSError, ValueError, KeyError) as exc:
+            raise TrialFileError(f"{path}: not a trial file ({exc})") from None
+    else:
+        measured = _open_group(path, "measured")
+    attrs = dict(_open_group(path, None).attrs)
+    return measured, attrs
+
+
+def identify_file(path, *, options: IdentifyOptions | None = None, robot=None) -> TrialIdentification:
+    """Identify one trial file (see :func:`identify_trial`).
+
+    Raises
+    ------
+    TrialFileError
+        The file is not a trial or lacks a required channel (the message names both).
+    """
+    measured, attrs = load_trial(path)
+    meta = dict(attrs)
+    meta["path"] = str(path)
+    try:
+        return identify_trial(measured, robot=robot, meta=meta, options=options, where=str(path))
+    except InputError as exc:
+        raise TrialFileError(str(exc)) from None
+
+
+def identify_files(paths: Iterable, *, options: IdentifyOptions | None = None) -> list[TrialIdentification]:
+    """Identify many trial files, one robot model loaded per robot name."""
+    from .robot import load_robot
+
+    robots: dict[str, object] = {}
+    out = []
+    for p in paths:
+        measured, attrs = load_trial(p)
+        name = str(attrs.get("robot") or measured.attrs.get("robot") or "")
+        if not name:
+            raise TrialFileError(f"{p}: no 'robot' attribute in the trial")
+        if name not in robots:
+            try:
+                robots[name] = load_robot(name)
+            except ValueError as exc:
+                raise TrialFileError(f"{p}: {exc}") from None
+        meta = dict(attrs)
+        meta["path"] = str(p)
+        try:
+            out.append(identify_trial(measured, robot=robots[name], meta=meta, options=options, where=str(p)))
+        except InputError as exc:
+            raise TrialFileError(str(exc)) from None
+    return out
+
+
+def find_trials(archive) -> list[Path]:
+    """All trial files (``*.nc``) under an archive folder, recursively, sorted.
+
+    Raises
+    ------
+    TrialFileError
+        The folder does not exist or holds no ``*.nc`` file.
+    """
+    root = Path(archive)
+    if not root.is_dir():
+        raise TrialFileError(f"{root}: not an archive folder")
+    files = sorted(p for p in root.rglob("*.nc") if p.is_file())
+    if not files:
+        raise TrialFileError(f"{root}: no trial files (*.nc) found")
+    return files
