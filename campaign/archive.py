@@ -28,7 +28,9 @@ variable's bytes and attributes (:func:`_digest`). Readers recompute it, so a fl
 anywhere in the content is reported even for a file outside any campaign. A campaign
 folder's ``MANIFEST.sha256`` (``sha256sum`` format) checks whole files; HDF5 bytes are not
 reproducible run to run (``date_created``), so reproducibility is checked on decoded arrays
-with ``xarray.testing`` instead.
+with ``xarray.testing`` instead (or on the groups' digests, which do not depend on the date).
+A few corruptions make the HDF5 library crash rather than raise; :func:`verify` and
+:func:`finalize_campaign` check each file in a child process so that they report it.
 
 **Safe I/O.** Writes go to a temporary file in the target folder, then ``os.replace``: a
 killed writer never leaves a file under the final name. Reads open, load and close.
@@ -70,7 +72,8 @@ from .scene import BASES, GAINS, Scene
 from .schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH, variables
 
 __all__ = [
-    "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "FILTER_KEYS", "REFERENCES",
+    "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",
+    "REFERENCES",
     "TrialRecord", "Problem",
     "provenance", "prepare_trial", "write_trial", "open_trial", "open_trial_tree", "trial_path",
     "list_trials", "open_campaign", "to_cell_dataset",
@@ -612,6 +615,12 @@ def write_trial(tree: xr.DataTree, path: str | os.PathLike, *, fsync: bool = Tru
     ------
     InputError
         The trial breaks the schema (nothing is written).
+
+    Notes
+    -----
+    One writer per file: a rerun removes temporary files an earlier, killed writer of the
+    same ``path`` left behind. Rewriting a trial of a finalized campaign makes its manifest
+    stale until ``finalize_campaign`` runs again (``verify`` reports the mismatch).
     """
     plan = _plan(tree)
     return _replace_atomically(Path(path), lambda tmp: _write_h5(plan, tmp), fsync=fsync)
