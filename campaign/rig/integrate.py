@@ -191,12 +191,7 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         if contact_v0 is not None:
             d, dd, Jn = plant.gap(xx)
             tt = tt + Jn * plant.contact_force(d, dd, contact_v0)
-        if len(st) == 0:
-            import pinocchio as pin
-            a = pin.aba(plant.model, plant.data, q, v, tt)
-            lam = np.zeros(0)
-        else:
-            lam, a = plant.holding_torque(q, v, tt, st)
+        lam, a = plant.holding_torque(q, v, tt, st)
         if len(st):
             lim = np.where(lam < 0, plant.tc_pos[st], plant.tc_neg[st])
             if np.any(np.abs(lam) > lim * (1 + 1e-12)):
@@ -269,12 +264,23 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
             fired = []
             if candidates:
                 g0 = event_values(x)
-                fired = [k for k in candidates if g0.get(k, -1.0) <= 0]
+                # a stop needs a strict crossing: a joint released at rest (v = 0) whose
+                # acceleration was marginal may start the wrong way; that is fixed below,
+                # locating it would refire at the same instant (Zeno)
+                fired = [k for k in candidates
+                         if g0.get(k, -1.0) < 0 or (g0.get(k, -1.0) == 0 and not k.startswith("stop"))]
             if not fired:
                 xds.append(k1)
                 x, t = x_new, t + h
                 ts.append(t)
                 xs.append(x.copy())
+                if friction_events:
+                    wrong = np.flatnonzero(sticky & (modes != 0) & (modes * x[iv] < 0))
+                    if len(wrong):
+                        modes = modes.copy()
+                        modes[wrong] = np.sign(x[iv][wrong]).astype(int)
+                        stuck = np.flatnonzero(modes == 0)
+                        coulomb = plant.coulomb(modes)
             else:
                 n_events += 1
                 tick_events += 1
@@ -310,7 +316,7 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
                     d, dd, Jn = plant.gap(x)
                     contacts[-1][1] = t
                     if not post:   # the first contact is the impact the trial is about
-                        post = {"v_a": float(Jn @ x[iv]), "v_b": r * math.cos(x[nv]) * x[ithd], "P": float(x[iP])}
+                        post = {"v_a": plant.tip_speed(x), "v_b": r * math.cos(x[nv]) * x[ithd], "P": float(x[iP])}
                     contact_v0 = None
                     rebound_seen = x[ithd] < 0
                     if t_catch is None:
@@ -343,17 +349,20 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         if T_emu is not None and k_emu * T_emu - t <= 1e-12:
             t = k_emu * T_emu
             ts[-1] = t
-            plant.on_emulator_tick(t, x, tau)
+            t_stage = t
+            plant.on_emulator_tick(t, x, f(x))
             k_emu += 1
         if k_tick * T - t <= 1e-12:
             t = k_tick * T
             ts[-1] = t
-            tau = plant.servo(pid.update(x[arm_q]))
+            tau_new = plant.servo(pid.update(x[arm_q]))
+            changed = not np.array_equal(tau_new, tau)
+            tau = tau_new
             servo_t.append(t)
             servo_tau.append(tau.copy())
             k_tick += 1
             tick_events = 0
-            if friction_events and pid.active:
+            if friction_events and changed:
                 settle_modes(x)   # a new torque may break a stuck joint loose at once
 
     t_stage = t

@@ -88,6 +88,7 @@ class FixedBasePlant:
         # the integrator's view: which dofs can stick, which are the servo's, no emulator
         self.sticky = (self.tc_pos > 0) | (self.tc_neg > 0)
         self.arm_q = slice(0, nv)
+        self.arm_v = self.i_v
         self.emulator_period = None
         # does this Pinocchio fill both triangles of the CRBA matrix? (checked once)
         H = pin.crba(self.model, self.data, self.q0)
@@ -143,10 +144,16 @@ class FixedBasePlant:
         The free block is solved explicitly (1 or 2 joints) because NumPy's small-matrix
         calls cost more than the dynamics here."""
         model, data = self.model, self.data
+        if not len(stuck):
+            return np.zeros(0), pin.aba(model, data, q, v, tau)
         H = pin.crba(model, data, q)
         if not self._crba_full:
             H = np.triu(H) + np.triu(H, 1).T
         b = tau - pin.nonLinearEffects(model, data, q, v)
+        return self._constrained(H, b, stuck)
+
+    def _constrained(self, H, b, stuck):
+        """Solve ``H a = b + S^T lam`` with ``a_S = 0`` for (lam, a)."""
         free = self._free_of[len(stuck)][tuple(stuck)]
         a = np.zeros(self.nv)
         if len(free) == 1:
@@ -161,6 +168,23 @@ class FixedBasePlant:
             a[free] = np.linalg.solve(H[np.ix_(free, free)], b[free])
         lam = H[stuck] @ a - b[stuck]
         return lam, a
+
+    def tip_speed(self, x):
+        """Velocity of the impact point along n [m/s]."""
+        _, Jn = self.tip(x[:self.nv])
+        return float(Jn @ x[self.i_v])
+
+    def rest_wrench(self):
+        """F/T reading with the arm at rest on its commanded pose."""
+        from .sensors import base_wrench
+        z = np.zeros(self.nv)
+        return base_wrench(self, self.q0, z, z, 0.0)
+
+    def mount_wrench(self, x, xd, F, t=None):
+        """Wrench of the arm on its mounting (base F/T sensor): (force [N], moment [N m])."""
+        from .sensors import base_wrench
+        nv = self.nv
+        return base_wrench(self, x[:nv], x[self.i_v], xd[self.i_v], F)
 
     def servo(self, tau_arm):
         """Generalised servo torque from the arm's joint torques (identity for a fixed base)."""

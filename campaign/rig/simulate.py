@@ -42,6 +42,8 @@ class Rig:
     scene: Scene
     plant: FixedBasePlant
     pid: PID
+    min_post: float
+    max_post: float
     servo_period: float
     substeps_contact: int
     substeps_free: int
@@ -51,8 +53,6 @@ class Rig:
 
 def build(scene: Scene) -> Rig:
     """Assemble the plant of ``scene`` and check it; raises InputError naming the cause."""
-    if scene.base != "fixed":
-        raise InputError(f"base {scene.base!r} needs the flexible-base rig (campaign.rig.flexible)")
     p = scene.p
     robot = load_robot(p("robot"))
     q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
@@ -62,9 +62,33 @@ def build(scene: Scene) -> Rig:
     pend.release_angle(scene.speed)  # refuses a speed the device cannot reach
     contact = Contact(float(p("contact.stiffness")), float(p("contact.exponent")), float(p("contact.restitution")))
     contact.damping  # refuses an unreachable restitution now
-    plant = FixedBasePlant(robot, q0, impact_direction(), pend, contact,
-                           coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
-                           gravity=gravity)
+    friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
+                    gravity=gravity)
+    min_post, max_post = float(p("trial.min_post_contact")), float(p("trial.max_post_contact"))
+    streams = noise_streams(scene.seed)
+    t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
+    if scene.base == "fixed":
+        plant = FixedBasePlant(robot, q0, impact_direction(), pend, contact, **friction)
+    else:
+        from .beam import Beam
+        from .flexible import IdealCouplingPlant, VesLoopPlant
+        beam = Beam.from_scene(scene)
+        # a flexible trial records trial_periods periods of the structure's first mode with
+        # the arm (locked) on top, for Figure 9
+        data = robot.model.createData()
+        import pinocchio as pin
+        pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
+        arm = beam.base_body().mount.act(data.oYcrb[0])
+        f1 = beam.first_mode_frequency(tip=arm)
+        min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
+        if p("ves.mode") == "ideal":
+            plant = IdealCouplingPlant(robot, q0, impact_direction(), pend, contact, beam, **friction)
+        else:
+            plant = VesLoopPlant(robot, q0, impact_direction(), pend, contact, beam, **friction,
+                                 rate=float(p("ves.rate")), latency=float(p("ves.latency")),
+                                 bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
+            T_e = plant.emulator_period
+            plant.reset_loop(math.floor(t_contact / T_e + 1e-9) * T_e)
 
     T = 1.0 / float(p("controller.servo_rate"))
     P, D, I = scene.gains_counts
@@ -92,9 +116,8 @@ def build(scene: Scene) -> Rig:
             f"contact too stiff for the integrator: a contact of ~{t_contact_scale * 1e3:.3g} ms needs "
             f"{sub_c} RK4 steps per {T * 1e3:g} ms servo tick (limit {MAX_SUBSTEPS}); lower contact.stiffness"
         )
-    streams = noise_streams(scene.seed)
-    t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
-    return Rig(scene, plant, pid, T, sub_c, int(p("integration.substeps_free")), t_contact, streams)
+    return Rig(scene, plant, pid, min_post, max_post, T, sub_c, int(p("integration.substeps_free")), t_contact,
+               streams)
 
 
 def _offset():
@@ -135,7 +158,7 @@ def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
     subs.update(integration or {})
     traj = integrate_trial(
         rig.plant, rig.pid, t_contact=rig.t_contact, speed=scene.speed, servo_period=rig.servo_period,
-        min_post=float(p("trial.min_post_contact")), max_post=float(p("trial.max_post_contact")),
+        min_post=rig.min_post, max_post=rig.max_post,
         settle_velocity=float(p("trial.settle_velocity")), stick_velocity=float(p("arm.stick_velocity")),
         catch_delay=float(p("pendulum.catch_delay")), **subs,
     )
@@ -150,7 +173,10 @@ def record(rig: Rig, traj) -> xr.DataTree:
     scene, plant = rig.scene, rig.plant
     p = scene.p
     robot = plant.robot
-    nv = plant.nv
+    na = robot.nv
+    aq, av = plant.arm_q, plant.arm_v
+    flexible = scene.base == "flexible"
+    loop = flexible and hasattr(plant, "loop")
     t_end = traj.t_end
     sampler = StateSampler(plant, traj)
     streams = rig.streams
@@ -162,7 +188,7 @@ def record(rig: Rig, traj) -> xr.DataTree:
     tj = sample_grid(float(p("sensors.joint_encoder_rate")), t_end)
     Xj, _ = sampler(tj)
     res = robot.encoder_resolution
-    q_meas = Xj[:, :nv] + streams["joint_encoder"].normal(0.0, 1.0, (tj.size, nv)) * float(
+    q_meas = Xj[:, aq] + streams["joint_encoder"].normal(0.0, 1.0, (tj.size, na)) * float(
         p("sensors.joint_encoder_noise_counts")) * res
     if quant:
         q_meas = np.round(q_meas / res) * res
@@ -177,95 +203,142 @@ def record(rig: Rig, traj) -> xr.DataTree:
     f_meas = quantize(f_meas, float(p("sensors.piezo_resolution")) if quant else 0.0)
     fs = float(p("sensors.piezo_full_scale"))
     f_meas = np.clip(f_meas, -fs, fs)
-    # base F/T at the arm's mounting
+    # base F/T at the arm's mounting: the wrench only changes while the arm moves; at rest
+    # before the touch and after the integration stopped one evaluation serves every sample
     tft = sample_grid(float(p("sensors.ft_rate")), t_end)
-    Xft, XDft = sampler(tft)
-    Fft = sampler.contact_force(tft)
-    force = np.empty((tft.size, 3))
-    torque = np.empty((tft.size, 3))
-    # the wrench only changes while the arm moves: at rest before the touch and after the
-    # integration stopped (arm static) one evaluation serves every sample
+    wrench = np.empty((tft.size, 6))
     pre = tft < traj.t_contact
     post = tft > traj.t[-1]
-    for mask, xx in ((pre, traj.x0), (post, traj.x[-1])):
-        if np.any(mask):
-            fk, tk = base_wrench(plant, xx[:nv], np.zeros(nv), np.zeros(nv), 0.0)
-            force[mask], torque[mask] = fk, tk
-    for k in np.flatnonzero(~(pre | post)):
-        force[k], torque[k] = base_wrench(plant, Xft[k, :nv], Xft[k, plant.i_v], XDft[k, plant.i_v], Fft[k])
+    rest = np.concatenate(plant.rest_wrench())
+    wrench[pre] = rest
+    if loop:
+        # the emulator sampled the sensor at its ticks; between ticks the reading is interpolated
+        tk, wk, _ = plant.ticks()
+        tk = np.concatenate([[traj.t_contact], tk])
+        wk = np.vstack([rest, wk])
+        for i in range(6):
+            wrench[~pre, i] = np.interp(tft[~pre], tk, wk[:, i])
+    else:
+        Xft, XDft = sampler(tft)
+        Fft = sampler.contact_force(tft)
+        if np.any(post):
+            last = traj.x[-1]
+            wrench[post] = np.concatenate(plant.mount_wrench(last, np.zeros_like(last), 0.0))
+        for k in np.flatnonzero(~(pre | post)):
+            wrench[k] = np.concatenate(plant.mount_wrench(Xft[k], XDft[k], Fft[k], tft[k]))
     g = streams["ft"]
-    force = force + g.normal(0.0, float(p("sensors.ft_noise_force")), force.shape)
-    torque = torque + g.normal(0.0, float(p("sensors.ft_noise_torque")), torque.shape)
+    force = wrench[:, :3] + g.normal(0.0, float(p("sensors.ft_noise_force")), (tft.size, 3))
+    torque = wrench[:, 3:] + g.normal(0.0, float(p("sensors.ft_noise_torque")), (tft.size, 3))
     # commanded torque on the servo clock (held values at each tick)
     ts = sample_grid(float(p("controller.servo_rate")), t_end)
     idx = np.clip(np.searchsorted(traj.servo_t, ts, side="right") - 1, 0, traj.servo_t.size - 1)
-    tau = np.where((ts < traj.servo_t[0])[:, None], traj.tau_static[None, :], traj.servo_tau[idx])
+    tau = np.where((ts < traj.servo_t[0])[:, None], traj.tau_static[None, aq], traj.servo_tau[idx][:, aq])
 
-    measured = xr.Dataset(
-        {
-            "q_enc": _var(q_meas, spec["q_enc"]),
-            "theta_pend": _var(theta, spec["theta_pend"]),
-            "f_piezo": _var(f_meas, spec["f_piezo"]),
-            "ft_force": _var(force, spec["ft_force"]),
-            "ft_torque": _var(torque, spec["ft_torque"]),
-            "tau_cmd": _var(tau, spec["tau_cmd"]),
-            "q_cmd": _var(plant.q0.copy(), spec["q_cmd"]),
-            "hammer_mass_eff": _var(np.float64(plant.pend.m_b), spec["hammer_mass_eff"]),
-            "pendulum_radius": _var(np.float64(plant.pend.radius), spec["pendulum_radius"]),
-            "impact_direction": _var(plant.n.copy(), spec["impact_direction"]),
-            "piezo_full_scale": _var(np.float64(fs), spec["piezo_full_scale"]),
-        },
-        coords={"t_joint": _time("t_joint", tj), "t_pend": _time("t_pend", tp), "t_force": _time("t_force", tf),
-                "t_ft": _time("t_ft", tft), "t_servo": _time("t_servo", ts), "joint": ("joint", joints),
-                "axis": ("axis", ["x", "y", "z"])},
-    )
+    coords = {"t_joint": _time("t_joint", tj), "t_pend": _time("t_pend", tp), "t_force": _time("t_force", tf),
+              "t_ft": _time("t_ft", tft), "t_servo": _time("t_servo", ts), "joint": ("joint", joints),
+              "axis": ("axis", ["x", "y", "z"])}
+    measured = {
+        "q_enc": _var(q_meas, spec["q_enc"]),
+        "theta_pend": _var(theta, spec["theta_pend"]),
+        "f_piezo": _var(f_meas, spec["f_piezo"]),
+        "ft_force": _var(force, spec["ft_force"]),
+        "ft_torque": _var(torque, spec["ft_torque"]),
+        "tau_cmd": _var(tau, spec["tau_cmd"]),
+        "q_cmd": _var(plant.q0[aq].copy(), spec["q_cmd"]),
+        "hammer_mass_eff": _var(np.float64(plant.pend.m_b), spec["hammer_mass_eff"]),
+        "pendulum_radius": _var(np.float64(plant.pend.radius), spec["pendulum_radius"]),
+        "impact_direction": _var(plant.n.copy(), spec["impact_direction"]),
+        "piezo_full_scale": _var(np.float64(fs), spec["piezo_full_scale"]),
+    }
 
     # truth
     tt = sample_grid(float(p("sensors.truth_rate")), t_end)
     Xt, _ = sampler(tt)
     f_t = sampler.contact_force(tt)
-    tip_v = np.empty(tt.size)
+    tip_v = np.zeros(tt.size)
     energy = np.empty(tt.size)
-    # tip velocity and energy are exact at the samples (Pinocchio per sample); before the
-    # touch and after the integration stopped the arm is at rest
     pre = tt < traj.t_contact
     post = tt > traj.t[-1]
-    tip_v[pre | post] = 0.0
+    if loop:
+        P_hist, V_hist = plant.platform_history(tt)
+    # tip velocity and energy are exact at the samples (Pinocchio per sample); before the
+    # touch and after the integration stopped the arm is at rest
     for k in np.flatnonzero(~(pre | post)):
-        _, Jn = plant.tip(Xt[k, :nv])
-        tip_v[k] = float(Jn @ Xt[k, plant.i_v])
-        energy[k] = plant.energy(Xt[k])
-    for mask, xx in ((pre, None), (post, traj.x[-1])):
-        if np.any(mask):
-            if xx is None:   # pendulum swinging in: energy of the first pre-contact sample state
-                energy[mask] = [plant.energy(Xt[k]) for k in np.flatnonzero(mask)[[0]]] * int(mask.sum())
-            else:
-                energy[mask] = plant.energy(xx)
+        if loop:
+            tip_v[k] = plant.arm_at(Xt[k, aq], Xt[k, av], P_hist[k], V_hist[k])
+            energy[k] = plant.energy_at(Xt[k], P_hist[k], V_hist[k])
+        else:
+            tip_v[k] = plant.tip_speed(Xt[k])
+            energy[k] = plant.energy(Xt[k])
+    for k in np.flatnonzero(pre | post):
+        if loop:
+            energy[k] = plant.energy_at(Xt[k], np.zeros(6), np.zeros(6))
+        else:
+            energy[k] = plant.energy(Xt[k])
     c0, c1, _ = traj.contacts[0]
     peak = float(np.max(sampler.contact_force(np.linspace(c0, c1, 2001))))
-    truth = xr.Dataset(
-        {
-            "q": _var(Xt[:, :nv], spec["q"]),
-            "v": _var(Xt[:, plant.i_v], spec["v"]),
-            "theta": _var(Xt[:, plant.i_th], spec["theta"]),
-            "theta_dot": _var(Xt[:, plant.i_thd], spec["theta_dot"]),
-            "f_contact": _var(f_t, spec["f_contact"]),
-            "tip_velocity_n": _var(tip_v, spec["tip_velocity_n"]),
-            "energy": _var(energy, spec["energy"]),
-            "contact_start": _var(np.float64(c0), spec["contact_start"]),
-            "contact_end": _var(np.float64(c1), spec["contact_end"]),
-            "v_a_pre": _var(np.float64(traj.v_a_pre), spec["v_a_pre"]),
-            "v_a_post": _var(np.float64(traj.v_a_post), spec["v_a_post"]),
-            "v_b_pre": _var(np.float64(traj.v_b_pre), spec["v_b_pre"]),
-            "v_b_post": _var(np.float64(traj.v_b_post), spec["v_b_post"]),
-            "impulse": _var(np.float64(traj.impulse), spec["impulse"]),
-            "peak_force": _var(np.float64(peak), spec["peak_force"]),
-            "e_contact": _var(np.float64(rig.plant.contact.restitution), spec["e_contact"]),
-        },
-        coords={"t_truth": _time("t_truth", tt), "joint": ("joint", joints)},
-        attrs={"n_contacts": len(traj.contacts), "settled": int(traj.settled),
-               "t_static": float(traj.t_static) if traj.t_static is not None else -1.0},
-    )
+    truth = {
+        "q": _var(Xt[:, aq], spec["q"]),
+        "v": _var(Xt[:, av], spec["v"]),
+        "theta": _var(Xt[:, plant.i_th], spec["theta"]),
+        "theta_dot": _var(Xt[:, plant.i_thd], spec["theta_dot"]),
+        "f_contact": _var(f_t, spec["f_contact"]),
+        "tip_velocity_n": _var(tip_v, spec["tip_velocity_n"]),
+        "energy": _var(energy, spec["energy"]),
+        "contact_start": _var(np.float64(c0), spec["contact_start"]),
+        "contact_end": _var(np.float64(c1), spec["contact_end"]),
+        "v_a_pre": _var(np.float64(traj.v_a_pre), spec["v_a_pre"]),
+        "v_a_post": _var(np.float64(traj.v_a_post), spec["v_a_post"]),
+        "v_b_pre": _var(np.float64(traj.v_b_pre), spec["v_b_pre"]),
+        "v_b_post": _var(np.float64(traj.v_b_post), spec["v_b_post"]),
+        "impulse": _var(np.float64(traj.impulse), spec["impulse"]),
+        "peak_force": _var(np.float64(peak), spec["peak_force"]),
+        "e_contact": _var(np.float64(rig.plant.contact.restitution), spec["e_contact"]),
+    }
+    truth_coords = {"t_truth": _time("t_truth", tt), "joint": ("joint", joints)}
+
+    if flexible:
+        tb = sample_grid(float(p("ves.rate")), t_end)
+        body = plant.beam.base_body()
+        if loop:
+            tk, _, rec = plant.ticks()
+            tk = np.concatenate([[plant.t_first], tk + plant.emulator_period])
+            rec = np.vstack([np.zeros(24), rec])
+            chan = np.column_stack([np.interp(tb, tk, rec[:, i]) for i in range(18)])
+            structure, platform, command = chan[:, 0:6], chan[:, 6:12], chan[:, 12:18]
+            tb_state = np.column_stack([P_hist, V_hist])
+            base_truth = np.column_stack([P_hist, V_hist])
+        else:
+            Xb, _ = sampler(tb)
+            structure = plant.base_state(Xb)[:, :6]
+            platform = command = structure     # ideal coupling: the platform is the structure
+            base_truth = plant.base_state(Xt)
+        measured.update({
+            "base_position": _var(structure[:, :3], spec["base_position"]),
+            "base_rotation": _var(structure[:, 3:], spec["base_rotation"]),
+            "platform_cmd_position": _var(command[:, :3], spec["platform_cmd_position"]),
+            "platform_cmd_rotation": _var(command[:, 3:], spec["platform_cmd_rotation"]),
+            "platform_position": _var(platform[:, :3], spec["platform_position"]),
+            "platform_rotation": _var(platform[:, 3:], spec["platform_rotation"]),
+            "base_mass": _var(np.float64(body.mass), spec["base_mass"]),
+            "base_inertia": _var(np.asarray(body.inertia, float), spec["base_inertia"]),
+        })
+        coords["t_base"] = _time("t_base", tb)
+        coords["axis2"] = ("axis2", ["x", "y", "z"])
+        tspec = {v.name: v for v in schema.TRUTH}
+        truth.update({
+            "base_position": _var(base_truth[:, 0:3], tspec["base_position"]),
+            "base_rotation": _var(base_truth[:, 3:6], tspec["base_rotation"]),
+            "base_velocity": _var(base_truth[:, 6:9], tspec["base_velocity"]),
+            "base_omega": _var(base_truth[:, 9:12], tspec["base_omega"]),
+        })
+        truth_coords["axis"] = ("axis", ["x", "y", "z"])
+
+    measured = xr.Dataset(measured, coords=coords)
+    truth = xr.Dataset(truth, coords=truth_coords,
+                       attrs={"n_contacts": len(traj.contacts), "settled": int(traj.settled),
+                              "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
+                              "ves_mode": str(p("ves.mode")) if flexible else "none"})
     for name, ds in (("measured", measured), ("truth", truth)):
         for var in ds.data_vars.values():
             if var.dtype.kind == "f" and not np.all(np.isfinite(var.values)):

@@ -1,0 +1,457 @@
+"""The arm on the flexible long-reach base: ideal coupling and the VES-II emulation loop.
+
+Both plants reuse the fixed-base machinery (:class:`.plant.FixedBasePlant`: pendulum,
+contact, stick-slip friction, servo) on the Pinocchio free-flyer model of base + arm
+(:func:`campaign.robot.floating.attach_to_floating_base`, base body
+:meth:`.beam.Beam.base_body`: platform + the beam's tip share).
+
+:class:`IdealCouplingPlant` (``ves.mode = ideal``)
+    Arm and structure integrated as one system: the free-flyer base carries the beam's
+    spring and damper (:class:`.ideal_base.IdealBase`, static load removed). The base
+    configuration is integrated in exponential coordinates about the initial pose,
+    ``(p, r)`` with ``R = exp3(r)``, so RK4 works on a flat state: ``p' = R v`` and
+    ``r' = Jlog3(R) omega`` for the free-flyer's body twist ``(v, omega)``. Two more states
+    integrate the contact impulse's linear (``P``) and angular (``S = int p_c x n F dt``,
+    about the world origin) parts, for the momentum balance.
+
+:class:`VesLoopPlant` (``ves.mode = loop``)
+    What the VES-II does: the arm stands on the platform, whose motion is prescribed. At
+    every emulator tick the F/T wrench of the arm on the platform is sampled and handed to
+    the structure model (:class:`.ves.VesLoop`: structure under the measured wrench, static
+    load removed, latency, finite-bandwidth platform); within a tick the platform follows
+    its exact closed-form response (:meth:`.ves.VesLoop.platform_at`). The arm's joint
+    accelerations come from the free-flyer model with the base acceleration given:
+    ``H_mm a_m = tau_m - rnea(q, v, [a_b, 0])_m``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from ..robot import Robot
+from ..robot.floating import attach_to_floating_base
+from .beam import Beam
+from .contact import Contact
+from .ideal_base import IdealBase, static_arm_wrench
+from .pendulum import Pendulum
+from .plant import FixedBasePlant
+from .ves import VesLoop
+
+__all__ = ["IdealCouplingPlant", "VesLoopPlant"]
+
+
+def _quat_of_rotvec(r):
+    """Unit quaternion (x, y, z, w) of a rotation vector."""
+    rx, ry, rz = float(r[0]), float(r[1]), float(r[2])
+    angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+    k = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(0.5 * angle) / angle
+    return k * rx, k * ry, k * rz, math.cos(0.5 * angle)
+
+
+def _platform_free_flyer(pose, twist, accel):
+    """Free-flyer configuration (7), body twist (6) and body acceleration (6) of a
+    small-angle platform state: :func:`.ves.platform_motion` without the object churn."""
+    R = pin.exp3(pose[3:])
+    Jr = pin.Jexp3(pose[3:])
+    q = np.empty(7)
+    q[0:3] = pose[0:3]
+    q[3:7] = _quat_of_rotvec(pose[3:])
+    v = R.T @ twist[:3]
+    w = Jr @ twist[3:]
+    a = R.T @ accel[:3]
+    a[0] -= w[1] * v[2] - w[2] * v[1]
+    a[1] -= w[2] * v[0] - w[0] * v[2]
+    a[2] -= w[0] * v[1] - w[1] * v[0]
+    return q, np.concatenate([v, w]), np.concatenate([a, Jr @ accel[3:]])
+
+
+class _FloatingMixin:
+    """Shared set-up of the free-flyer model of base + arm."""
+
+    def _setup_floating(self, robot: Robot, beam: Beam, gravity: float):
+        self.beam = beam
+        self.frobot = attach_to_floating_base(robot, beam.base_body())
+        self.fmodel = self.frobot.model
+        self.fmodel.gravity.linear = np.array([0.0, 0.0, -gravity])
+        self.fdata = self.fmodel.createData()
+        self.ffid = self.frobot.impact_frame_id
+        self.na = robot.nv
+        self.arm_joint = self.fmodel.getJointId(robot.joint_names[0])  # first arm joint (F/T below it)
+        self.mount_id = self.frobot.mount_frame_id
+        self._fext = pin.StdVec_Force()
+        for _ in range(self.fmodel.njoints):
+            self._fext.append(pin.Force.Zero())
+        g = np.array([0.0, 0.0, -gravity])
+        self.w_static = static_arm_wrench(robot, self.q0_arm, g, mount=self.frobot.base.mount)
+        self.gravity_vec = g
+
+    def _mount_wrench(self, q7full, vfull, afull, F):
+        """Wrench of the arm on the platform at the mount, platform axes, about the mount
+        origin (what the F/T sensor reads): (force [N], moment [N m])."""
+        model, data = self.fmodel, self.fdata
+        fext = self._fext
+        for i in range(len(fext)):
+            fext[i] = pin.Force.Zero()
+        if F > 0.0:
+            pin.forwardKinematics(model, data, q7full)
+            jid = model.frames[self.ffid].parentJoint
+            R = data.oMi[jid].rotation
+            f_local = R.T @ (self.n * F)
+            r = model.frames[self.ffid].placement.translation
+            fext[jid] = pin.Force(f_local, np.array([r[1] * f_local[2] - r[2] * f_local[1],
+                                                     r[2] * f_local[0] - r[0] * f_local[2],
+                                                     r[0] * f_local[1] - r[1] * f_local[0]]))
+        pin.rnea(model, data, q7full, vfull, afull, fext)
+        pin.updateFramePlacement(model, data, self.mount_id)
+        w_world = data.oMi[self.arm_joint].act(data.f[self.arm_joint])
+        w_mount = data.oMf[self.mount_id].actInv(w_world)
+        return -np.array(w_mount.linear), -np.array(w_mount.angular)
+
+
+class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
+    """Arm + structure integrated as one free-flyer system (ideal coupling).
+
+    State ``x = [p (3), r (3), q_arm, theta, v_base (6), v_arm, thetadot, P, S (3)]``.
+    """
+
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
+                 coulomb_scale: float, viscous_scale: float, gravity: float):
+        self.q0_arm = np.asarray(q0, dtype=float)
+        super().__init__(robot, q0, n, pendulum, contact, coulomb_scale=coulomb_scale,
+                         viscous_scale=viscous_scale, gravity=gravity)
+        self._setup_floating(robot, beam, gravity)
+        self.ibase = IdealBase(beam, self.w_static, self.gravity_vec)
+        na = self.na
+        nv = 6 + na
+        self.nv = nv
+        self.q0 = np.concatenate([np.zeros(6), self.q0_arm])
+        z6 = np.zeros(6)
+        self.viscous = np.concatenate([z6, self.viscous])
+        self.tc_pos = np.concatenate([z6, self.tc_pos])
+        self.tc_neg = np.concatenate([z6, self.tc_neg])
+        self.sticky = (self.tc_pos > 0) | (self.tc_neg > 0)
+        self.arm_q = slice(6, nv)
+        self.i_th = nv
+        self.arm_v = slice(nv + 1 + 6, 2 * nv + 1)
+        self.i_v = slice(nv + 1, 2 * nv + 1)
+        self.i_thd = 2 * nv + 1
+        self.i_P = 2 * nv + 2
+        self.i_S = slice(2 * nv + 3, 2 * nv + 6)
+        self.size = 2 * nv + 6
+        # the tip's rest position in the world, on the full model
+        pin.framesForwardKinematics(self.fmodel, self.fdata, self.q7(self.q0))
+        self.p_tip0 = np.array(self.fdata.oMf[self.ffid].translation)
+        self._free_cache = {}
+        self._znv = np.zeros(nv)
+        H = pin.crba(self.fmodel, self.fdata, self.q7(self.q0))
+        self._fcrba_full = bool(np.allclose(H, H.T))
+        self.emulator_period = None
+
+    # -- configuration ----------------------------------------------------------------
+    def q7(self, q):
+        """Pinocchio configuration (free-flyer quaternion) from the chart ``[p, r, q_arm]``."""
+        out = np.empty(7 + self.na)
+        out[0:3] = q[0:3]
+        rx, ry, rz = q[3], q[4], q[5]
+        angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+        # unit quaternion (x, y, z, w) of the rotation vector; sin(a/2)/a -> 1/2 at a -> 0
+        k = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(0.5 * angle) / angle
+        out[3], out[4], out[5], out[6] = k * rx, k * ry, k * rz, math.cos(0.5 * angle)
+        out[7:] = q[6:]
+        return out
+
+    def servo(self, tau_arm):
+        out = np.zeros(self.nv)
+        out[6:] = tau_arm
+        return out
+
+    def tip(self, q):
+        model, data = self.fmodel, self.fdata
+        pin.computeJointJacobians(model, data, self.q7(q))
+        p = pin.updateFramePlacement(model, data, self.ffid).translation
+        Jn = pin.getFrameJacobian(model, data, self.ffid, pin.LOCAL_WORLD_ALIGNED)[:3].T @ self.n
+        return float(self.n @ (p - self.p_tip0)), Jn
+
+    def _fext_base(self, q7, v):
+        fext = self._fext
+        for i in range(len(fext)):
+            fext[i] = pin.Force.Zero()
+        fext[1] = self.ibase.wrench(q7[:7], v[:6])
+        return fext
+
+    def holding_torque(self, q, v, tau, stuck):
+        model, data = self.fmodel, self.fdata
+        q7 = self.q7(q)
+        fext = self._fext_base(q7, v)
+        if not len(stuck):
+            return np.zeros(0), pin.aba(model, data, q7, v, tau, fext)
+        H = pin.crba(model, data, q7)
+        if not self._fcrba_full:
+            H = np.triu(H) + np.triu(H, 1).T
+        b = tau - pin.rnea(model, data, q7, v, self._znv, fext)
+        key = tuple(stuck)
+        free = self._free_cache.get(key)
+        if free is None:
+            free = self._free_cache[key] = np.setdiff1d(np.arange(self.nv), stuck)
+        a = np.zeros(self.nv)
+        a[free] = np.linalg.solve(H[free][:, free], b[free])
+        lam = H[stuck] @ a - b[stuck]
+        return lam, a
+
+    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught, t=0.0):
+        nv = self.nv
+        q = x[:nv]
+        v = x[self.i_v]
+        th, thd = x[nv], x[self.i_thd]
+        tau = tau_servo - self.viscous * v - coulomb
+        F = 0.0
+        xd = np.zeros(self.size)
+        if contact_v0 is not None:
+            delta, ddelta, Jn = self.gap(x)
+            F = self.contact_force(delta, ddelta, contact_v0)
+            tau = tau + Jn * F
+            p_c = self.fdata.oMf[self.ffid].translation
+            xd[self.i_S] = np.cross(p_c, self.n) * F
+        thdd = 0.0 if caught else (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
+        _, a = self.holding_torque(q, v, tau, stuck)
+        R = pin.exp3(q[3:6])
+        xd[0:3] = R @ v[0:3]
+        xd[3:6] = pin.Jlog3(R) @ v[3:6]
+        xd[6:nv] = v[6:]
+        xd[nv] = thd
+        xd[self.i_v] = a
+        xd[self.i_thd] = thdd
+        xd[self.i_P] = F
+        return xd
+
+    # -- diagnostics ------------------------------------------------------------------
+    def momentum(self, x):
+        """Linear momentum [N s] and angular momentum about the world origin [N m s] of
+        arm + base (world axes)."""
+        q7 = self.q7(x[:self.nv])
+        h = pin.computeCentroidalMomentum(self.fmodel, self.fdata, q7, x[self.i_v])
+        c = np.array(self.fdata.com[0])
+        lin = np.array(h.linear)
+        return lin, np.array(h.angular) + np.cross(c, lin)
+
+    def energy(self, x, contact_v0=None):
+        nv = self.nv
+        q7 = self.q7(x[:nv])
+        v = x[self.i_v]
+        th, thd = x[nv], x[self.i_thd]
+        H = pin.crba(self.fmodel, self.fdata, q7)
+        H = np.triu(H) + np.triu(H, 1).T
+        ke = 0.5 * float(v @ H @ v) + 0.5 * self._Ip * thd**2
+        pe = float(pin.computePotentialEnergy(self.fmodel, self.fdata, q7)) + self._mgl * (1.0 - math.cos(th))
+        pe += self.ibase.potential(q7[:7])
+        delta = self._r * math.sin(th) - self.tip(x[:nv])[0]
+        return ke + pe + float(self.contact.energy(delta))
+
+    def base_state(self, X):
+        """Base displacement, rotation vector, world linear and angular velocity per row."""
+        out = np.zeros((X.shape[0], 12))
+        iv0 = self.i_v.start
+        for k in range(X.shape[0]):
+            R = pin.exp3(X[k, 3:6])
+            out[k, 0:6] = X[k, 0:6]
+            out[k, 6:9] = R @ X[k, iv0:iv0 + 3]
+            out[k, 9:12] = R @ X[k, iv0 + 3:iv0 + 6]
+        return out
+
+    def rest_wrench(self):
+        z = np.zeros(self.nv)
+        return self._mount_wrench(self.q7(self.q0), z, z, 0.0)
+
+    def mount_wrench(self, x, xd, F, t=None):
+        q7 = self.q7(x[:self.nv])
+        return self._mount_wrench(q7, x[self.i_v], xd[self.i_v], F)
+
+
+class VesLoopPlant(_FloatingMixin, FixedBasePlant):
+    """The arm on the VES-II platform, whose motion the emulator prescribes.
+
+    State ``x = [q_arm, theta, v_arm, thetadot, P]``; the platform's pose, twist and
+    acceleration at any instant come from the emulator (:class:`.ves.VesLoop`).
+    """
+
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
+                 coulomb_scale: float, viscous_scale: float, gravity: float, rate: float, latency: float,
+                 bandwidth: float, duration: float):
+        self.q0_arm = np.asarray(q0, dtype=float)
+        super().__init__(robot, q0, n, pendulum, contact, coulomb_scale=coulomb_scale,
+                         viscous_scale=viscous_scale, gravity=gravity)
+        self._setup_floating(robot, beam, gravity)
+        self.arm_v = self.i_v
+        self.loop = VesLoop(beam, rate, latency, bandwidth, duration=duration)
+        self.emulator_period = 1.0 / rate
+        self._na0 = np.zeros(self.na)
+        self._t = 0.0
+        self._vf = np.zeros(6 + self.na)
+        self._z6 = np.zeros(6)
+        self._af = np.zeros(6 + self.na)
+        H = pin.crba(self.fmodel, self.fdata, np.concatenate([pin.SE3ToXYZQUAT(pin.SE3.Identity()), self.q0_arm]))
+        self._fcrba_full = bool(np.allclose(H, H.T))
+        self.reset_loop(0.0)
+        pin.framesForwardKinematics(self.fmodel, self.fdata, self._qfull(self.q0_arm, 0.0)[0])
+        self.p_tip0 = np.array(self.fdata.oMf[self.ffid].translation)
+
+    # -- the emulator ------------------------------------------------------------------
+    def reset_loop(self, t_last: float):
+        """Start the emulator at rest with its last tick at ``t_last`` [s]."""
+        self.loop.reset(self.w_static)
+        self.t_last = t_last
+        self.t_first = t_last
+        self.history = []      # (t, record row) per emulator tick
+        self._cache_t = None
+
+    def _platform(self, t):
+        if t == self._cache_t:
+            return self._cache
+        frac = (t - self.t_last) * self.loop.rate
+        frac = 0.0 if frac < 0.0 else (1.0 if frac > 1.0 else frac)
+        pose, twist, accel = self.loop.platform_at(frac)
+        self._cache_t, self._cache = t, _platform_free_flyer(pose, twist, accel)
+        return self._cache
+
+    def _qfull(self, q_arm, t):
+        qb, vb, ab = self._platform(t)
+        return np.concatenate([qb, q_arm]), vb, ab
+
+    def on_emulator_tick(self, t, x, xd):
+        """Sample the F/T wrench at ``t`` and advance the emulator one tick."""
+        na = self.na
+        qf, vb, ab = self._qfull(x[:na], t)
+        vf = np.concatenate([vb, x[self.i_v]])
+        af = np.concatenate([ab, xd[self.i_v]])
+        F = xd[self.i_P]
+        f, m = self._mount_wrench(qf, vf, af, F)
+        w = np.concatenate([f, m])
+        # the record holds the platform as it was at this tick (before the step), then the
+        # step's outputs at the next tick are recorded there
+        state = self.loop.step(w)
+        self.history.append((t, w, np.concatenate([state.structure_pose, state.pose, state.command, state.twist])))
+        self.t_last = t
+        self._cache_t = None
+
+    # -- dynamics ----------------------------------------------------------------------
+    def tip(self, q, t=None):
+        model, data = self.fmodel, self.fdata
+        qf, vb, _ = self._qfull(q, self._t if t is None else t)
+        pin.computeJointJacobians(model, data, qf)
+        p = pin.updateFramePlacement(model, data, self.ffid).translation
+        J = pin.getFrameJacobian(model, data, self.ffid, pin.LOCAL_WORLD_ALIGNED)[:3].T @ self.n
+        self._tip_base_speed = float(J[:6] @ vb)
+        return float(self.n @ (p - self.p_tip0)), J[6:]
+
+    def gap(self, x):
+        na = self.na
+        s, Jn = self.tip(x[:na])
+        th, thd = x[na], x[self.i_thd]
+        delta = self._r * math.sin(th) - s
+        ddelta = self._r * math.cos(th) * thd - float(Jn @ x[self.i_v]) - self._tip_base_speed
+        return delta, ddelta, Jn
+
+    def tip_speed(self, x):
+        _, Jn = self.tip(x[:self.na])
+        return float(Jn @ x[self.i_v]) + self._tip_base_speed
+
+    def _dyn(self, q, v, tau):
+        """Arm inertia ``H_mm`` and ``tau - bias`` on the prescribed platform, where the bias
+        ``rnea(q, v, [a_b, 0])_m`` holds gravity, Coriolis and the base acceleration."""
+        model, data = self.fmodel, self.fdata
+        qf, vb, ab = self._qfull(q, self._t)
+        na = self.na
+        vf = self._vf
+        vf[:6] = vb
+        vf[6:] = v
+        af = self._af
+        af[:6] = ab
+        H = pin.crba(model, data, qf)
+        Hm = H[6:, 6:] if self._fcrba_full else (np.triu(H) + np.triu(H, 1).T)[6:, 6:]
+        b = tau - pin.rnea(model, data, qf, vf, af)[6:]
+        return Hm, b
+
+    def holding_torque(self, q, v, tau, stuck):
+        Hm, b = self._dyn(q, v, tau)
+        if not len(stuck):
+            return np.zeros(0), np.linalg.solve(Hm, b)
+        return self._constrained(Hm, b, stuck)
+
+    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught, t=0.0):
+        self._t = t
+        na = self.na
+        q = x[:na]
+        v = x[self.i_v]
+        th, thd = x[na], x[self.i_thd]
+        tau = tau_servo - self.viscous * v - coulomb
+        F = 0.0
+        if contact_v0 is not None:
+            delta, ddelta, Jn = self.gap(x)
+            F = self.contact_force(delta, ddelta, contact_v0)
+            tau = tau + Jn * F
+        thdd = 0.0 if caught else (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
+        if len(stuck) == na:
+            a = self._na0          # every arm joint held by friction
+        else:
+            _, a = self.holding_torque(q, v, tau, stuck)
+        xd = np.empty(self.size)
+        xd[:na] = v
+        xd[na] = thd
+        xd[self.i_v] = a
+        xd[self.i_thd] = thdd
+        xd[self.i_P] = F
+        return xd
+
+    def ticks(self):
+        """The emulator's record: tick times (n,), sampled wrenches (n, 6) and the states it
+        reached one tick later (n, 24: structure pose, platform pose, command, twist)."""
+        if not self.history:
+            return np.zeros(0), np.zeros((0, 6)), np.zeros((0, 24))
+        t = np.array([h[0] for h in self.history])
+        return t, np.array([h[1] for h in self.history]), np.array([h[2] for h in self.history])
+
+    def platform_history(self, times):
+        """Platform pose and twist (n, 6) each at ``times``, interpolated linearly between
+        emulator ticks (at rest before the first tick)."""
+        t, _, rec = self.ticks()
+        tt = np.concatenate([[self.t_first], t + self.emulator_period])
+        pose = np.vstack([np.zeros(6), rec[:, 6:12]])
+        twist = np.vstack([np.zeros(6), rec[:, 18:24]])
+        P = np.column_stack([np.interp(times, tt, pose[:, i]) for i in range(6)])
+        V = np.column_stack([np.interp(times, tt, twist[:, i]) for i in range(6)])
+        return P, V
+
+    def arm_at(self, q_arm, v_arm, pose, twist):
+        """Tip speed along n [m/s] with the platform at ``pose``/``twist`` (6 each)."""
+        qb, vb, _ = _platform_free_flyer(pose, twist, self._z6)
+        qf = np.concatenate([qb, q_arm])
+        vf = np.concatenate([vb, v_arm])
+        pin.computeJointJacobians(self.fmodel, self.fdata, qf)
+        J = pin.getFrameJacobian(self.fmodel, self.fdata, self.ffid, pin.LOCAL_WORLD_ALIGNED)[:3].T @ self.n
+        return float(J @ vf)
+
+    def rest_wrench(self):
+        """F/T reading with the arm at rest on the platform at rest."""
+        qf = np.concatenate([pin.SE3ToXYZQUAT(pin.SE3.Identity()), self.q0_arm])
+        z = np.zeros(6 + self.na)
+        return self._mount_wrench(qf, z, z, 0.0)
+
+    def energy_at(self, x, pose, twist):
+        """Arm + pendulum + contact energy in the world with the platform at ``pose``/``twist``
+        (the platform is driven by the emulator: this energy is not conserved)."""
+        na = self.na
+        qb, vb, _ = _platform_free_flyer(pose, twist, self._z6)
+        qf = np.concatenate([qb, x[:na]])
+        vf = np.concatenate([vb, x[self.i_v]])
+        H = pin.crba(self.fmodel, self.fdata, qf)
+        H = np.triu(H) + np.triu(H, 1).T
+        th, thd = x[na], x[self.i_thd]
+        ke = 0.5 * float(vf @ H @ vf) - 0.5 * float(vf[:6] @ H[:6, :6] @ vf[:6]) + 0.5 * self._Ip * thd**2
+        pe = float(pin.computePotentialEnergy(self.fmodel, self.fdata, qf)) + self._mgl * (1.0 - math.cos(th))
+        pin.framesForwardKinematics(self.fmodel, self.fdata, qf)
+        s_tip = float(self.n @ (self.fdata.oMf[self.ffid].translation - self.p_tip0))
+        delta = self._r * math.sin(th) - s_tip
+        return ke + pe + float(self.contact.energy(delta))
