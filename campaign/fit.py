@@ -120,6 +120,10 @@ class LambdaFit:
         identifiable.
     max_relative_ci : float
         A component whose CI width exceeds this multiple of its value is not identifiable.
+    lambda_max : float
+        Upper bound of each diagonal component [kg m^2] (default 1e4, thousands of times
+        the arm's joint inertia): a joint the trials show as locked (its lambda running to
+        infinity) stops there and is reported as "at its upper bound".
     warn : bool
         Issue :class:`IdentifiabilityWarning` (the findings are stored either way).
 
@@ -151,7 +155,7 @@ class LambdaFit:
 
     def __init__(self, robot=None, *, direction=None, structure: str = "diagonal", n_bootstrap: int = 200,
                  ci: float = 0.95, random_state=None, min_sensitivity: float = 0.05,
-                 max_relative_ci: float = 1.0, warn: bool = True):
+                 max_relative_ci: float = 1.0, lambda_max: float = 1e4, warn: bool = True):
         self.robot = robot
         self.direction = direction
         self.structure = structure
@@ -160,11 +164,12 @@ class LambdaFit:
         self.random_state = random_state
         self.min_sensitivity = min_sensitivity
         self.max_relative_ci = max_relative_ci
+        self.lambda_max = lambda_max
         self.warn = warn
 
     # -- scikit-learn protocol ---------------------------------------------------------
     _PARAMS = ("robot", "direction", "structure", "n_bootstrap", "ci", "random_state", "min_sensitivity",
-               "max_relative_ci", "warn")
+               "max_relative_ci", "lambda_max", "warn")
 
     def get_params(self, deep: bool = True) -> dict:
         return {k: getattr(self, k) for k in self._PARAMS}
@@ -202,6 +207,8 @@ class LambdaFit:
             raise InputError(f"n_bootstrap must be an integer >= 0, got {self.n_bootstrap!r}")
         if not (0 < self.ci < 1):
             raise InputError(f"ci must be in (0, 1), got {self.ci!r}")
+        if not (isinstance(self.lambda_max, (int, float)) and self.lambda_max > 0):
+            raise InputError(f"lambda_max must be > 0 kg m^2, got {self.lambda_max!r}")
         return robot, n / np.linalg.norm(n)
 
     def _unpack(self, theta, nv):
@@ -238,7 +245,7 @@ class LambdaFit:
             return sw[:, None] * g
 
         if self.structure == "diagonal":
-            bounds = (np.zeros(nv), np.full(nv, np.inf))
+            bounds = (np.zeros(nv), np.full(nv, float(self.lambda_max)))
         else:
             bounds = (-np.inf, np.inf)
         best = None
@@ -378,6 +385,8 @@ class LambdaFit:
             smax = float(np.max(np.abs(S[:, j]))) if S.size else 0.0
             if est[j] == 0:
                 why.append("at its bound 0 (no measurable effect on m*)")
+            elif self.structure == "diagonal" and est[j] >= (1 - 1e-6) * self.lambda_max:
+                why.append(f"at its upper bound {self.lambda_max:g} kg m^2 (the joint behaves as locked)")
             elif smax < self.min_sensitivity:
                 why.append(f"max |d ln m*/d ln {name}| = {smax:.3g} < {self.min_sensitivity:g} "
                            f"(doubling it changes m* by < {100 * smax:.2g} %)")

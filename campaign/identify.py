@@ -63,6 +63,7 @@ encoder quantisation and noise as in ``config/rig.yaml``): see :data:`ACCURACY_N
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -85,6 +86,7 @@ __all__ = [
     "identify_files",
     "load_trial",
     "find_trials",
+    "base_geometry",
     "REQUIRED_CHANNELS",
     "ACCURACY_NOTE",
 ]
@@ -273,6 +275,9 @@ class TrialIdentification:
         Emulated base mass [kg] (flexible base; nan otherwise).
     base_inertia : tuple of float
         Emulated base inertia, 9 values row-major [kg m^2] (flexible base; empty otherwise).
+    base_com, base_mount : tuple of float
+        Base centre of mass and the arm's mounting point in the base frame [m] (flexible
+        base; see :func:`base_geometry`).
     """
 
     m_eff: float
@@ -304,6 +309,8 @@ class TrialIdentification:
     impact_direction: tuple = ()
     base_mass: float = float("nan")
     base_inertia: tuple = ()
+    base_com: tuple = ()
+    base_mount: tuple = ()
 
     def to_dict(self) -> dict:
         """A JSON-safe dict: non-finite numbers become ``None``, tuples lists."""
@@ -792,17 +799,19 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
     q_cmd = np.asarray(measured["q_cmd"].values, float)
     if not np.all(np.isfinite(q_cmd)):
         raise InputError(f"{where}: q_cmd = {q_cmd.tolist()} is not finite")
-    base_mass, base_inertia = float("nan"), ()
+    base_mass, base_inertia, base_com, base_mount = float("nan"), (), (), ()
     if flexible:
         base_mass = _finite_scalar(measured, "base_mass", where)
         base_inertia = tuple(float(x) for x in np.asarray(measured["base_inertia"].values, float).ravel())
+        com, mount = base_geometry(measured, meta, where)
+        base_com, base_mount = tuple(float(x) for x in com), tuple(float(x) for x in mount)
 
     ident = dict(
         path=str(meta.get("path", "")), robot=robot.name, base=base_kind or ("flexible" if flexible else "fixed"),
         config=_int_or(meta.get("config"), -1), gain=str(meta.get("gain", "") or ""),
         speed=_float_or(meta.get("speed")), repeat=_int_or(meta.get("repeat"), -1),
         q_cmd=tuple(float(x) for x in q_cmd), hammer_mass=m_b, impact_direction=tuple(float(x) for x in n),
-        base_mass=base_mass, base_inertia=base_inertia,
+        base_mass=base_mass, base_inertia=base_inertia, base_com=base_com, base_mount=base_mount,
     )
     nan = float("nan")
 
@@ -846,10 +855,11 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
         rb = np.asarray(measured[pose_names[1]].values, float)
         if not (np.all(np.isfinite(pb)) and np.all(np.isfinite(rb))):
             raise InputError(f"{where}: base pose channels {pose_names} have non-finite samples")
-        r0 = _tip_positions(robot, q_cmd[None, :])[0]
+        tip0 = _tip_positions(robot, q_cmd[None, :])[0]
+        r0 = np.asarray(base_mount) + tip0      # tip at q_cmd in the base frame
         s_base = (pb + _rotate(rb, r0)) @ n
         rb_w = np.column_stack([np.interp(tw, tb, rb[:, k]) for k in range(3)])
-        s_arm = _rotate(rb_w, P - r0) @ n
+        s_arm = _rotate(rb_w, P - tip0) @ n
         vbase_pre = _base_fit(tb, s_base, c.start, "pre", opt)
         vbase_post = _base_fit(tb, s_base, c.end, "post", opt)
         if not (math.isfinite(vbase_pre) and math.isfinite(vbase_post)):
@@ -880,6 +890,34 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
         excluded=bool(reasons), reason="; ".join(reasons), theta_contact=th_s,
         n_joint_pre=n_pre, n_joint_contact=n_con, n_joint_post=n_post, **ident,
     )
+
+
+def base_geometry(measured: xr.Dataset, meta: Mapping, where: str = "trial") -> tuple[np.ndarray, np.ndarray]:
+    """Centre of mass of the emulated base and the arm's mounting point, base frame [m].
+
+    From the measured constants ``base_com`` and ``base_mount_position`` (axis) when the
+    trial has them; otherwise the centre of mass at the base origin and the mount
+    ``flexible.mount_height`` above it along z from the scene JSON (an instrument setting
+    the experimenter knows), else at the origin. The mount's rotation is the identity.
+    """
+    def vec(name):
+        v = np.asarray(measured[name].values, float)
+        if v.shape != (3,) or not np.all(np.isfinite(v)):
+            raise InputError(f"{where}: constant {name} = {v.tolist()} must be 3 finite numbers (m)")
+        return v
+
+    com = vec("base_com") if "base_com" in measured.variables else np.zeros(3)
+    if "base_mount_position" in measured.variables:
+        return com, vec("base_mount_position")
+    h = 0.0
+    text = meta.get("scene_json")
+    if text:
+        try:
+            params = json.loads(text).get("params", {})
+            h = float(params.get("flexible.mount_height", 0.0) or 0.0)
+        except (ValueError, TypeError, AttributeError):
+            h = 0.0
+    return com, np.array([0.0, 0.0, h])
 
 
 def _int_or(v, default: int) -> int:
@@ -916,20 +954,22 @@ def _open_group(path: Path, group: str | None) -> xr.Dataset:
 def load_trial(path) -> tuple[xr.Dataset, dict]:
     """Read a trial file: (its ``measured`` group, its root attributes).
 
-    Uses :func:`campaign.archive.open_trial` when the archive module provides it, else
-    xarray with the h5netcdf engine.
+    Uses :func:`campaign.archive.open_trial` (which checks the schema version, the
+    channels and the content digest) when the archive module is installed, else xarray
+    with the h5netcdf engine.
 
     Raises
     ------
     TrialFileError
-        The file is missing, is not NetCDF4/HDF5, or has no ``measured`` group.
+        The file is missing, is not a trial (not NetCDF4/HDF5, no ``measured`` group, a
+        missing channel, a corrupt group), naming the file.
     """
     path = Path(path)
     if not path.is_file():
         raise TrialFileError(f"{path}: no such trial file")
     try:
-        from .archive import open_trial  # type: ignore[attr-defined]
-    except ImportError:
+        from .archive import open_trial
+    except ImportError:  # pragma: no cover - the archive stage is part of the package
         open_trial = None
     if open_trial is not None:
         try:
@@ -938,8 +978,8 @@ def load_trial(path) -> tuple[xr.Dataset, dict]:
             raise
         except (OSError, ValueError, KeyError) as exc:
             raise TrialFileError(f"{path}: not a trial file ({exc})") from None
-    else:
-        measured = _open_group(path, "measured")
+        return measured, dict(measured.attrs)
+    measured = _open_group(path, "measured")
     attrs = dict(_open_group(path, None).attrs)
     return measured, attrs
 

@@ -366,24 +366,42 @@ def make_trial(spec: Spec | None = None, **kw) -> SyntheticTrial:
         meas["base_inertia"] = (("axis", "axis2"), np.diag(spec.base_inertia), {"units": "kg m2"})
 
     tt = np.arange(0.0, t_end, 1e-3)
-    truth_ds = xr.Dataset(
-        {
-            "q": (("t_truth", "joint"), q0 + np.column_stack([np.interp(tt, t, qdev[:, j]) for j in range(nv)])),
-            "f_contact": (("t_truth",), np.interp(tt, t, f)),
-            **{k: ((), float(v)) for k, v in truth.items() if k not in ("w", "m_eff_eq11", "m_eff", "e")},
-        },
-        coords={"t_truth": tt, "joint": list(joints)},
-    )
+    ph = pend(tt)
+    dq_t = np.column_stack([np.interp(tt, t, dq[:, j]) for j in range(nv)])
+    truth_vars = {
+        "q": (("t_truth", "joint"), q0 + np.column_stack([np.interp(tt, t, qdev[:, j]) for j in range(nv)])),
+        "v": (("t_truth", "joint"), dq_t),
+        "theta": (("t_truth",), ph[0]),
+        "theta_dot": (("t_truth",), ph[1]),
+        "f_contact": (("t_truth",), np.interp(tt, t, f)),
+        "tip_velocity_n": (("t_truth",), np.full(tt.size, np.nan)),
+        "energy": (("t_truth",), np.full(tt.size, np.nan)),
+        **{k: ((), float(truth[k])) for k in ("contact_start", "contact_end", "v_a_pre", "v_a_post", "v_b_pre",
+                                             "v_b_post", "impulse", "peak_force", "e_contact")},
+    }
+    if flexible:
+        for name, cols in (("base_position", pose[:, :3]), ("base_rotation", pose[:, 3:]),
+                           ("base_velocity", V[:, :3]), ("base_omega", V[:, 3:])):
+            truth_vars[name] = (("t_truth", "axis"), np.column_stack([np.interp(tt, t, cols[:, k]) for k in range(3)]))
+    truth_ds = xr.Dataset(truth_vars, coords={"t_truth": tt, "joint": list(joints),
+                                              **({"axis": list(axis)} if flexible else {})})
+    from campaign.scene import make_scene
+
+    scene = make_scene(base=spec.base, config=spec.config if spec.q_cmd is None else 1, gain=spec.gain,
+                       speed=float(spec.speed), repeat=int(spec.repeat), seed=int(spec.seed))
     attrs = {
-        "scene_json": json.dumps({"synthetic": dataclasses.asdict(spec)}, default=str),
-        "seed": int(spec.seed), "base": spec.base, "config": int(spec.config if spec.q_cmd is None else 0),
-        "gain": spec.gain, "speed": float(spec.speed), "repeat": int(spec.repeat), "robot": robot.name,
+        "scene_json": scene.to_json(), "scene_sha256": scene.sha256,
+        "seed": int(scene.seed), "base": scene.base, "config": int(scene.config), "gain": scene.gain,
+        "speed": float(scene.speed), "repeat": int(scene.repeat), "robot": robot.name,
         "schema_version": "1.0",
+        "synthetic_spec": json.dumps(dataclasses.asdict(spec), default=str),
     }
     tree = xr.DataTree.from_dict({"/": xr.Dataset(attrs=attrs), "/measured": meas, "/truth": truth_ds})
     return SyntheticTrial(tree=tree, truth=truth)
 
 
-def write_trial(trial: SyntheticTrial, path) -> None:
-    """Write a synthetic trial as a NetCDF4 file with groups, like an archived rig trial."""
-    trial.tree.to_netcdf(path, engine="h5netcdf")
+def write_trial(trial: SyntheticTrial, path):
+    """Write a synthetic trial through the archive (``campaign.archive.write_trial``)."""
+    from campaign.archive import write_trial as archive_write
+
+    return archive_write(trial.tree, path)
