@@ -137,3 +137,14 @@ def test_fixed_base_scene_ignores_the_beam_entirely():
     assert not hasattr(rig.plant, "beam")
     with pytest.raises(InputError):
         build(make_scene(base="flexible", params={"ves.rate": 20.0}))
+
+
+def test_a_flexible_trial_writes_and_reads_back_through_the_archive(config2_high, tmp_path):
+    # measured and truth share variable names (base_position, ...) with different clocks
+    from campaign.archive import open_trial, write_trial
+    path = write_trial(config2_high["loop"], tmp_path / "t.nc")
+    m = open_trial(path)
+    t = open_trial(path, group="truth")
+    assert m.base_position.dims == ("t_base", "axis")
+    assert t.base_position.dims == ("t_truth", "axis")
+    np.testing.assert_array_equal(m.base_position.values, config2_high["loop"]["measured"].base_position.values)

@@ -181,7 +181,8 @@ def record(rig: Rig, traj) -> xr.DataTree:
     sampler = StateSampler(plant, traj)
     streams = rig.streams
     quant = bool(p("sensors.quantize"))
-    spec = {v.name: v for v in schema.MEASURED + schema.TRUTH}
+    spec = {v.name: v for v in schema.MEASURED}       # the groups share some names: keep them apart
+    tspec = {v.name: v for v in schema.TRUTH}
     joints = list(robot.joint_names)
 
     # joint encoders
@@ -278,22 +279,22 @@ def record(rig: Rig, traj) -> xr.DataTree:
     c0, c1, _ = traj.contacts[0]
     peak = float(np.max(sampler.contact_force(np.linspace(c0, c1, 2001))))
     truth = {
-        "q": _var(Xt[:, aq], spec["q"]),
-        "v": _var(Xt[:, av], spec["v"]),
-        "theta": _var(Xt[:, plant.i_th], spec["theta"]),
-        "theta_dot": _var(Xt[:, plant.i_thd], spec["theta_dot"]),
-        "f_contact": _var(f_t, spec["f_contact"]),
-        "tip_velocity_n": _var(tip_v, spec["tip_velocity_n"]),
-        "energy": _var(energy, spec["energy"]),
-        "contact_start": _var(np.float64(c0), spec["contact_start"]),
-        "contact_end": _var(np.float64(c1), spec["contact_end"]),
-        "v_a_pre": _var(np.float64(traj.v_a_pre), spec["v_a_pre"]),
-        "v_a_post": _var(np.float64(traj.v_a_post), spec["v_a_post"]),
-        "v_b_pre": _var(np.float64(traj.v_b_pre), spec["v_b_pre"]),
-        "v_b_post": _var(np.float64(traj.v_b_post), spec["v_b_post"]),
-        "impulse": _var(np.float64(traj.impulse), spec["impulse"]),
-        "peak_force": _var(np.float64(peak), spec["peak_force"]),
-        "e_contact": _var(np.float64(rig.plant.contact.restitution), spec["e_contact"]),
+        "q": _var(Xt[:, aq], tspec["q"]),
+        "v": _var(Xt[:, av], tspec["v"]),
+        "theta": _var(Xt[:, plant.i_th], tspec["theta"]),
+        "theta_dot": _var(Xt[:, plant.i_thd], tspec["theta_dot"]),
+        "f_contact": _var(f_t, tspec["f_contact"]),
+        "tip_velocity_n": _var(tip_v, tspec["tip_velocity_n"]),
+        "energy": _var(energy, tspec["energy"]),
+        "contact_start": _var(np.float64(c0), tspec["contact_start"]),
+        "contact_end": _var(np.float64(c1), tspec["contact_end"]),
+        "v_a_pre": _var(np.float64(traj.v_a_pre), tspec["v_a_pre"]),
+        "v_a_post": _var(np.float64(traj.v_a_post), tspec["v_a_post"]),
+        "v_b_pre": _var(np.float64(traj.v_b_pre), tspec["v_b_pre"]),
+        "v_b_post": _var(np.float64(traj.v_b_post), tspec["v_b_post"]),
+        "impulse": _var(np.float64(traj.impulse), tspec["impulse"]),
+        "peak_force": _var(np.float64(peak), tspec["peak_force"]),
+        "e_contact": _var(np.float64(rig.plant.contact.restitution), tspec["e_contact"]),
     }
     truth_coords = {"t_truth": _time("t_truth", tt), "joint": ("joint", joints)}
 
@@ -325,7 +326,6 @@ def record(rig: Rig, traj) -> xr.DataTree:
         })
         coords["t_base"] = _time("t_base", tb)
         coords["axis2"] = ("axis2", ["x", "y", "z"])
-        tspec = {v.name: v for v in schema.TRUTH}
         truth.update({
             "base_position": _var(base_truth[:, 0:3], tspec["base_position"]),
             "base_rotation": _var(base_truth[:, 3:6], tspec["base_rotation"]),
