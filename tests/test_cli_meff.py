@@ -63,11 +63,13 @@ def test_a_negative_value_works_without_an_equals_sign(capsys):
         run_json(capsys, "--q=-10,150,90", "--direction=-1,0.5,0")
 
 
-def test_flexible_base_uses_the_rig_platform(capsys, puma):
+def test_flexible_base_uses_the_rigs_emulated_base(capsys, puma):
+    # platform + the beam's tip share: the body the flexible rig integrates
+    from campaign.rig.beam import Beam
+    from campaign.scene import make_scene
+    base = Beam.from_scene(make_scene(base="flexible")).base_body()
     params, _ = load_rig()
-    mount = pin.SE3(np.eye(3), np.array([0.0, 0.0, params["flexible.mount_height"]]))
-    base = BaseBody(mass=params["flexible.platform_mass"], inertia=np.diag(params["flexible.platform_inertia"]),
-                    mount=mount)
+    assert base.mass > params["flexible.platform_mass"]
     frobot = attach_to_floating_base(puma, base)
     for config in (1, 2):
         d = run_json(capsys, "--config", str(config), "--base", "flexible", "--lambda", "53.18,8.66,2.83")
@@ -106,7 +108,7 @@ def test_help_documents_units_and_the_flexible_base(capsys):
     assert exc.value.code == 0
     text = " ".join(capsys.readouterr().out.split())
     for fragment in ("[deg]", "[kg m^2]", "m* in kg", "flexible.platform_mass [kg]",
-                     "flexible.platform_inertia [kg m^2]", "config/rig.yaml", "inclusive"):
+                     "flexible.platform_inertia [kg m^2]", "flexible.beam_mass [kg]", "config/rig.yaml", "inclusive"):
         assert fragment in text
 
 

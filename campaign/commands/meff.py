@@ -44,9 +44,11 @@ Give comma-separated values without spaces. Values starting with '-' work as the
 
 EPILOG = """\
 flexible base: the arm stands on a free rigid body (eq 8; in the impulsive phase the
-beam's spring and damper transmit no impulse) with the mass flexible.platform_mass [kg]
-and the principal inertia flexible.platform_inertia [kg m^2] of config/rig.yaml, its
-centre of mass at the beam tip and the arm's base frame flexible.mount_height [m] above it.
+beam's spring and damper transmit no impulse): the emulated base of the rig, i.e. the
+platform (flexible.platform_mass [kg], flexible.platform_inertia [kg m^2]) plus the beam's
+tip share of its mass (flexible.beam_mass [kg], flexible.beam_length [m]; consistent
+Hermite tip mass, campaign/rig/beam.py), all from config/rig.yaml, with the arm's base
+frame flexible.mount_height [m] above the beam tip.
 
 output: one line per quantity; with --json one JSON object with "m_eff" [kg] (null when
 m* is infinite, i.e. n leaves the range of G*_33: then "m_eff_is_infinite" is true).
@@ -186,11 +188,11 @@ def _direction(args) -> list[float]:
 
 # -- evaluation -----------------------------------------------------------------------
 def flexible_base_body(rig_path=None):
-    """The emulated base body of the flexible scene, from ``config/rig.yaml``.
+    """The emulated base body of the flexible scene, exactly as the rig builds it.
 
-    Mass ``flexible.platform_mass`` [kg], principal inertia ``flexible.platform_inertia``
-    [kg m^2] about its centre of mass (at the base frame's origin, the beam tip), and the
-    arm's base frame ``flexible.mount_height`` [m] above it along z.
+    Platform (``flexible.platform_mass`` [kg], ``flexible.platform_inertia`` [kg m^2]) plus
+    the beam's tip share of its mass (:meth:`campaign.rig.beam.Beam.base_body`), the arm's
+    base frame ``flexible.mount_height`` [m] above the beam tip.
 
     Parameters
     ----------
@@ -201,18 +203,10 @@ def flexible_base_body(rig_path=None):
     -------
     campaign.robot.floating.BaseBody
     """
-    import numpy as np
-    import pinocchio as pin
+    from ..rig.beam import Beam
+    from ..scene import make_scene
 
-    from ..robot.floating import BaseBody
-    from ..scene import load_rig
-
-    params, _ = load_rig(rig_path)
-    inertia = np.asarray(params["flexible.platform_inertia"], dtype=float)
-    if inertia.shape == (3,):
-        inertia = np.diag(inertia)
-    mount = pin.SE3(np.eye(3), np.array([0.0, 0.0, float(params["flexible.mount_height"])]))
-    return BaseBody(mass=float(params["flexible.platform_mass"]), inertia=inertia, mount=mount)
+    return Beam.from_scene(make_scene(base="flexible", rig=rig_path)).base_body()
 
 
 def evaluate(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> float:
