@@ -1,0 +1,24 @@
+# The campaign: Yoshida, Mavroidis & Dubowsky's impact experiments re-done on a simulated
+# VES-II. Configuration: config/config.yaml (full) or --configfile config/ci.yaml (reduced),
+# checked against workflow/schemas/config.schema.yaml. Stage flow (design brief section 1):
+#
+#   simulate -> identify -> fit -> tables, figures -> report
+#
+# This file only includes the rules (helpers: workflow/rules/common.smk) and names the
+# default target: Snakemake takes the default target from the root Snakefile only (a rule
+# in an included file, even with `default_target: True`, cannot be it).
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/targets.smk"
+include: "workflow/rules/simulate.smk"
+include: "workflow/rules/identify.smk"
+include: "workflow/rules/fit.smk"
+include: "workflow/rules/tables.smk"
+include: "workflow/rules/figures.smk"
+include: "workflow/rules/archive.smk"
+
+
+rule all:
+    input:
+        default_targets(),
+    default_target: True

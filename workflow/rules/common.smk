@@ -1,0 +1,304 @@
+# Helpers of the campaign workflow: the configuration (validated at start-up), where every
+# file lives, which trials and identification tables each product needs, and the targets.
+#
+# Only the standard library and campaign.runner (itself standard library only at import)
+# are imported here: Snakemake evaluates this file every time it starts, including for a
+# dry run, so the heavy stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
+
+import os
+import sys
+from pathlib import Path
+
+import yaml
+from snakemake.exceptions import WorkflowError
+from snakemake.utils import min_version, validate
+
+from campaign import runner
+
+min_version("9.0")
+
+# Every job imports the campaign package of this workflow's own source tree, whatever
+# environment runs it (.venv with the editable install, or a conda env of workflow/envs).
+os.environ.update(PYTHONPATH=os.pathsep.join(p for p in (workflow.basedir, os.environ.get("PYTHONPATH")) if p))
+
+
+configfile: "config/config.yaml"
+
+
+validate(config, schema="../schemas/config.schema.yaml")
+
+
+report: "../report/workflow.rst"
+
+
+wildcard_constraints:
+    gain="zero|low|high",
+    config="[0-9]+",
+
+
+# ----------------------------------------------------------------------------------------
+# configuration
+# ----------------------------------------------------------------------------------------
+CAMPAIGN = config["campaign"]
+ARCHIVE = f"{config['archive_root']}/{CAMPAIGN}"
+RESULTS = f"{config['results_root']}/{CAMPAIGN}"
+SIMULATE = bool(config["simulate"])
+JOB_UNIT = config["job_unit"]
+GAIN_ORDER = ("zero", "low", "high")
+# the files every trial depends on: the rig parameters and the paper's tables (configurations, gains)
+RIG_FILE = config["rig"] if config.get("rig") else str(runner.package_file("rig.yaml"))
+PAPER_FILE = str(runner.package_file("paper.yaml"))
+
+
+def source_files(*patterns):
+    """Files of the campaign package a rule's jobs run (glob patterns relative to the package).
+
+    They are inputs of the rules, so editing the code of a stage reruns that stage and what
+    depends on it (Snakemake's own code trigger covers only the rule's script).
+    """
+    package = Path(runner.__file__).resolve().parent
+    files = sorted({str(f) for pattern in patterns for f in package.glob(pattern) if f.is_file()})
+    if not files:
+        raise WorkflowError(f"no package source matches {patterns} under {package}")
+    return files
+
+
+# the code behind each stage (see source_files)
+CODE_SIMULATE = source_files("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py",
+                             "archive.py")
+CODE_IDENTIFY = source_files("identify.py", "robot/*.py", "robot/*/*", "archive.py", "runner.py")
+CODE_FIT = source_files("fit.py", "exiit.py")
+CODE_TABLES = source_files("tables.py", "exiit.py", "fit.py", "robot/floating.py")
+
+
+def figure_code(name, *more):
+    """The figure's module, the shared style and the other package files it reads with."""
+    return source_files(f"figures/{name}.py", "figures/style.py", *more)
+
+
+def _gain_classes():
+    """The paper's gain classes (Tables 2-3 pool Zero and Low): {class: [gains]} from paper.yaml."""
+    with open(PAPER_FILE, encoding="utf-8") as fh:
+        return {str(k): [str(g) for g in v] for k, v in yaml.safe_load(fh)["gain_classes"].items()}
+
+
+GAIN_CLASSES = _gain_classes()
+
+
+def _config_error(key, message):
+    """Stop at start-up with one message naming the configuration key."""
+    raise WorkflowError(f"configuration key {key}: {message}")
+
+
+def _sweeps():
+    """{base: {configurations, gains, speeds, repeats}} with the global speeds/repeats filled in."""
+    out = {}
+    for base, sweep in config["bases"].items():
+        out[base] = {
+            "configurations": sorted(int(c) for c in sweep["configurations"]),
+            "gains": [g for g in GAIN_ORDER if g in sweep["gains"]],
+            "speeds": [float(s) for s in sweep.get("speeds", config["speeds"])],
+            "repeats": int(sweep.get("repeats", config["repeats"])),
+        }
+    return out
+
+
+SWEEPS = _sweeps()
+
+if SIMULATE:
+    TRIAL_ROOT = ARCHIVE
+else:
+    if not config.get("reuse_archive"):
+        _config_error("reuse_archive", "simulate is false, so reuse_archive must name an archive folder")
+    TRIAL_ROOT = config["reuse_archive"].rstrip("/")
+    if not Path(TRIAL_ROOT).is_dir():
+        _config_error("reuse_archive", f"{TRIAL_ROOT!r} is not a folder (simulate is false: nothing is simulated)")
+
+
+def cells(base, configs=None, gains=None):
+    """The sweep cells (base, configuration, gain) of ``base``, optionally restricted."""
+    sweep = SWEEPS.get(base)
+    if sweep is None:
+        return []
+    return [(base, c, g) for g in sweep["gains"] for c in sweep["configurations"]
+            if (configs is None or c in configs) and (gains is None or g in gains)]
+
+
+def cell_trials(base, config_, gain):
+    """Trial files of one cell: declared outputs when simulating, the archive's files when reusing."""
+    if SIMULATE:
+        sweep = SWEEPS[base]
+        return runner.cell_trials(TRIAL_ROOT, base, config_, gain, sweep["speeds"], sweep["repeats"])
+    found = runner.find_cell_trials(TRIAL_ROOT, base, config_, gain)
+    if not found:
+        raise WorkflowError(f"reuse_archive {TRIAL_ROOT!r} has no trials of cell {runner.cell_dir(base, config_, gain)} "
+                            f"(listed by bases.{base} of the configuration)")
+    return found
+
+
+def trial_file(base, config_, gain, speed, repeat, key):
+    """One trial a figure shows; ``key`` names the configuration entry that chose it."""
+    if (base, config_, gain) not in cells(base):
+        raise WorkflowError(f"{key} needs cell {runner.cell_dir(base, config_, gain)}, which bases.{base} does not list")
+    path = f"{TRIAL_ROOT}/{runner.trial_relpath(base, config_, gain, speed, repeat)}"
+    if SIMULATE:
+        sweep = SWEEPS[base]
+        if float(speed) not in sweep["speeds"]:
+            raise WorkflowError(f"{key}.speed = {speed} m/s is not one of the {base}-base speeds {sweep['speeds']}")
+        if int(repeat) >= sweep["repeats"]:
+            raise WorkflowError(f"{key}.repeat = {repeat} but the {base} base runs {sweep['repeats']} repeat(s)")
+    elif not Path(path).is_file():
+        raise WorkflowError(f"{key}: trial {path} is not in reuse_archive {TRIAL_ROOT!r}")
+    return path
+
+
+def figure_pick(name):
+    """(speed, repeat) of the trial a single-trial figure shows (configuration key figures.<name>)."""
+    pick = config.get("figures", {}).get(name, {})
+    return float(pick.get("speed", 2.5)), int(pick.get("repeat", 0))
+
+
+# ----------------------------------------------------------------------------------------
+# job units: what one simulation / identification job covers
+# ----------------------------------------------------------------------------------------
+def unit_of(base, config_, gain):
+    """Wildcard values of the job covering a cell (``job_unit`` sweep: base x gain; cell: + configuration)."""
+    return {"gain": gain} if JOB_UNIT == "sweep" else {"config": config_, "gain": gain}
+
+
+def unit_cells(base, wildcards):
+    """The cells one job covers, from its wildcards."""
+    if JOB_UNIT == "sweep":
+        return cells(base, gains=[wildcards.gain])
+    return cells(base, configs=[int(wildcards.config)], gains=[wildcards.gain])
+
+
+def unit_trials(base, wildcards):
+    """Trial files of one job's cells (identification input)."""
+    return [t for b, c, g in unit_cells(base, wildcards) for t in cell_trials(b, c, g)]
+
+
+def unit_name(base):
+    """Path pattern of one job of ``base`` (logs, identification tables)."""
+    return f"{base}/{{gain}}" if JOB_UNIT == "sweep" else f"{base}/config{{config}}/{{gain}}"
+
+
+def simulate_outputs(base):
+    """Declared trial files of one simulation job of ``base``, as patterns in its wildcards."""
+    sweep = SWEEPS[base]
+    configs = sweep["configurations"] if JOB_UNIT == "sweep" else ["{config}"]
+    return [f"{ARCHIVE}/{base}/config{c}/{{gain}}/v{s:.3f}/r{r:02d}.nc"
+            for c in configs for s in sweep["speeds"] for r in range(sweep["repeats"])]
+
+
+def ident_table(base, config_, gain):
+    """Identification table (CSV) holding the trials of one cell."""
+    unit = unit_name(base).format(**unit_of(base, config_, gain))
+    return f"{RESULTS}/identify/{unit}.csv"
+
+
+def ident_tables(base, configs=None, gains=None):
+    """Identification tables covering the cells of ``base`` (restricted), each once, in order."""
+    out = []
+    for b, c, g in cells(base, configs, gains):
+        path = ident_table(b, c, g)
+        if path not in out:
+            out.append(path)
+    return out
+
+
+def fit_classes():
+    """Gain classes the fixed-base sweep can fit: {class: [gains of the class in the sweep]}."""
+    have = SWEEPS.get("fixed", {}).get("gains", [])
+    return {k: [g for g in v if g in have] for k, v in GAIN_CLASSES.items() if any(g in have for g in v)}
+
+
+def fit_pickles():
+    """{gain class: fitted estimator} for Tables 3 and 4, in the paper's order."""
+    return {k: f"{RESULTS}/fit/lambda_{k}.pkl" for k in fit_classes()}
+
+
+def all_trials():
+    """Every trial of the campaign (the archive's finalisation input)."""
+    return [t for base in SWEEPS for b, c, g in cells(base) for t in cell_trials(b, c, g)]
+
+
+# ----------------------------------------------------------------------------------------
+# products and what each needs
+# ----------------------------------------------------------------------------------------
+FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9")
+TABLES = ("table2", "table3", "table4")
+
+
+def figure_files(name):
+    return [f"{RESULTS}/figures/{name}.png", f"{RESULTS}/figures/{name}.pdf"]
+
+
+def table_files(name):
+    return [f"{RESULTS}/tables/{name}.csv", f"{RESULTS}/tables/{name}.md"]
+
+
+def _fixed_complete():
+    """Tables 2-3 (and so Table 4's lambda) need every configuration of the fixed base under
+    each gain class: eq 11 has three unknowns lambda_1..3 per class."""
+    have = SWEEPS.get("fixed")
+    return bool(have) and len(have["configurations"]) >= 3 and {"high"} <= set(have["gains"]) \
+        and bool({"zero", "low"} & set(have["gains"]))
+
+
+def missing_requirement(product):
+    """Why ``product`` cannot be made from this configuration, or "" if it can."""
+    fixed = SWEEPS.get("fixed")
+    if product in ("fig4", "fig8"):
+        return ""
+    if product == "fig5":
+        return "" if ("fixed", 1, "zero") in cells("fixed") else "needs bases.fixed with configuration 1 and gain zero"
+    if product in ("fig6", "fig7"):
+        return "" if fixed else "needs bases.fixed"
+    if product == "fig9":
+        need = [("flexible", c, g) for c in (1, 2) for g in ("low", "high")]
+        return "" if all(n in cells("flexible") for n in need) else \
+            "needs bases.flexible with configurations 1, 2 and gains low, high"
+    if product in ("table2", "table3"):
+        return "" if _fixed_complete() else "needs bases.fixed with configurations 1-3, gain high and zero or low"
+    if product == "table4":
+        if not _fixed_complete():
+            return "needs the fixed-base fit (bases.fixed with configurations 1-3, gain high and zero or low)"
+        return "" if cells("flexible", gains=["low", "high"]) else "needs bases.flexible with gain low or high"
+    raise WorkflowError(f"unknown product {product!r}")
+
+
+def product_files(product):
+    return figure_files(product) if product.startswith("fig") else table_files(product)
+
+
+def requires(product):
+    """The product's files, or a clear error naming what the configuration lacks."""
+    why = missing_requirement(product)
+    if why:
+        raise WorkflowError(f"{product} cannot be made from campaign {CAMPAIGN!r}: it {why}")
+    return product_files(product)
+
+
+def default_targets():
+    """Every product this configuration can make, plus the archive's manifest (simulating)
+    or its verification (reusing). Products it cannot make are named on stderr."""
+    out = []
+    for product in FIGURES + TABLES:
+        why = missing_requirement(product)
+        if why:
+            print(f"campaign {CAMPAIGN}: skipping {product}: it {why}", file=sys.stderr)
+        else:
+            out += product_files(product)
+    out.append(f"{ARCHIVE}/MANIFEST.sha256" if SIMULATE else f"{RESULTS}/archive_verify.txt")
+    return out
+
+
+def log_file(rule_name, unit=None):
+    """Log of one job: ``<results>/logs/<rule>[/<unit>].log``."""
+    return str(Path(RESULTS, "logs", rule_name, *([unit] if unit else [])).with_suffix(".log"))
+
+
+def bench_file(rule_name, unit=None):
+    """Snakemake benchmark record of one job (wall time, CPU time, memory)."""
+    return str(Path(RESULTS, "benchmarks", rule_name, *([unit] if unit else [])).with_suffix(".tsv"))

@@ -1,0 +1,119 @@
+# Figures 4-9 of the paper (campaign.figures: one module per figure, one thin script each),
+# PNG for the report and PDF beside it.
+
+
+rule fig4_arm_configurations:
+    input:
+        paper=PAPER_FILE,
+        code=figure_code("fig4", "robot/*.py", "robot/*/*"),
+    output:
+        png=report(f"{RESULTS}/figures/fig4.png", caption="../report/fig4.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/fig4.pdf",
+    log:
+        log_file("fig4"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fig4.py"
+
+
+rule fig5_joint3_motion:
+    input:
+        trial=lambda wc: trial_file("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5"),
+        paper=PAPER_FILE,
+        code=figure_code("fig5", "archive.py", "identify.py"),
+    output:
+        png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/fig5.pdf",
+    log:
+        log_file("fig5"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fig5.py"
+
+
+rule fig6_effective_mass:
+    input:
+        tables=lambda wc: ident_tables("fixed"),
+        paper=PAPER_FILE,
+        code=figure_code("fig6", "runner.py"),
+    output:
+        png=report(f"{RESULTS}/figures/fig6.png", caption="../report/fig6.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/fig6.pdf",
+    log:
+        log_file("fig6"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fig6.py"
+
+
+rule fig7_restitution:
+    input:
+        tables=lambda wc: ident_tables("fixed"),
+        paper=PAPER_FILE,
+        code=figure_code("fig7", "runner.py"),
+    output:
+        png=report(f"{RESULTS}/figures/fig7.png", caption="../report/fig7.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/fig7.pdf",
+    log:
+        log_file("fig7"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fig7.py"
+
+
+rule fig8_flexible_setup:
+    input:
+        rig=RIG_FILE,
+        paper=PAPER_FILE,
+        code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
+    output:
+        png=report(f"{RESULTS}/figures/fig8.png", caption="../report/fig8.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/fig8.pdf",
+    params:
+        rig=config["rig"],
+        rig_params=config["rig_params"],
+    log:
+        log_file("fig8"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fig8.py"
+
+
+rule fig9_base_motion:
+    input:
+        unpack(lambda wc: {f"c{c}_{g}": trial_file("flexible", c, g, *figure_pick("fig9"), key="figures.fig9")
+                           for c in (1, 2) for g in ("low", "high")}),
+        paper=PAPER_FILE,
+        code=figure_code("fig9", "archive.py", "identify.py"),
+    output:
+        png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/fig9.pdf",
+    log:
+        log_file("fig9"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fig9.py"

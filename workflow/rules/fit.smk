@@ -1,0 +1,29 @@
+# Virtual Rotor Inertia: lambda (eq 11, 15) per gain class of the paper (zero_low, high)
+# from the fixed-base trials of every configuration, with bootstrap intervals and the
+# identifiability findings (campaign.fit.LambdaFit).
+
+
+rule fit_lambda:
+    input:
+        tables=lambda wc: ident_tables("fixed", gains=fit_classes()[wc.gain_class]),
+        code=CODE_FIT,
+    output:
+        json=f"{RESULTS}/fit/lambda_{{gain_class}}.json",
+        pickle=f"{RESULTS}/fit/lambda_{{gain_class}}.pkl",
+    params:
+        gains=lambda wc: fit_classes()[wc.gain_class],
+        options=config["fit"],
+        seed=config["campaign_seed"],
+    wildcard_constraints:
+        gain_class="|".join(GAIN_CLASSES),
+    log:
+        log_file("fit_lambda", "{gain_class}"),
+    benchmark:
+        bench_file("fit_lambda", "{gain_class}")
+    resources:
+        runtime=10,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/fit_lambda.py"

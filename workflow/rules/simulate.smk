@@ -1,0 +1,42 @@
+# Simulation: one job per unit of the sweep (job_unit sweep: base x gain set; cell: base x
+# configuration x gain set), writing one trial file per speed x repeat (atomically, through
+# campaign.archive.write_trial). Absent when `simulate: false`: the trials then come from
+# `reuse_archive` as plain source files.
+#
+# A rerun is triggered by the rig or paper file (inputs) and by this unit's gain counts,
+# seed, speeds, repeats and rig overrides (params), so editing one gain set's counts reruns
+# only that gain set's jobs.
+
+if SIMULATE:
+    for _base in SWEEPS:
+
+        rule:
+            name:
+                f"simulate_{_base}"
+            input:
+                rig=RIG_FILE,
+                paper=PAPER_FILE,
+                code=CODE_SIMULATE,
+            output:
+                simulate_outputs(_base),
+            params:
+                cells=lambda wc, base=_base: [list(c) for c in unit_cells(base, wc)],
+                speeds=SWEEPS[_base]["speeds"],
+                repeats=SWEEPS[_base]["repeats"],
+                campaign_seed=config["campaign_seed"],
+                gain_counts=lambda wc: dict(config["gain_counts"].get(wc.gain, {})),
+                rig=config["rig"],
+                rig_params=config["rig_params"],
+                archive=lambda wc: ARCHIVE,
+            log:
+                log_file(f"simulate_{_base}", unit_name(_base)),
+            benchmark:
+                bench_file(f"simulate_{_base}", unit_name(_base))
+            threads: 1
+            resources:
+                runtime=20 if _base == "fixed" else 60,
+                mem_mb=1000,
+            conda:
+                "../envs/campaign.yaml"
+            script:
+                "../scripts/simulate.py"

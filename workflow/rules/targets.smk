@@ -1,0 +1,59 @@
+# Named targets. `snakemake` makes everything the configuration can make (rule all, in the
+# root Snakefile); `snakemake <product>` (fig4 ... fig9, table2 ... table4) makes one product
+# and runs only the jobs it needs (table2 alone runs no flexible-base trial; fig5 runs the
+# one job holding its trial); `trials` and `identification` stop after those stages.
+
+
+rule trials:
+    input:
+        all_trials(),
+
+
+rule identification:
+    input:
+        [t for base in SWEEPS for t in ident_tables(base)],
+
+
+rule fig4:
+    input:
+        requires("fig4"),
+
+
+rule fig5:
+    input:
+        lambda wc: requires("fig5"),
+
+
+rule fig6:
+    input:
+        lambda wc: requires("fig6"),
+
+
+rule fig7:
+    input:
+        lambda wc: requires("fig7"),
+
+
+rule fig8:
+    input:
+        requires("fig8"),
+
+
+rule fig9:
+    input:
+        lambda wc: requires("fig9"),
+
+
+rule table2:
+    input:
+        lambda wc: requires("table2"),
+
+
+rule table3:
+    input:
+        lambda wc: requires("table3"),
+
+
+rule table4:
+    input:
+        lambda wc: requires("table4"),

@@ -1,0 +1,9 @@
+"""Snakemake script of rule fig4_arm_configurations: Figure 4 from the robot model."""
+
+from campaign import runner
+
+with runner.job_log(snakemake.log[0], job="fig4") as timer:  # noqa: F821
+    with timer("imports"):
+        from campaign.figures import fig4
+    with timer("figure"):
+        print(fig4.make(snakemake.output.png, snakemake.output.pdf))  # noqa: F821

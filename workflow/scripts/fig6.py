@@ -1,0 +1,9 @@
+"""Snakemake script of rule fig6_effective_mass: Figure 6 from the fixed-base identification."""
+
+from campaign import runner
+
+with runner.job_log(snakemake.log[0], job="fig6") as timer:  # noqa: F821
+    with timer("imports"):
+        from campaign.figures import fig6
+    with timer("figure"):
+        print(fig6.make(list(snakemake.input.tables), snakemake.output.png, snakemake.output.pdf))  # noqa: F821

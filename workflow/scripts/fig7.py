@@ -1,0 +1,9 @@
+"""Snakemake script of rule fig7_restitution: Figure 7 from the fixed-base identification."""
+
+from campaign import runner
+
+with runner.job_log(snakemake.log[0], job="fig7") as timer:  # noqa: F821
+    with timer("imports"):
+        from campaign.figures import fig7
+    with timer("figure"):
+        print(fig7.make(list(snakemake.input.tables), snakemake.output.png, snakemake.output.pdf))  # noqa: F821

@@ -1,0 +1,11 @@
+"""Snakemake script of rule finalize_archive: index, README and manifest of the campaign's archive."""
+
+from campaign import runner
+
+with runner.job_log(snakemake.log[0], job="finalize_archive") as timer:  # noqa: F821
+    with timer("imports"):
+        from campaign.archive import finalize_campaign
+    with timer("finalize"):
+        written = finalize_campaign(snakemake.params.archive)  # noqa: F821
+    for kind, path in written.items():
+        print(f"wrote {kind}: {path}")

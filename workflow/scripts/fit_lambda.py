@@ -1,0 +1,8 @@
+"""Snakemake script of rule fit_lambda: lambda of one gain class from the fixed-base identification."""
+
+from campaign import runner
+
+with runner.job_log(snakemake.log[0], job=f"fit_lambda {snakemake.wildcards.gain_class}") as timer:  # noqa: F821
+    runner.fit_lambda(list(snakemake.input.tables), snakemake.output.json, snakemake.output.pickle,  # noqa: F821
+                      gain_class=snakemake.wildcards.gain_class, gains=snakemake.params.gains,  # noqa: F821
+                      options=snakemake.params.options, seed=snakemake.params.seed, timer=timer)  # noqa: F821

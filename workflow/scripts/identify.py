@@ -1,0 +1,7 @@
+"""Snakemake script of the identify_<base> rules: m* and e of one job unit's trials, one CSV row each."""
+
+from campaign import runner
+
+with runner.job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}") as timer:  # noqa: F821
+    runner.identify_trials(list(snakemake.input.trials), snakemake.output[0],  # noqa: F821
+                           options=snakemake.params.options, timer=timer)  # noqa: F821

@@ -1,0 +1,18 @@
+"""Snakemake script of the table rules: Table 2, 3 or 4 (campaign.tables) as CSV and Markdown.
+
+The table is named by the rule (``table2_...``); Tables 3-4 read the lambda fits of the
+gain classes in ``params.classes`` (named inputs), Tables 2 and 4 the identification tables
+in ``input.tables``.
+"""
+
+from campaign import runner
+
+name = snakemake.rule.split("_")[0]  # noqa: F821
+with runner.job_log(snakemake.log[0], job=name) as timer:  # noqa: F821
+    classes = getattr(snakemake.params, "classes", [])  # noqa: F821
+    runner.make_table(
+        name, snakemake.output.csv, snakemake.output.md,  # noqa: F821
+        ident_tables=list(getattr(snakemake.input, "tables", [])),  # noqa: F821
+        fits={k: snakemake.input[k] for k in classes},  # noqa: F821
+        timer=timer,
+    )
