@@ -45,6 +45,7 @@ Everything is integrated on a 50 kHz grid (trapezoid), the pendulum by ``solve_i
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 
 import numpy as np
@@ -58,7 +59,7 @@ from campaign.paper import configuration_q
 from campaign.robot import load_robot
 from campaign.robot.floating import BaseBody, attach_to_floating_base
 
-__all__ = ["Spec", "SyntheticTrial", "make_trial", "write_trial", "DECAYS"]
+__all__ = ["Spec", "SyntheticTrial", "make_trial", "cached_trial", "write_trial", "DECAYS"]
 
 DECAYS = ("none", "exponential", "viscous", "coulomb", "servo")
 _FINE_DT = 2e-5  # s, integration grid (50 kHz)
@@ -90,7 +91,7 @@ class Spec:
     base_rate: float = 1000.0
     pre_contact: float = 0.2
     jitter: float = 0.02
-    post_contact: float = 0.4
+    post_contact: float = 0.25
     encoder_noise_counts: float = 0.3
     quantize: bool = True
     pendulum_counts: int = 65536
@@ -140,10 +141,16 @@ def _pulse(spec: Spec, t_s: float, P: float):
     return force
 
 
+@functools.lru_cache(maxsize=64)
+def _discrete(num: tuple, den: tuple, dt: float):
+    b, a, _ = cont2discrete((list(num), list(den)), dt, method="zoh")
+    return np.ravel(b), np.asarray(a)
+
+
 def _filter(num, den, u, dt):
     """Response of a continuous transfer function to the sampled input ``u`` (ZOH)."""
-    b, a, _ = cont2discrete((num, den), dt, method="zoh")
-    return lfilter(np.ravel(b), a, u)
+    b, a = _discrete(tuple(float(x) for x in num), tuple(float(x) for x in den), float(dt))
+    return lfilter(b, a, u)
 
 
 def _joint_velocity(spec, w, t, f, I, t_e, q_dev_gain):
@@ -190,11 +197,23 @@ def _rotvec_to_R(r):
     return pin.exp3(np.asarray(r, float))
 
 
+@functools.lru_cache(maxsize=32)
+def _robot(name: str):
+    return load_robot(name)
+
+
+@functools.lru_cache(maxsize=32)
+def _scene(base: str, config: int, gain: str):
+    from campaign.scene import make_scene
+
+    return make_scene(base=base, config=config, gain=gain)
+
+
 def make_trial(spec: Spec | None = None, **kw) -> SyntheticTrial:
     """Simulate one synthetic trial; keyword arguments override fields of ``spec``."""
     spec = dataclasses.replace(spec or Spec(), **kw)
     rng = np.random.default_rng(spec.seed)
-    robot = load_robot(spec.robot)
+    robot = _robot(spec.robot)
     nv = robot.nv
     q0 = np.asarray(spec.q_cmd if spec.q_cmd is not None else configuration_q(spec.config), float)
     n = unit_direction(spec.n)
@@ -385,10 +404,8 @@ def make_trial(spec: Spec | None = None, **kw) -> SyntheticTrial:
             truth_vars[name] = (("t_truth", "axis"), np.column_stack([np.interp(tt, t, cols[:, k]) for k in range(3)]))
     truth_ds = xr.Dataset(truth_vars, coords={"t_truth": tt, "joint": list(joints),
                                               **({"axis": list(axis)} if flexible else {})})
-    from campaign.scene import make_scene
-
-    scene = make_scene(base=spec.base, config=spec.config if spec.q_cmd is None else 1, gain=spec.gain,
-                       speed=float(spec.speed), repeat=int(spec.repeat), seed=int(spec.seed))
+    scene = _scene(spec.base, spec.config if spec.q_cmd is None else 1, spec.gain).replace(
+        speed=float(spec.speed), repeat=int(spec.repeat), seed=int(spec.seed))
     attrs = {
         "scene_json": scene.to_json(), "scene_sha256": scene.sha256,
         "seed": int(scene.seed), "base": scene.base, "config": int(scene.config), "gain": scene.gain,
@@ -398,6 +415,17 @@ def make_trial(spec: Spec | None = None, **kw) -> SyntheticTrial:
     }
     tree = xr.DataTree.from_dict({"/": xr.Dataset(attrs=attrs), "/measured": meas, "/truth": truth_ds})
     return SyntheticTrial(tree=tree, truth=truth)
+
+
+@functools.lru_cache(maxsize=512)
+def _cached(spec: Spec) -> SyntheticTrial:
+    return make_trial(spec)
+
+
+def cached_trial(**kw) -> SyntheticTrial:
+    """:func:`make_trial` memoised on its parameters (shared by the test modules of one
+    session); treat the result as read-only (``.copy()`` before changing it)."""
+    return _cached(dataclasses.replace(Spec(), **kw))
 
 
 def write_trial(trial: SyntheticTrial, path):

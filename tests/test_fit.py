@@ -1,0 +1,127 @@
+"""Lambda fit (campaign.fit.LambdaFit): recovery, confidence intervals, identifiability."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from campaign.errors import InputError
+from campaign.exiit import effective_mass_batch
+from campaign.fit import IdentifiabilityWarning, LambdaFit, design_arrays, sensitivity_matrix
+from campaign.identify import identify_trial
+from campaign.paper import configuration_q, impact_direction, load_paper
+
+from synthetic_impact import cached_trial
+
+LAM = np.array(load_paper()["table3"]["zero_low"])  # paper Table 3 [kg m^2]
+
+
+@pytest.fixture(scope="module")
+def Q3():
+    return np.array([configuration_q(c) for c in (1, 2, 3)])
+
+
+def test_paper_design_sensitivity(puma, Q3):
+    """With the paper's configurations and n = -x, lambda_3 dominates d ln m*/d ln lambda
+    by more than an order of magnitude and the matrix is badly conditioned."""
+    H, Jn = design_arrays(puma, Q3, impact_direction())
+    S = sensitivity_matrix(H, Jn, LAM)
+    assert S[:, 2].min() > 10 * max(S[:, 0].max(), S[:, 1].max())
+    assert np.linalg.cond(S) > 100
+    # against a finite difference of eq 11
+    h = 1e-6
+    for j in range(3):
+        lp = LAM.copy()
+        lp[j] *= 1 + h
+        fd = (np.log(effective_mass_batch(puma, Q3, lam=lp)) - np.log(effective_mass_batch(puma, Q3, lam=LAM))) / np.log1p(h)
+        np.testing.assert_allclose(S[:, j], fd, rtol=1e-4, atol=1e-9)
+
+
+def test_recovery_and_honest_warnings_on_the_paper_design(puma, Q3):
+    """Noisy eq-11 masses at the paper's three configurations: lambda_3 within 5 %, every
+    CI covers the truth, lambda_1 and lambda_2 flagged as not identifiable."""
+    rng = np.random.default_rng(1)
+    Q = np.repeat(Q3, 10, axis=0)
+    m = effective_mass_batch(puma, Q, lam=LAM) * np.exp(rng.normal(0, 0.01, Q.shape[0]))
+    with pytest.warns(IdentifiabilityWarning):
+        f = LambdaFit(puma, n_bootstrap=100, random_state=0).fit(Q, m)
+    assert f.lambda_[2] == pytest.approx(LAM[2], rel=0.05)
+    assert np.all((f.lambda_ci_[0] <= LAM) & (LAM <= f.lambda_ci_[1])), f.lambda_ci_
+    assert list(f.identifiable_) == [False, False, True]
+    assert f.condition_number_ > 100
+    assert f.n_trials_ == 30 and f.sensitivity_.shape == (3, 3) and f.residuals_.shape == (30,)
+    assert any("lambda_1" in w for w in f.warnings_) and any("lambda_2" in w for w in f.warnings_)
+    np.testing.assert_allclose(f.predict(Q3), effective_mass_batch(puma, Q3, lam=LAM), rtol=0.02)
+
+
+def test_well_posed_design_recovers_every_component(puma):
+    """Configurations that rotate the arm about joint 1 and bend joints 2-3 make every
+    component identifiable: all within 3 %, no warning."""
+    rng = np.random.default_rng(2)
+    Q = np.column_stack([rng.uniform(-1.2, 1.2, 40), rng.uniform(2.0, 3.0, 40), rng.uniform(-0.9, 0.7, 40)])
+    m = effective_mass_batch(puma, Q, lam=LAM) * np.exp(rng.normal(0, 0.003, 40))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", IdentifiabilityWarning)
+        f = LambdaFit(puma, n_bootstrap=40, random_state=0).fit(Q, m)
+    np.testing.assert_allclose(f.lambda_, LAM, rtol=0.03)
+    assert f.identifiable_.all()
+
+
+def test_full_structure_is_symmetric_psd(puma):
+    rng = np.random.default_rng(3)
+    Q = np.column_stack([rng.uniform(-1.2, 1.2, 40), rng.uniform(2.0, 3.0, 40), rng.uniform(-0.9, 0.7, 40)])
+    true = np.array([[20.0, 1.0, 0.0], [1.0, 5.0, 0.3], [0.0, 0.3, 0.8]])
+    m = effective_mass_batch(puma, Q, lam=true)
+    f = LambdaFit(puma, structure="full", n_bootstrap=0, warn=False).fit(Q, m)
+    assert f.lambda_.shape == (3, 3)
+    np.testing.assert_allclose(f.lambda_, f.lambda_.T)
+    assert np.linalg.eigvalsh(f.lambda_).min() >= -1e-9
+    np.testing.assert_allclose(f.predict(Q), m, rtol=1e-3)
+
+
+def test_lambda_recovery_from_identified_synthetic_trials(puma, Q3):
+    """End to end: trials simulated with a known lambda as extra armature (no friction or
+    servo), identified from their measured channels, fitted: lambda_3 within 5 %, CIs
+    cover all three true values, eq 11 with the fitted lambda predicts every cell's mean
+    identified m* within 5 %."""
+    Q, m, cells = [], [], {}
+    seed = 300
+    for config in (1, 2, 3):
+        for speed in (1.2, 1.8, 2.4):
+            for repeat in range(2):
+                seed += 1
+                tr = cached_trial(config=config, speed=speed, decay="none", lam=tuple(LAM), seed=seed, repeat=repeat)
+                r = identify_trial(tr.measured, robot=puma)
+                assert not r.excluded, r.reason
+                Q.append(r.q_cmd)
+                m.append(r.m_eff)
+                cells.setdefault(config, []).append(r.m_eff)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", IdentifiabilityWarning)
+        f = LambdaFit(puma, n_bootstrap=60, random_state=0).fit(np.array(Q), np.array(m))
+    assert f.lambda_[2] == pytest.approx(LAM[2], rel=0.05)
+    assert np.all((f.lambda_ci_[0] <= LAM) & (LAM <= f.lambda_ci_[1])), (f.lambda_, f.lambda_ci_)
+    pred = f.predict(Q3)
+    for k, config in enumerate((1, 2, 3)):
+        assert pred[k] == pytest.approx(np.mean(cells[config]), rel=0.05)
+
+
+def test_bad_input_is_named(puma, Q3):
+    with pytest.raises(InputError, match="m_eff"):
+        LambdaFit(puma, n_bootstrap=0).fit(Q3, [1.0, -2.0, 3.0])
+    with pytest.raises(InputError, match="shape"):
+        LambdaFit(puma, n_bootstrap=0).fit(Q3[:, :2], [1.0, 2.0, 3.0])
+    with pytest.raises(InputError, match="structure"):
+        LambdaFit(puma, structure="banded").fit(Q3, [1.0, 2.0, 3.0])
+    with pytest.raises(InputError, match="not fitted"):
+        LambdaFit(puma).predict(Q3)
+
+
+def test_sklearn_protocol(puma):
+    f = LambdaFit(puma, n_bootstrap=5)
+    assert f.get_params()["n_bootstrap"] == 5
+    assert f.set_params(n_bootstrap=7) is f and f.n_bootstrap == 7
+    with pytest.raises(InputError):
+        f.set_params(alpha=1)
