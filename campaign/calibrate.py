@@ -251,8 +251,10 @@ def write_back(result: CalibrationResult, rig: str | Path | None = None) -> Path
         "values": {k: float(f"{v:.6g}") for k, v in result.params_.items()},
         "summary": json.loads(json.dumps(result.summary_, default=float)),
     }
+    import yaml
+    body = yaml.safe_dump(stamp, sort_keys=True, default_flow_style=False, width=100)
     block = "calibration:  # written by `campaign calibrate`; reproduce with that one command\n" + \
-        "\n".join("  " + line for line in json.dumps(stamp, indent=1, sort_keys=True).splitlines()[1:-1]) + "\n"
+        "".join("  " + line + "\n" for line in body.splitlines())
     text = re.sub(r"(?ms)^calibration:.*?(?=^\S|\Z)", "", text).rstrip("\n") + "\n\n" + block
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".rig.", suffix=".tmp")
     with os.fdopen(fd, "w") as fh:
