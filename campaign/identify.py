@@ -8,56 +8,63 @@ real VES-II allows (paper section 3, design brief section 5):
    the threshold is ``max(k_sigma * sigma, force_floor, force_floor_rel * peak)``
    (default 8 sigma, 0.5 N, 2 % of the peak). Runs above the threshold closer than
    ``merge_gap`` (2 ms) are one contact. Each edge is refined by a straight line fitted to
-   the edge samples between the threshold and ``edge_fit_level`` times it (4x), and
-   extrapolated to zero force: on a 10 kHz record of a 30-50 ms contact that places the
-   edges within a few microseconds of the true start and end, where a threshold
-   crossing alone is late by 0.1-0.5 ms. The impulse is the trapezoid integral of the
-   baseline-corrected force over the refined interval (edge triangles included).
-2. **Hammer velocities** ``v_b``, ``v'_b`` from the pendulum encoder: a quadratic in time
-   fitted to ``theta`` on a one-sided window of ``pendulum_window`` (30 ms) just before the
-   contact start (just after the contact end), ``pendulum_guard`` (1 ms) away from the
-   edge, evaluated at the edge; ``v = r theta' cos(theta)`` (the schema's hammer velocity
-   along n). The free pendulum is smooth on both sides, so a one-sided fit is unbiased;
-   on a 1 kHz, 16-bit encoder it resolves v_b to about 0.05 %.
-3. **Arm tip velocities** ``v_a``, ``v'_a`` from the joint encoders: the impact point's
+   the edge samples between the threshold and ``edge_fit_level`` (4x) times it,
+   extrapolated to zero force (a threshold crossing alone is late by 0.1-0.5 ms). The
+   impulse is the trapezoid integral of the baseline-corrected force over the refined
+   interval (edge triangles included).
+2. **Hammer velocities** ``v_b``, ``v'_b`` from the pendulum encoder: a cubic in time
+   fitted to ``theta`` on a one-sided window of ``pendulum_window`` (50 ms) ending
+   (starting) ``pendulum_guard`` (1 ms) before the contact start (after its end),
+   evaluated at the edge; ``v = r theta' cos(theta)`` (the schema's hammer velocity along
+   n). The free pendulum is smooth on either side, so a one-sided fit is unbiased. Window
+   choice (synthetic, 16-bit encoder at 1 kHz, 1.0-2.5 m/s): a quadratic on 30 ms is
+   biased by the pendulum's jerk near the bottom (0.2-0.3 % on v_b); cubic on 50 ms:
+   median error 0.08 %, worst 0.6 % (the slow rebound at 1 m/s, a quantisation limit).
+3. **Arm tip velocities** ``v_a``, ``v'_a`` from the joint encoders. The impact point's
    position along n, ``s(t) = n . p(q(t))`` (forward kinematics of each sample), is fitted
-   by one linear least-squares model over a pre-contact window (``joint_pre_window``,
-   0.2 s) and a post-contact window (through ``joint_post_window``, 0.1 s, after the
-   contact end)::
+   over a pre-contact window (``joint_pre_window``, 0.2 s) and a post-contact window
+   ``max(joint_post_window_min, joint_post_samples / rate)`` (0.1 s = 5 samples at 50 Hz;
+   20 ms at 1 kHz) with one model (``arm_model="lti"``, the default)::
 
-       s(t) = s_s + v_a u + dv Phi(t) + beta_1 u+^2/2 + ... + beta_k u+^(k+1)/(k+1)!
+       s(t) = s_s + v_a u + w y_f(t) + c y_1(t),      u = t - t_s,
 
-   with ``u = t - t_s``, ``u+ = max(u, 0)`` and ``Phi(t) = int_{t_s}^t I(x)/I(t_e) dx`` the
-   time integral of the normalised accumulated piezo impulse. The model says what eq 5
-   says: during the contact the joint velocity follows the accumulated impulse (the
-   ``dv Phi`` term, shaped by the measured force), while the joint resistance (friction,
-   servo, gravity compensation: the source of lambda) decelerates the tip smoothly from
-   the contact start on (the polynomial, order ``resistance_order`` = 2); the resistance
-   is a function of the joint state, so it is continuous across the contact end. Then
-   ``v'_a = v_a + dv + beta_1 T + beta_2 T^2/2`` with ``T = t_e - t_s``. Anchoring the
-   post-contact motion to the well-determined pre-contact position through the measured
-   force shape is what makes 20 ms samples usable: with 0-3 samples inside the contact,
-   a free one-sided fit after the contact (``arm_model="onesided"``, kept for
-   comparison) has to extrapolate a decaying motion back to t_e and is several times
-   less accurate (see the accuracy notes below); a central difference across the impact
-   is simply wrong.
+   where ``y_f`` is the response of the joint-resistance law ``y'' + a1 y' + a0 y = input``
+   to the measured contact force normalised to unit impulse, and ``y_1`` its response to
+   a unit step from the contact start (Coulomb friction); ``a1, a0 >= 0`` (viscous /
+   servo damping and stiffness) by bounded nonlinear least squares, ``s_s, v_a, w, c`` by
+   linear least squares inside it (variable projection). Then
+   ``v'_a = v_a + w y_f'(t_e) + c y_1'(t_e)``. This is eq 1 for the tip: the contact force
+   drives the arm (the velocity follows the accumulated impulse, with the measured pulse
+   shape), while the joint resistance -- friction, servo, gravity compensation, the source
+   of lambda -- acts from the contact start on, continuously across the contact end
+   (it depends on the joint state, not on the contact). Anchoring the post-contact samples
+   to the well-determined pre-contact position through the measured force shape is what
+   makes 20 ms samples usable (the contact holds 0-3 of them); a central difference
+   across the impact is simply wrong (tests show it off by > 15 %).
+   Alternatives kept for comparison (``arm_model``): ``poly`` (the force-shaped term plus
+   a polynomial deceleration of order ``resistance_order`` from the contact start) and
+   ``onesided`` (independent polynomial fits before the start and after the end,
+   extrapolated to the edges). Measured on the rig (72 default trials, 50 Hz), the
+   worst m* errors were: lti 2.4 % / 6.8 % / 10.9 % (Zero / Low / High gains), poly
+   4.4 % / 5.7 % / 22 %; on synthetic trials the one-sided fits reach 10-20 % on
+   decaying motions and fail on servo-like ones.
    On a flexible base the tip's inertial velocity is the base point's plus the arm's:
-   the base (platform) pose channels (1 kHz) give ``n . (p_b + R r0)`` (``r0`` the tip at
-   ``q_cmd``), fitted one-sided like the pendulum (``base_window``, 20 ms, quadratic), and
-   the arm part ``n . R (p(q) - r0)`` uses the model above.
+   the platform pose channels (1 kHz; the emulated base channels when the platform ones
+   are absent) give ``n . (p_b + R r0)`` (``r0`` the tip at ``q_cmd`` in the base frame,
+   mount included, :func:`base_geometry`), fitted one-sided (``base_window``, 20 ms,
+   quadratic), and the arm part ``n . R (p(q) - p(q_cmd))`` uses the model above.
 4. ``m* = m_b (v_b - v'_b) / (v'_a - v_a)`` (eq 10), ``e = (v'_a - v'_b) / (v_b - v_a)``
    (eq 12), and the piezo impulse beside ``m_b (v_b - v'_b)`` as a cross-check.
 
 A trial that cannot give a trustworthy m* -- no contact in the force channel, more than
 one contact (a rebound), a saturated piezo, a contact not fully inside the record, too
-few samples before or after the contact, a tip that does not move along n -- is returned
-with ``excluded=True`` and the reason; the fits never average it in. A file that is not a
-trial, or a trial without a required channel, raises :class:`~campaign.errors.TrialFileError`
-(files) or :class:`~campaign.errors.InputError` (datasets) naming it.
+few samples before or after the contact, a tip that does not move measurably along n --
+is returned with ``excluded=True`` and the reason; the fits never average it in. A file
+that is not a trial, or a trial without a required channel, raises
+:class:`~campaign.errors.TrialFileError` (files) or :class:`~campaign.errors.InputError`
+(datasets) naming it.
 
-Measured accuracy (synthetic trials of ``tests/synthetic_impact.py``, the sweep in the
-report of issue 6; PUMA 560, configurations 1-3, 1.0-2.5 m/s, random contact phase,
-encoder quantisation and noise as in ``config/rig.yaml``): see :data:`ACCURACY_NOTE`.
+Measured accuracy against the simulator truth: :data:`ACCURACY_NOTE`.
 """
 
 from __future__ import annotations
@@ -110,10 +117,27 @@ BASE_POSE_CHANNELS = (("platform_position", "platform_rotation"), ("base_positio
 ARM_MODELS = ("lti", "poly", "onesided")
 
 ACCURACY_NOTE = """\
-Relative error of m* and e against the simulator truth over a sweep of 3 configurations x
-4 speeds (1.0-2.5 m/s) x 5 decay laws (none, exponential, viscous, Coulomb, servo) x random
-contact phases; see the issue-6 report for the full distributions. Method chosen:
-arm_model="impulse", resistance_order=2."""
+|relative error| of m* (eq 10) and e (eq 12) against eq 10/12 on the simulator's true edge
+velocities, default options, campaign.rig (config/rig.yaml of commit bde356f), configurations
+1-3 x 1.0/1.5/2.0/2.5 m/s x 2 repeats per gain (random contact phase, encoder noise and
+quantisation), median / 90th percentile / worst:
+
+  joint encoders at 50 Hz (the paper's 20 ms):
+    Zero  m* 0.49 / 1.3 / 2.4 %    e 0.12 / 0.40 / 0.57 %
+    Low   m* 0.57 / 1.5 / 6.8 %    e 0.09 / 0.37 / 0.77 %
+    High  m* 5.3  / 8.6 / 10.9 %   e 0.25 / 0.59 / 0.85 %   (biased: signed mean +5.2 %)
+  joint encoders at 1 kHz:
+    Zero  m* 0.45 / 1.2 / 2.8 %    Low m* 0.45 / 1.2 / 1.5 %    High m* 2.5 / 5.0 / 5.2 %
+    e within 0.8 % everywhere
+  ideal scene (no gravity, friction, servo, noise; stiff contact): m*, e < 0.005 %
+  contact edges: start within 0.07 ms, end within 0.74 ms (the rig's truth ends the contact
+  at geometric separation, which the force, clipped at zero before it, cannot show);
+  piezo impulse within 0.06 %; v_b within 0.17 %, v'_b within 0.83 %.
+
+The largest errors at Zero/Low gains are resolution limits (stretched configuration 2 at
+1 m/s: the tip moves a few encoder steps per 20 ms sample); at High gains the servo
+reverses the tip within 10-20 ms of the contact end, which a single second-order
+resistance law with a Coulomb step follows only approximately."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -138,16 +162,17 @@ class IdentifyOptions:
         Degree of the polynomial fitted to the pendulum angle.
     joint_pre_window : float
         Joint samples up to this long before the contact start enter the fit [s].
-    joint_post_window : float
-        Joint samples up to this long after the contact end enter the fit [s].
+    joint_post_samples, joint_post_window_min : int, float
+        Joint samples up to ``max(joint_post_window_min, joint_post_samples / rate)`` after
+        the contact end enter the fit (:meth:`post_window`) [s].
     min_pre_samples, min_post_samples : int
         Fewer joint samples than this before the start / after the end -> excluded.
     resistance_order : int
-        Order of the polynomial joint-resistance deceleration (0 = none).
-    arm_model : {"impulse", "onesided"}
-        ``impulse``: the impulse-anchored model of the module docstring; ``onesided``:
-        independent polynomial fits before the start (linear) and after the end (degree
-        ``resistance_order + 1``), each evaluated at its edge (for comparison).
+        Order of the polynomial resistance deceleration (``poly``; the ``onesided`` fit
+        after the contact has degree ``resistance_order + 1``).
+    arm_model : {"lti", "poly", "onesided"}
+        The tip-velocity model of the module docstring (``lti`` default; the others for
+        comparison).
     base_window : float
         One-sided base-pose window (flexible base) [s].
     min_tip_counts : float
