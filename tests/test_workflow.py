@@ -1,0 +1,327 @@
+"""End-to-end tests of the Snakemake workflow: the reduced campaign (config/ci.yaml) runs
+through Snakemake in a temporary directory and its tables hold physically sensible numbers.
+
+Also: ``snakemake --lint`` has no findings, a bad configuration stops with a message naming
+the key, a rerun has nothing to do, editing one gain set reruns only what depends on it, a
+target runs only the jobs it needs, an archive is re-analysed without simulating, and a run
+killed mid-way completes on the rerun with an intact archive.
+
+Nothing is written into the repository: every run uses ``--directory <tmp>`` with the
+repository's Snakefile (whose ``profiles/default`` Snakemake picks up by itself).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from campaign import runner
+
+pytestmark = pytest.mark.slow
+
+REPO = Path(__file__).resolve().parents[1]
+SNAKEFILE = REPO / "Snakefile"
+CI_CONFIG = REPO / "config" / "ci.yaml"
+SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
+TIMEOUT = 900
+
+
+def snakemake(workdir: Path, *args: str, config: Path | None = CI_CONFIG, check: bool = True,
+              timeout: float = TIMEOUT) -> subprocess.CompletedProcess:
+    """Run the repository's workflow in ``workdir`` (targets first, then the options)."""
+    cmd = [SNAKEMAKE, "-s", str(SNAKEFILE), "--directory", str(workdir), *args]
+    if config is not None:
+        cmd += ["--configfile", str(config)]
+    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout)
+    if check and proc.returncode != 0:
+        raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n"
+                             f"{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}")
+    return proc
+
+
+def planned_jobs(output: str) -> list[tuple[str, dict]]:
+    """(rule, wildcards) of every job a dry run lists."""
+    jobs = []
+    for block in re.split(r"\n(?=(?:local)?rule \w+:\n)", "\n" + output):
+        m = re.match(r"\n?(?:local)?rule (\w+):\n", block)
+        if not m:
+            continue
+        wc = re.search(r"^\s+wildcards: (.*)$", block, re.M)
+        wildcards = dict(kv.split("=", 1) for kv in wc.group(1).split(", ")) if wc else {}
+        jobs.append((m.group(1), wildcards))
+    return jobs
+
+
+def write_config(path: Path, **changes) -> Path:
+    """config/ci.yaml with top-level keys replaced."""
+    cfg = yaml.safe_load(CI_CONFIG.read_text())
+    cfg.update(changes)
+    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return path
+
+
+def read_csv(path: Path) -> list[dict]:
+    with open(path, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def num(value: str) -> float:
+    return float(value) if value not in ("", None) else math.nan
+
+
+# ------------------------------------------------------------------------------------------
+# the reduced campaign, run once for the module
+# ------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def ci_run(tmp_path_factory) -> Path:
+    work = tmp_path_factory.mktemp("ci_campaign")
+    t0 = time.perf_counter()
+    snakemake(work)
+    print(f"reduced campaign: {time.perf_counter() - t0:.1f} s")
+    return work
+
+
+def test_reduced_campaign_makes_every_product(ci_run):
+    results = ci_run / "results" / "ci"
+    for n in range(4, 10):
+        png, pdf = results / "figures" / f"fig{n}.png", results / "figures" / f"fig{n}.pdf"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
+        assert pdf.read_bytes()[:5] == b"%PDF-", pdf
+        assert png.stat().st_size > 20_000, f"{png} is suspiciously small"
+    for t in (2, 3, 4):
+        assert (results / "tables" / f"table{t}.md").read_text().startswith(f"### Table {t}")
+    for log in (results / "logs").rglob("*.log"):
+        assert "TIMING" in log.read_text(), f"{log} has no TIMING line (job did not finish cleanly)"
+
+
+def test_identification_is_physical(ci_run):
+    rows = runner.read_identification(sorted((ci_run / "results" / "ci" / "identify").rglob("*.csv")))
+    assert len(rows) == 18 + 8  # ci.yaml: fixed 3 configs x 3 gains x 2 speeds; flexible 2 x 2 x 2
+    used = [r for r in rows if not r["excluded"]]
+    assert len(used) >= 0.9 * len(rows), [r["reason"] for r in rows if r["excluded"]]
+    for r in used:
+        assert 0.0 < r["e"] < 1.0, r
+        assert math.isfinite(r["m_eff"]) and r["m_eff"] > 0.0, r
+        assert r["v_b"] > 0.0 and r["v_b_post"] < r["v_b"], r  # the hammer slows down along n
+
+
+def test_table2_bounds(ci_run):
+    rows = read_csv(ci_run / "results" / "ci" / "tables" / "table2.csv")
+    assert [int(r["config"]) for r in rows] == [1, 2, 3]
+    for r in rows:
+        m1, m2, m3 = num(r["m1"]), num(r["m2"]), num(r["m3"])
+        assert all(math.isfinite(x) and x > 0 for x in (m1, m2, m3)), r
+        # joint friction adds to the link dynamics, the high-gain servo adds more (paper, Table 2)
+        assert m2 > m1 and m3 > m2, r
+        # the model's lambda = 0 effective mass reproduces the paper's m1 within 2 %
+        assert abs(num(r["m1"]) / num(r["m1_paper"]) - 1.0) < 0.02, r
+    by_config = {int(r["config"]): num(r["m2"]) for r in rows}
+    assert by_config[3] < by_config[1] < by_config[2]  # folded < intermediate < stretched
+
+
+def test_table3_bounds(ci_run):
+    rows = read_csv(ci_run / "results" / "ci" / "tables" / "table3.csv")
+    assert [r["component"] for r in rows] == ["lambda_1", "lambda_2", "lambda_3"]
+    for r in rows:
+        for cls in ("zero_low", "high"):
+            lam = num(r[cls])
+            assert math.isfinite(lam) and lam >= 0.0, r
+    lam3 = {cls: num(rows[2][cls]) for cls in ("zero_low", "high")}
+    assert rows[2]["zero_low_identifiable"] == "yes" and rows[2]["high_identifiable"] == "yes"
+    assert 0.0 < lam3["zero_low"] < lam3["high"]  # the servo raises the Virtual Rotor Inertia
+
+
+def test_table4_bounds(ci_run):
+    rows = read_csv(ci_run / "results" / "ci" / "tables" / "table4.csv")
+    cells = {(int(r["config"]), r["gain"]): r for r in rows}
+    assert set(cells) == {(1, "low"), (1, "high"), (2, "low"), (2, "high")}
+    for r in rows:
+        pred, ident = num(r["predicted"]), num(r["identified"])
+        assert math.isfinite(pred) and pred > 0 and math.isfinite(ident) and ident > 0, r
+        assert abs(pred / ident - 1.0) < 0.5, r  # eq 8 with the fitted lambda predicts the flexible m*
+    for c in (1, 2):
+        assert num(cells[(c, "high")]["identified"]) > num(cells[(c, "low")]["identified"])
+
+
+def test_archive_is_finalized_and_intact(ci_run):
+    from campaign.archive import verify
+
+    archive = ci_run / "archive" / "ci"
+    assert verify(archive) == []
+    assert len(read_csv(archive / "index.csv")) == 26
+
+
+def test_rerun_has_nothing_to_do(ci_run):
+    out = snakemake(ci_run, "-n")
+    assert "Nothing to be done" in out.stdout + out.stderr
+
+
+def test_report_builds(ci_run):
+    report = ci_run / "results" / "ci" / "report.html"
+    snakemake(ci_run, "--report", str(report))
+    text = report.read_text(errors="replace")
+    assert report.stat().st_size > 100_000 and "Table 2" in text and "Figure 9" in text
+
+
+def test_editing_one_gain_reruns_only_its_dependents(ci_run, tmp_path):
+    edited = write_config(tmp_path / "edited.yaml", gain_counts={"high": {"P": 400000}})
+    out = snakemake(ci_run, "-n", config=edited)
+    jobs = planned_jobs(out.stdout + out.stderr)
+    sims = sorted((rule, wc["gain"]) for rule, wc in jobs if rule.startswith(("simulate", "identify")))
+    assert sims == [("identify_fixed", "high"), ("identify_flexible", "high"),
+                    ("simulate_fixed", "high"), ("simulate_flexible", "high")], jobs
+    rules = {rule for rule, _ in jobs}
+    assert {("fit_lambda", "high")} == {(r, wc["gain_class"]) for r, wc in jobs if r == "fit_lambda"}
+    # products that do not depend on the high gains stay as they are
+    assert not rules & {"fig4_arm_configurations", "fig5_joint3_motion", "fig8_flexible_setup"}, rules
+    assert {"table2_effective_mass", "table3_virtual_rotor_inertia", "table4_flexible_effective_mass",
+            "fig6_effective_mass", "fig7_restitution", "fig9_base_motion"} <= rules
+
+
+def test_reuse_reanalyses_an_archive_without_simulating(ci_run, tmp_path):
+    reuse = write_config(tmp_path / "reuse.yaml", campaign="ci-reuse", simulate=False,
+                         reuse_archive=str(ci_run / "archive" / "ci"))
+    out = snakemake(tmp_path, "-n", config=reuse)
+    dry = planned_jobs(out.stdout + out.stderr)
+    rules = {rule for rule, _ in dry}
+    assert not any(r.startswith("simulate") or r == "finalize_archive" for r in rules), rules
+    assert "verify_archive" in rules and "table4_flexible_effective_mass" in rules
+    snakemake(tmp_path, "table2", "results/ci-reuse/archive_verify.txt", config=reuse)
+    assert not (tmp_path / "archive").exists()  # nothing simulated, nothing archived
+    ours = read_csv(tmp_path / "results" / "ci-reuse" / "tables" / "table2.csv")
+    original = read_csv(ci_run / "results" / "ci" / "tables" / "table2.csv")
+    assert ours == original  # identification from the archive reproduces every number
+
+
+# ------------------------------------------------------------------------------------------
+# without running the campaign
+# ------------------------------------------------------------------------------------------
+def test_lint_has_no_findings(tmp_path):
+    out = snakemake(tmp_path, "--lint", check=False)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "Lints for" not in out.stdout + out.stderr
+
+
+@pytest.mark.parametrize("changes, key", [
+    ({"repeats": 0}, "repeats"),
+    ({"speeds": [1.0, -2.0]}, "speeds"),
+    ({"job_unit": "trial"}, "job_unit"),
+    ({"bases": {"fixed": {"configurations": [1, 4], "gains": ["zero"]}}}, "configurations"),
+    ({"figures": {"fig5": {"speed": 3.0, "repeat": 0}}}, "figures.fig5.speed"),
+    ({"simulate": False, "reuse_archive": "no/such/archive"}, "reuse_archive"),
+])
+def test_bad_config_stops_naming_the_key(tmp_path, changes, key):
+    bad = write_config(tmp_path / "bad.yaml", **changes)
+    out = snakemake(tmp_path, "fig5", "-n", config=bad, check=False)
+    assert out.returncode != 0
+    assert key in out.stdout + out.stderr, out.stdout + out.stderr
+    assert not (tmp_path / "archive").exists()
+
+
+def test_table2_alone_runs_no_flexible_trial(tmp_path):
+    out = snakemake(tmp_path, "table2", "-n")
+    jobs = planned_jobs(out.stdout + out.stderr)
+    rules = {rule for rule, _ in jobs}
+    assert "simulate_fixed" in rules and "table2_effective_mass" in rules
+    assert not any("flexible" in r or r.startswith(("fit", "fig")) for r in rules), rules
+
+
+@pytest.mark.parametrize("unit, expected", [
+    ("sweep", [("simulate_fixed", {"gain": "zero"})]),
+    ("cell", [("simulate_fixed", {"config": "1", "gain": "zero"})]),
+])
+def test_fig5_runs_one_simulation_job(tmp_path, unit, expected):
+    cfg = write_config(tmp_path / "unit.yaml", job_unit=unit)
+    out = snakemake(tmp_path, "fig5", "-n", config=cfg)
+    jobs = planned_jobs(out.stdout + out.stderr)
+    assert [j for j in jobs if j[0].startswith("simulate")] == expected
+    assert {r for r, _ in jobs} == {"simulate_fixed", "fig5_joint3_motion", "fig5"}
+
+
+def test_killed_run_completes_on_rerun(tmp_path):
+    """SIGKILL the whole run while trials are being written, rerun: complete, intact archive."""
+    from campaign.archive import verify
+
+    cfg = write_config(tmp_path / "tiny.yaml", campaign="tiny", speeds=[1.0, 1.5, 2.0, 2.5], repeats=2,
+                       bases={"fixed": {"configurations": [1], "gains": ["zero"]}})
+    cmd = [SNAKEMAKE, "-s", str(SNAKEFILE), "--directory", str(tmp_path), "trials", "archive/tiny/MANIFEST.sha256",
+           "--configfile", str(cfg)]
+    proc = subprocess.Popen(cmd, cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    cell = tmp_path / "archive" / "tiny" / "fixed" / "config1" / "zero"
+    deadline = time.monotonic() + 120
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            if cell.is_dir() and any(cell.rglob("*.nc")):
+                break
+            time.sleep(0.02)
+        assert proc.poll() is None, "the run ended before it could be killed"
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    written = list(cell.rglob("*.nc"))
+    assert 0 < len(written) < 8  # killed mid-way
+    # a SIGKILLed Snakemake cannot release its lock on the working directory
+    snakemake(tmp_path, "--unlock", config=cfg)
+    snakemake(tmp_path, "trials", "archive/tiny/MANIFEST.sha256", config=cfg)
+    assert len(list(cell.rglob("r*.nc"))) == 8
+    assert not list(cell.rglob(".*.tmp"))
+    assert verify(tmp_path / "archive" / "tiny") == []
+
+
+# ------------------------------------------------------------------------------------------
+# the pieces the workflow relies on
+# ------------------------------------------------------------------------------------------
+def test_trial_paths_agree_with_the_scene():
+    from campaign.scene import make_scene
+
+    for base, config, gain, speed, repeat in [("fixed", 1, "zero", 2.5, 0), ("flexible", 2, "high", 1.3, 11),
+                                              ("fixed", 3, "low", 1.0 + 1e-12, 3)]:
+        scene = make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat)
+        assert runner.trial_relpath(base, config, gain, speed, repeat) == f"{scene.cell}.nc"
+    assert runner.cell_trials("a", "fixed", 1, "zero", [1.0, 2.5], 2) == [
+        "a/fixed/config1/zero/v1.000/r00.nc", "a/fixed/config1/zero/v1.000/r01.nc",
+        "a/fixed/config1/zero/v2.500/r00.nc", "a/fixed/config1/zero/v2.500/r01.nc"]
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: runner.trial_relpath("floating", 1, "zero", 1.0, 0), "unknown base 'floating'"),
+    (lambda: runner.trial_relpath("fixed", 1, "medium", 1.0, 0), "unknown gain set 'medium'"),
+    (lambda: runner.trial_relpath("fixed", 1, "zero", -1.0, 0), "impact speed"),
+    (lambda: runner.cell_trials("a", "fixed", 1, "zero", [1.0], 0), "repeats must be an integer >= 1, got 0"),
+    (lambda: runner.gain_counts("high", {"high": {"Q": 1}}), "gain_counts.high.Q"),
+    (lambda: runner.gain_counts("high", {"high": {"P": -5}}), "gain_counts.high.P = -5.0"),
+])
+def test_runner_names_bad_values(call, message):
+    with pytest.raises(ValueError, match=re.escape(message)):
+        call()
+
+
+def test_gain_counts_override_one_term():
+    assert runner.gain_counts("high") == (500000.0, 4000.0, 1500.0)
+    assert runner.gain_counts("high", {"high": {"P": 400000}}) == (400000.0, 4000.0, 1500.0)
+    assert runner.gain_counts("low", {"high": {"P": 400000}}) == (5000.0, 40.0, 0.0)
+
+
+def test_conda_env_pins_match_the_lock():
+    """workflow/envs/campaign.yaml (for --software-deployment-method conda) pins what constraints.txt pins."""
+    env = yaml.safe_load((REPO / "workflow" / "envs" / "campaign.yaml").read_text())
+    pip = next(d["pip"] for d in env["dependencies"] if isinstance(d, dict))
+    lock = {}
+    for line in (REPO / "constraints.txt").read_text().splitlines():
+        if "==" in line and not line.startswith("#"):
+            name, version = line.split("==", 1)
+            lock[name.strip().lower().replace("_", "-")] = version.strip()
+    for spec in pip:
+        name, version = spec.split("==")
+        assert lock.get(name.lower().replace("_", "-")) == version, f"{spec} differs from constraints.txt"
