@@ -4,16 +4,17 @@ Each campaign runs in a fresh temporary directory with the repository's Snakefil
 cores (``snakemake --cores 2``; the workflow profile ``profiles/default`` applies), figures,
 tables and the archive's manifest included, then ``snakemake --report`` builds the HTML
 report. The wall time of both is measured around the commands; the jobs' own ``TIMING``
-lines (``campaign.runner.job_log``) split the busy time of the jobs into
+lines (``campaign.runner.job_log``) split the CPU time of the run into
 
 * simulation (``simulate`` + ``write``: integrating the rig, writing the trial files),
 * identification (``identify``),
 * interpreter start-up + imports (``startup`` + ``imports``: paid by every job),
 * other work (figures, fits, tables, archive finalisation),
 
-and what the jobs do not account for, ``wall - busy / 2``, is Snakemake's own time (DAG,
-scheduling, job spawning) plus idle cores. Per-job overhead against per-trial cost, the
-measurement behind ``job_unit``, is printed from the same lines.
+measured in CPU seconds (contention from other work on the machine stretches wall times but
+hardly CPU times); the CPU of the whole run not spent in jobs is Snakemake's own (DAG,
+scheduling, job spawning). Per-job overhead against per-trial cost, the measurement behind
+``job_unit``, is printed from the same lines.
 
 Usage::
 
@@ -33,6 +34,7 @@ import json
 import os
 import platform
 import re
+import resource
 import shutil
 import subprocess
 import sys
@@ -56,14 +58,19 @@ Each script documents how to rerun it and how to update its section here.
 """
 
 
-def run(cmd: list[str], cwd: Path) -> float:
-    """Run a command, return its wall time [s]; raise with its output tail if it fails."""
+def run(cmd: list[str], cwd: Path) -> tuple[float, float]:
+    """Run a command; return its wall time and the CPU time of it and all its descendants [s].
+
+    Raises with its output tail if it fails.
+    """
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
-    return wall
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def timings(results: Path) -> list[dict]:
@@ -96,9 +103,9 @@ def bench_one(name: str, unit: str, cores: int) -> dict:
         config = work / "config.yaml"
         config.write_text(yaml.safe_dump(cfg, sort_keys=False))
         base = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(work), "--configfile", str(config)]
-        dag = run(base + ["-n"], work)
-        wall = run([*base[:5], "--cores", str(cores), *base[5:]], work)
-        report = run(base + ["--report", str(work / "report.html")], work)
+        dag, _ = run(base + ["-n"], work)
+        wall, cpu = run([*base[:5], "--cores", str(cores), *base[5:]], work)
+        report, report_cpu = run(base + ["--report", str(work / "report.html")], work)
         results = work / cfg["results_root"] / cfg["campaign"]
         recs = timings(results)
         trials = trials_per_job(results)
@@ -106,56 +113,66 @@ def bench_one(name: str, unit: str, cores: int) -> dict:
         shutil.rmtree(work, ignore_errors=True)
     sim = [r for r in recs if r["job"].startswith("simulate")]
     ident = [r for r in recs if r["job"].startswith("identify")]
-    busy = sum(r["total"] for r in recs)
+    jobs_cpu = sum(r["cpu"]["total"] for r in recs)
     parts = {
-        "simulation": sum(r.get("simulate", 0.0) + r.get("write", 0.0) for r in recs),
-        "identification": sum(r.get("identify", 0.0) for r in recs),
-        "start-up + imports": sum(r.get("startup", 0.0) + r.get("imports", 0.0) for r in recs),
+        "simulation": sum(r["cpu"].get("simulate", 0.0) + r["cpu"].get("write", 0.0) for r in recs),
+        "identification": sum(r["cpu"].get("identify", 0.0) for r in recs),
+        "start-up + imports": sum(r["cpu"].get("startup", 0.0) + r["cpu"].get("imports", 0.0) for r in recs),
     }
-    parts["other work"] = busy - sum(parts.values())
+    parts["other job work"] = jobs_cpu - sum(parts.values())
+    parts["Snakemake"] = max(0.0, cpu - jobs_cpu)
     n_trials = sum(trials.values())
-    per_job = [r.get("startup", 0.0) + r.get("imports", 0.0) for r in sim + ident]
+    per_job = [r["cpu"].get("startup", 0.0) + r["cpu"].get("imports", 0.0) for r in sim + ident]
     return {
         "campaign": name, "unit": unit, "cores": cores, "wall": wall, "report": report, "dag": dag,
-        "jobs": len(recs), "sim_jobs": len(sim), "trials": n_trials, "busy": busy, "parts": parts,
-        "snakemake": max(0.0, wall - busy / cores),
+        "cpu": cpu, "report_cpu": report_cpu, "jobs": len(recs), "sim_jobs": len(sim), "trials": n_trials,
+        "parts": parts, "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan"),
         "job_overhead": sum(per_job) / len(per_job) if per_job else float("nan"),
-        "sim_per_trial": sum(r.get("simulate", 0.0) + r.get("write", 0.0) for r in sim) / max(n_trials, 1),
-        "ident_per_trial": sum(r.get("identify", 0.0) for r in ident) / max(n_trials, 1),
+        "sim_per_trial": {b: _per_trial(sim, trials, b, ("simulate", "write")) for b in ("fixed", "flexible")},
+        "ident_per_trial": {b: _per_trial(ident, trials, b, ("identify",)) for b in ("fixed", "flexible")},
     }
+
+
+def _per_trial(recs: list[dict], trials: dict[str, int], base: str, stages: tuple[str, ...]) -> float:
+    """CPU seconds per trial of ``stages`` over the jobs of one base."""
+    mine = [r for r in recs if r["job"].split()[0].endswith(base)]
+    n = sum(v for k, v in trials.items() if f"_{base}/" in k)
+    cpu = sum(r["cpu"].get(s, 0.0) for r in mine for s in stages)
+    return cpu / n if n else float("nan")
 
 
 def table(rows: list[dict]) -> str:
-    head = ("| campaign | job unit | trials | jobs | wall [s] | + report [s] | target [s] | simulation | "
-            "identification | start-up + imports | other work | Snakemake + idle [s] |")
+    head = ("| campaign | job unit | trials | jobs | wall [s] | + report [s] | target [s] | load | CPU [s] | "
+            "CPU / cores [s] | simulation | identification | start-up + imports | other job work | Snakemake |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
-        busy = r["busy"]
-        share = {k: f"{v:.1f} s ({100 * v / busy:.0f} %)" for k, v in r["parts"].items()}
+        cpu = r["cpu"]
+        share = {k: f"{v:.1f} ({100 * v / cpu:.0f} %)" for k, v in r["parts"].items()}
         target = TARGETS.get(r["campaign"], float("nan"))
         total = r["wall"] + r["report"]
-        mark = "met" if total <= target else "missed"
         lines.append(f"| {r['campaign']} | {r['unit']} | {r['trials']} | {r['jobs']} | {r['wall']:.1f} | "
-                     f"{total:.1f} | {target:.0f} ({mark}) | {share['simulation']} | {share['identification']} | "
-                     f"{share['start-up + imports']} | {share['other work']} | {r['snakemake']:.1f} |")
+                     f"{total:.1f} | {target:.0f} ({'met' if total <= target else 'missed'}) | {r['load']:.1f} | "
+                     f"{cpu:.1f} | {cpu / r['cores']:.1f} | {share['simulation']} | {share['identification']} | "
+                     f"{share['start-up + imports']} | {share['other job work']} | {share['Snakemake']} |")
     return "\n".join(lines)
 
 
 def granularity(rows: list[dict]) -> str:
     lines = []
     for r in rows:
-        lines.append(f"- {r['campaign']}, job_unit {r['unit']}: {r['sim_jobs']} simulation jobs; interpreter "
-                     f"start-up + imports {r['job_overhead']:.2f} s per simulate/identify job against "
-                     f"{1e3 * r['sim_per_trial']:.0f} ms simulation + {1e3 * r['ident_per_trial']:.0f} ms "
-                     f"identification per trial (DAG build and dry run {r['dag']:.1f} s).")
+        sim = ", ".join(f"{b} {1e3 * v:.0f} ms" for b, v in r["sim_per_trial"].items() if v == v)
+        ident = ", ".join(f"{b} {1e3 * v:.0f} ms" for b, v in r["ident_per_trial"].items() if v == v)
+        lines.append(f"- {r['campaign']}, job_unit {r['unit']}: {r['sim_jobs']} simulation jobs, {r['jobs']} jobs in "
+                     f"all. Interpreter start-up + imports: {r['job_overhead']:.2f} s CPU per simulate/identify job; "
+                     f"per trial: simulation + writing {sim}; identification {ident} (CPU). Building the DAG "
+                     f"(dry run): {r['dag']:.1f} s.")
     return "\n".join(lines)
 
 
 def machine() -> str:
     from importlib.metadata import version
 
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return (f"Machine: {platform.machine()}, {os.cpu_count()} CPUs, load average {load:.1f} at the end; "
+    return (f"Machine: {platform.machine()}, {os.cpu_count()} CPUs; "
             f"Python {platform.python_version()}, snakemake {version('snakemake')}, pin {version('pin')}, "
             f"campaign {version('campaign')}; {datetime.date.today().isoformat()}.")
 
@@ -192,12 +209,20 @@ def main(argv: list[str] | None = None) -> int:
             if unit not in ("sweep", "cell"):
                 parser.error(f"--units: unknown job unit {unit!r}; expected sweep or cell")
             print(f"running campaign {name}, job_unit {unit} ...", file=sys.stderr, flush=True)
-            rows.append(bench_one(name, unit, args.cores))
+            try:
+                rows.append(bench_one(name, unit, args.cores))
+            except RuntimeError as exc:
+                print(f"bench_campaign: {exc}", file=sys.stderr)
+                return 1
     body = "\n\n".join([
         f"Each campaign from a clean temporary directory with `snakemake --cores {args.cores}` (profile "
         "`profiles/default`), figures, tables and the archive manifest included; `+ report` adds "
-        "`snakemake --report`. The shares split the jobs' busy time (sum over jobs, from their `TIMING` log "
-        "lines); `Snakemake + idle` is wall time not covered by busy jobs (`wall - busy / cores`).",
+        "`snakemake --report`. `CPU` is the CPU time of Snakemake and all its jobs (user + system, from "
+        "`getrusage`); the shares split it with the jobs' `TIMING` log lines (CPU seconds per stage), "
+        "`Snakemake` being the CPU not spent in any job (DAG, scheduling, spawning, the script preambles' "
+        "pickles). `CPU / cores` is what the run costs on an otherwise idle machine if both cores stay busy; "
+        "`load` is the machine's 1-minute load average when the run ended (other work on the machine "
+        "stretches the wall time, not the CPU time).",
         table(rows),
         "Per-job overhead against per-trial cost (the measurement behind `job_unit`):\n\n" + granularity(rows),
         machine() + " Rerun: `.venv/bin/python benchmarks/bench_campaign.py --readme benchmarks/README.md`.",

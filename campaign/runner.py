@@ -160,18 +160,20 @@ def gain_counts(gain: str, overrides: Mapping[str, Mapping[str, float]] | None =
 # logging and timing
 # ---------------------------------------------------------------------------------------
 class Timer:
-    """Seconds spent per stage of a job (``with timer("simulate"): ...``)."""
+    """Wall and CPU seconds spent per stage of a job (``with timer("simulate"): ...``)."""
 
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
+        self.cpu: dict[str, float] = {}
 
     @contextlib.contextmanager
     def __call__(self, stage: str) -> Iterator[None]:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         try:
             yield
         finally:
             self.seconds[stage] = self.seconds.get(stage, 0.0) + time.perf_counter() - t0
+            self.cpu[stage] = self.cpu.get(stage, 0.0) + time.process_time() - c0
 
 
 def _process_age() -> float:
@@ -202,14 +204,15 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job") -> Iterator[Tim
 
     Notes
     -----
-    The last line is ``TIMING {json}`` with ``startup`` (process start to the first line
-    of the job: interpreter start-up and Snakemake's script preamble), each stage timed
-    with the timer (``imports`` of the stage's modules, ``simulate``, ``write``,
-    ``identify``, ...), and ``total``. A failing job writes its traceback to the log and
-    re-raises.
+    The last line is ``TIMING {json}`` with the wall seconds of ``startup`` (process start
+    to the first line of the job: interpreter start-up and Snakemake's script preamble),
+    of each stage timed with the timer (``imports`` of the stage's modules, ``simulate``,
+    ``write``, ``identify``, ...) and the ``total``, and the same in CPU seconds of the
+    process under ``cpu``. A failing job writes its traceback to the log and re-raises.
     """
     timer = Timer()
     startup = _process_age()
+    startup_cpu = time.process_time()  # CPU of this process so far: interpreter, preamble, this module
     t0 = time.perf_counter()
     stream: TextIO | None = open(path, "w", encoding="utf-8", buffering=1) if path is not None else None
     old = sys.stdout, sys.stderr
@@ -224,7 +227,9 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job") -> Iterator[Tim
     finally:
         total = time.perf_counter() - t0 + (startup if math.isfinite(startup) else 0.0)
         record = {"job": job, "startup": round(startup, 4), **{k: round(v, 4) for k, v in timer.seconds.items()},
-                  "total": round(total, 4)}
+                  "total": round(total, 4),
+                  "cpu": {"startup": round(startup_cpu, 4), **{k: round(v, 4) for k, v in timer.cpu.items()},
+                          "total": round(time.process_time(), 4)}}
         print(f"TIMING {json.dumps(record, sort_keys=True)}")
         if stream is not None:
             sys.stdout, sys.stderr = old
