@@ -152,10 +152,15 @@ def trial_file(base, config_, gain, speed, repeat, key):
     return path
 
 
+FIGURE_BASE = {"fig5": "fixed", "fig9": "flexible"}
+
+
 def figure_pick(name):
-    """(speed, repeat) of the trial a single-trial figure shows (configuration key figures.<name>)."""
+    """(speed, repeat) of the trial a single-trial figure shows: configuration key
+    figures.<name>, by default the base's highest speed and repeat 0."""
     pick = config.get("figures", {}).get(name, {})
-    return float(pick.get("speed", 2.5)), int(pick.get("repeat", 0))
+    speeds = SWEEPS.get(FIGURE_BASE[name], {}).get("speeds") or config["speeds"]
+    return float(pick.get("speed", max(speeds))), int(pick.get("repeat", 0))
 
 
 # ----------------------------------------------------------------------------------------

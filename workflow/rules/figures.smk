@@ -28,6 +28,8 @@ rule fig5_joint3_motion:
     output:
         png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig5.pdf",
+    params:
+        pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
     log:
         log_file("fig5"),
     resources:
@@ -108,6 +110,8 @@ rule fig9_base_motion:
     output:
         png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig9.pdf",
+    params:
+        pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     log:
         log_file("fig9"),
     resources:
