@@ -40,7 +40,7 @@ from scipy.optimize import least_squares
 
 from .errors import InputError
 
-__all__ = ["LambdaFit", "IdentifiabilityWarning", "sensitivity_matrix", "design_arrays"]
+__all__ = ["IdentifiabilityWarning", "LambdaFit", "design_arrays", "sensitivity_matrix"]
 
 
 class IdentifiabilityWarning(UserWarning):
@@ -174,7 +174,7 @@ class LambdaFit:
     def get_params(self, deep: bool = True) -> dict:
         return {k: getattr(self, k) for k in self._PARAMS}
 
-    def set_params(self, **params) -> "LambdaFit":
+    def set_params(self, **params) -> LambdaFit:
         for k, v in params.items():
             if k not in self._PARAMS:
                 raise InputError(f"LambdaFit has no parameter {k!r}; parameters: {list(self._PARAMS)}")
@@ -268,7 +268,7 @@ class LambdaFit:
         return out
 
     # -- public --------------------------------------------------------------------------
-    def fit(self, Q, m_eff, sample_weight=None) -> "LambdaFit":
+    def fit(self, Q, m_eff, sample_weight=None) -> LambdaFit:
         """Fit lambda to effective masses identified at configurations ``Q``.
 
         Parameters

@@ -83,19 +83,19 @@ from scipy.optimize import least_squares
 from .errors import InputError, TrialFileError
 
 __all__ = [
+    "ACCURACY_NOTE",
+    "REQUIRED_CHANNELS",
+    "Contact",
     "IdentifyOptions",
     "TrialIdentification",
-    "Contact",
+    "base_geometry",
     "detect_contact",
+    "find_trials",
     "hammer_velocity",
-    "identify_trial",
     "identify_file",
     "identify_files",
+    "identify_trial",
     "load_trial",
-    "find_trials",
-    "base_geometry",
-    "REQUIRED_CHANNELS",
-    "ACCURACY_NOTE",
 ]
 
 #: channels and constants identification reads from the ``measured`` group, with their dims
@@ -704,7 +704,7 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True):
         r = least_squares(resid, x0, bounds=([0.0, 0.0], [1000.0, 1e5]), x_scale=[10.0, 500.0], method="trf")
         if best is None or r.cost < best.cost:
             best = r
-    p, A, resp = solve(best.x)
+    p, _, resp = solve(best.x)
     v_post = p[1] + sum(p[2 + i] * np.interp(t_e, cin.grid, vel) for i, (_, vel) in enumerate(resp))
     return float(p[1]), float(v_post)
 

@@ -37,8 +37,16 @@ import numpy as np
 from .errors import InputError
 
 __all__ = [
-    "Table", "as_records", "fit_gain_classes", "table2", "table3", "table4", "flexible_prediction",
-    "base_body_of", "write_tables", "tables_from_archive",
+    "Table",
+    "as_records",
+    "base_body_of",
+    "fit_gain_classes",
+    "flexible_prediction",
+    "table2",
+    "table3",
+    "table4",
+    "tables_from_archive",
+    "write_tables",
 ]
 
 
@@ -393,8 +401,8 @@ def table4(records, fits: Mapping, *, robot=None, gain_classes=None) -> Table:
             ("identified", "identified m* [kg] (eq 10)"), ("identified_sd", "sd"), ("trials", "trials"),
             ("excluded", "excluded"), ("identified_paper", "paper"), ("identified_rel", "rel. diff"),
             ("pred_vs_ident", "predicted / identified - 1")]
-    notes = ["predicted: eq 8 with the gain class's identified lambda (Table 3) and each trial's emulated base "
-             "mass and inertia (base_mass, base_inertia), averaged over the cell's usable trials.",
+    notes = [("predicted: eq 8 with the gain class's identified lambda (Table 3) and each trial's emulated base "
+              "mass, inertia, centre of mass and mount, averaged over the cell's usable trials."),
              "rows with 'in paper' = no are the other flexible cells of the campaign (extended table)."]
     if not flex:
         notes.append("the campaign has no flexible-base trials: the cells are empty.")

@@ -59,7 +59,7 @@ from campaign.paper import configuration_q
 from campaign.robot import load_robot
 from campaign.robot.floating import BaseBody, attach_to_floating_base
 
-__all__ = ["Spec", "SyntheticTrial", "make_trial", "cached_trial", "write_trial", "DECAYS"]
+__all__ = ["DECAYS", "Spec", "SyntheticTrial", "cached_trial", "make_trial", "write_trial"]
 
 DECAYS = ("none", "exponential", "viscous", "coulomb", "servo")
 _FINE_DT = 2e-5  # s, integration grid (50 kHz)

@@ -6,14 +6,18 @@ import warnings
 
 import numpy as np
 import pytest
+from synthetic_impact import cached_trial
 
 from campaign.errors import InputError
 from campaign.exiit import effective_mass_batch
-from campaign.fit import IdentifiabilityWarning, LambdaFit, design_arrays, sensitivity_matrix
+from campaign.fit import (
+    IdentifiabilityWarning,
+    LambdaFit,
+    design_arrays,
+    sensitivity_matrix,
+)
 from campaign.identify import identify_trial
 from campaign.paper import configuration_q, impact_direction, load_paper
-
-from synthetic_impact import cached_trial
 
 LAM = np.array(load_paper()["table3"]["zero_low"])  # paper Table 3 [kg m^2]
 

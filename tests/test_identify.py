@@ -12,12 +12,17 @@ import json
 
 import numpy as np
 import pytest
+from synthetic_impact import cached_trial, make_trial, write_trial
 
 from campaign.cli import main
 from campaign.errors import InputError, TrialFileError
-from campaign.identify import IdentifyOptions, detect_contact, hammer_velocity, identify_file, identify_trial
-
-from synthetic_impact import cached_trial, make_trial, write_trial
+from campaign.identify import (
+    IdentifyOptions,
+    detect_contact,
+    hammer_velocity,
+    identify_file,
+    identify_trial,
+)
 
 LAM = (19.82, 4.62, 0.80)  # paper Table 3, Zero+Low [kg m^2]
 

@@ -7,6 +7,7 @@ import json
 
 import numpy as np
 import pytest
+from synthetic_impact import cached_trial, write_trial
 
 from campaign.cli import main
 from campaign.errors import InputError
@@ -15,8 +16,6 @@ from campaign.identify import TrialIdentification
 from campaign.paper import configuration_q, load_paper
 from campaign.robot.floating import BaseBody, attach_to_floating_base
 from campaign.tables import fit_gain_classes, table2, table3, table4, write_tables
-
-from synthetic_impact import cached_trial, write_trial
 
 PAPER = load_paper()
 NAN = float("nan")

@@ -141,9 +141,8 @@ def run_fit(args) -> int:
 
 
 def run_tables(args) -> int:
-    from ..tables import write_tables
-
     from ..identify import find_trials, identify_files
+    from ..tables import write_tables
 
     _check_bootstrap(args.bootstrap)
     records = identify_files(find_trials(args.archive))
