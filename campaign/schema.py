@@ -23,7 +23,7 @@ import dataclasses
 __all__ = ["SCHEMA_VERSION", "Clock", "Var", "CLOCKS", "MEASURED", "TRUTH", "variables", "FIXED_ONLY", "FLEXIBLE_ONLY"]
 
 #: major.minor: a reader accepts files of the same major version and refuses a newer major.
-SCHEMA_VERSION = "1.0"
+SCHEMA_VERSION = "1.1"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,6 +80,8 @@ MEASURED = (
     Var("piezo_full_scale", (), "N", "piezo sensor saturation level"),
     Var("base_mass", (), "kg", "emulated base mass (structure tip modal mass + platform)", _FLEX),
     Var("base_inertia", ("axis", "axis2"), "kg m2", "emulated base rotational inertia about its centre of mass", _FLEX),
+    Var("base_com", ("axis",), "m", "emulated base centre of mass in the base (structure tip) frame", _FLEX),
+    Var("base_mount", ("axis",), "m", "origin of the arm's base frame (F/T sensor) in the base (structure tip) frame", _FLEX),
 )
 
 TRUTH = (

@@ -42,8 +42,8 @@ def _markdown(summary: dict, fit: dict | None, validation: dict | None) -> str:
     e = summary["e_mean"]
     lines.append(f"| mean restitution e (Figure 7) | 0.55 | {e:.3f} | {100 * (e / 0.55 - 1):+.1f} % |")
     lo, hi = paper["impact_force_range_N"]
-    lines.append(f"| mean peak force at the lowest speed [N] | {lo:.0f} | {summary['force_low']:.1f} | {100 * (summary['force_low'] / lo - 1):+.1f} % |")
-    lines.append(f"| mean peak force at the highest speed [N] | {hi:.0f} | {summary['force_high']:.1f} | {100 * (summary['force_high'] / hi - 1):+.1f} % |")
+    lines.append(f"| smallest peak force at the lowest speed [N] | {lo:.0f} | {summary['force_low']:.1f} | {100 * (summary['force_low'] / lo - 1):+.1f} % |")
+    lines.append(f"| largest peak force at the highest speed [N] | {hi:.0f} | {summary['force_high']:.1f} | {100 * (summary['force_high'] / hi - 1):+.1f} % |")
     f5 = summary["figure5_deg"]
     lines.append(f"| joint 3 excursion, configuration 1, zero gains, {summary['figure5_speed']} m/s [deg] | 2.5 | {f5:.2f} | {100 * (f5 / 2.5 - 1):+.1f} % |")
     spread = max(summary["e_by"].values()) - min(summary["e_by"].values())

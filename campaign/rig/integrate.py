@@ -33,6 +33,8 @@ __all__ = ["Trajectory", "integrate_trial"]
 
 #: more events than this inside one servo tick is chattering (Zeno), not physics
 _MAX_EVENTS_PER_TICK = 50
+#: length scale [m] that puts the damping factor on the overlap's footing in the contact-end event
+_END_SCALE = 1e-3
 
 
 @dataclasses.dataclass
@@ -166,7 +168,10 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         """Event functions at state xx; each event fires where its value crosses 0 upward."""
         vals = {}
         if contact_v0 is not None:
-            vals["contact_end"] = -plant.gap(xx)[0]
+            # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
+            # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
+            d, dd, _ = plant.gap(xx)
+            vals["contact_end"] = -min(d, _END_SCALE * (1.0 + plant._d * dd / contact_v0))
         elif not caught:
             vals["contact_start"] = plant.gap(xx)[0]
             if rebound_seen or contacts[-1][1] is not None:

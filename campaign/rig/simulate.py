@@ -323,6 +323,8 @@ def record(rig: Rig, traj) -> xr.DataTree:
             "platform_rotation": _var(platform[:, 3:], spec["platform_rotation"]),
             "base_mass": _var(np.float64(body.mass), spec["base_mass"]),
             "base_inertia": _var(np.asarray(body.inertia, float), spec["base_inertia"]),
+            "base_com": _var(np.asarray(body.com, float), spec["base_com"]),
+            "base_mount": _var(np.asarray(body.mount.translation, float), spec["base_mount"]),
         })
         coords["t_base"] = _time("t_base", tb)
         coords["axis2"] = ("axis2", ["x", "y", "z"])
