@@ -186,6 +186,17 @@ def _process_age() -> float:
         return float("nan")
 
 
+def _children_cpu() -> float:
+    """CPU seconds of this process's finished child processes (e.g. forked file checks)."""
+    try:
+        import resource
+
+        usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return usage.ru_utime + usage.ru_stime
+    except (ImportError, OSError):  # not on this platform
+        return 0.0
+
+
 @contextlib.contextmanager
 def job_log(path: str | os.PathLike | None, *, job: str = "job") -> Iterator[Timer]:
     """Send everything a job prints to its log file; end the log with a ``TIMING`` line.
@@ -207,8 +218,9 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job") -> Iterator[Tim
     The last line is ``TIMING {json}`` with the wall seconds of ``startup`` (process start
     to the first line of the job: interpreter start-up and Snakemake's script preamble),
     of each stage timed with the timer (``imports`` of the stage's modules, ``simulate``,
-    ``write``, ``identify``, ...) and the ``total``, and the same in CPU seconds of the
-    process under ``cpu``. A failing job writes its traceback to the log and re-raises.
+    ``write``, ``identify``, ...) and the ``total``, and the same in CPU seconds under
+    ``cpu`` (its ``total`` includes the CPU of child processes the job waited for, listed
+    as ``children``). A failing job writes its traceback to the log and re-raises.
     """
     timer = Timer()
     startup = _process_age()
@@ -229,7 +241,8 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job") -> Iterator[Tim
         record = {"job": job, "startup": round(startup, 4), **{k: round(v, 4) for k, v in timer.seconds.items()},
                   "total": round(total, 4),
                   "cpu": {"startup": round(startup_cpu, 4), **{k: round(v, 4) for k, v in timer.cpu.items()},
-                          "total": round(time.process_time(), 4)}}
+                          "children": round(_children_cpu(), 4),
+                          "total": round(time.process_time() + _children_cpu(), 4)}}
         print(f"TIMING {json.dumps(record, sort_keys=True)}")
         if stream is not None:
             sys.stdout, sys.stderr = old
