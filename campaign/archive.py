@@ -16,12 +16,19 @@ with plain xarray, no project import needed::
     xr.open_dataset(path, engine="h5netcdf", group="measured")
 
 **Writer.** Files are written with h5py in exactly the layout xarray's h5netcdf engine
-writes (HDF5 dimension scales, ``_Netcdf4Dimid``, creation order tracked), and read back with
-xarray. Writing through xarray/h5netcdf costs about 5 ms of Python per variable, i.e.
-250-330 ms for a trial's 36 (fixed base) to 51 (flexible base) variables, six times the
-archive's 50 ms budget; h5py writes the same file in 25-35 ms (``benchmarks/bench_archive.py``,
-``benchmarks/README.md``). The test suite checks that xarray decodes our files identically
-to files xarray writes itself (values, dtypes, attributes, encodings).
+writes (HDF5 dimension scales, ``_Netcdf4Dimid``, creation order tracked). Writing through
+xarray/h5netcdf costs about 5 ms of Python per variable, i.e. 250-330 ms for a trial's 36
+(fixed base) to 51 (flexible base) variables, six times the archive's 50 ms budget; h5py
+writes the same file in 25-35 ms (``benchmarks/bench_archive.py``, ``benchmarks/README.md``).
+The test suite checks that xarray decodes our files identically to files xarray writes itself
+(values, dtypes, attributes, encodings).
+
+**Reader.** For the same reason files are read with h5py, once: the integrity check reads
+every array anyway, and :func:`open_trial` hands those arrays to xarray's own CF decoding
+(through an in-memory data store) instead of reopening the file with the h5netcdf engine,
+which took 5-8 times as long. The result is identical to ``xr.open_dataset(path,
+engine="h5netcdf", group=...)``; the section "reading" below lists what of the h5netcdf layer
+is reproduced and why, and the tests compare both readers on rig trials.
 
 **Integrity.** Each group stores ``content_sha256``: a digest of its attributes and of every
 variable's bytes and attributes (:func:`_digest`). Readers recompute it, so a flipped byte
@@ -57,14 +64,17 @@ import os
 import re
 import secrets
 import subprocess
+import warnings
 from importlib.metadata import PackageNotFoundError, version as _dist_version
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import h5py
 import numpy as np
-from h5py import h5a, h5d, h5ds, h5p, h5s, h5t
+from h5py import h5a, h5d, h5ds, h5i, h5o, h5p, h5r, h5s, h5t
 import xarray as xr
+from xarray.backends import AbstractDataStore, BackendArray
+from xarray.core import indexing as xr_indexing
 
 from . import __version__
 from .errors import InputError, TrialFileError
@@ -639,10 +649,95 @@ def trial_path(campaign_dir: str | os.PathLike, scene: Scene) -> Path:
 # _CORRUPT: a corrupt HDF5 file can make h5py/h5netcdf raise nearly any exception type (OSError,
 # KeyError, TypeError for an attribute name that is no longer UTF-8, ...). Readers of a trial
 # file therefore turn every Exception into a problem or TrialFileError naming the file.
+#
+# One read per file. The integrity check (:func:`_read_trial`) reads every variable of a group
+# with h5py to recompute its content_sha256, and :func:`open_trial` / :func:`open_trial_tree`
+# build their Datasets from exactly those arrays, instead of opening the file a second time
+# with xarray's h5netcdf engine (about 5 ms of Python per variable: 0.15-0.35 s per trial).
+# The decoding itself stays xarray's: the arrays and attributes are handed to xarray as a data
+# store (:class:`_GroupStore`, xarray's documented backend API) and opened with
+# ``xr.open_dataset(store, engine="store")``, which runs the same CF decoding
+# (``conventions.decode_cf_variables``: _FillValue/scale_factor masking, CF times and
+# timedeltas, string decoding, coordinates) and the same default-index creation as
+# ``xr.open_dataset(path, engine="h5netcdf")``. What is reproduced here is only the layer below,
+# what the h5netcdf engine (h5netcdf + xarray's H5NetCDFStore) makes of the HDF5 objects:
+#
+# - dimension names: a dimension scale names its own dimension; any other variable takes the
+#   names of the scales its DIMENSION_LIST references (the last scale per axis), as h5netcdf
+#   does (:func:`_dims_of`); a scale whose NAME says "not a netCDF variable" is a dimension only;
+# - attributes (:func:`_xr_attr`): the netCDF-4/HDF5 bookkeeping attributes h5netcdf hides
+#   (:data:`_NC_HIDDEN`) left out, 1-element arrays returned as their element, string arrays as
+#   lists, fixed-length strings decoded (h5netcdf), then bytes decoded to str except
+#   ``_FillValue``/``missing_value`` (xarray);
+# - variable-length string data decoded to str (h5netcdf's decode_vlen_strings, which xarray
+#   turns on), with the dataset's h5py dtype presented as the array's dtype;
+# - encodings: per variable ``dtype`` (``str`` for vlen strings), ``contiguous``,
+#   ``chunksizes``, ``preferred_chunks``, the filter flags and ``complevel``, ``source``,
+#   ``original_shape``; per Dataset ``unlimited_dims`` and ``source`` (xarray's api sets it).
+#
+# What this layer does not reproduce it reports as a problem of the file (so ``verify`` reports
+# it as well), none of which a trial file written by this archive or by xarray has: a variable
+# without a dimension scale on every axis (xarray needs ``phony_dims`` for it), a variable whose
+# length disagrees with its dimension's (h5netcdf would pad it), a multi-dimensional scale, and
+# data types other than numbers and strings. tests/test_archive.py checks the result against
+# ``xr.open_dataset``/``xr.open_datatree`` (``assert_identical`` and equal encodings) on rig
+# trials of both bases and on a file xarray writes itself.
+
+#: attributes h5netcdf hides from its attribute mappings (h5netcdf.attrs._HIDDEN_ATTRS)
+_NC_HIDDEN = frozenset({"REFERENCE_LIST", "CLASS", "DIMENSION_LIST", "NAME", "_Netcdf4Dimid", "_Netcdf4Coordinates",
+                        "_nc3_strict", "_NCProperties"})
+# read for neither the digest nor xarray (content_sha256 is read: xarray shows it)
+_NOT_READ = _STRUCTURAL - {"content_sha256"}
+_NC_DIM_ONLY = b"This is a netCDF dimension but not a netCDF variable"
+# HDF5 filters h5netcdf reports as compression flags (h5netcdf.core.Variable.filters)
+_H5_FILTER_TO_COMPRESSION = {"1": "zlib", "2": "szip", "307": "bzip2", "32004": "blosc", "32015": "zstd",
+                             "zlib": "zlib", "szip": "szip", "bzip2": "bzip2", "blosc": "blosc", "zstd": "zstd"}
+
+
+@dataclasses.dataclass
+class _StoredVar:
+    """One HDF5 dataset of a group as the check read it: what the digest covers and what the
+    Dataset is built from (no second read)."""
+
+    name: str
+    data: Any                 # as h5py reads it (variable-length strings as bytes)
+    attrs: dict[str, Any]     # h5py values in file order, bookkeeping attributes left out
+    dims: tuple[str, ...]
+    dset: Any                 # the h5py Dataset while the file is open (storage properties)
+    is_variable: bool         # False for a netCDF dimension without a coordinate variable
+    dtype: np.dtype           # the dataset's h5py dtype
+    string_types: dict[str, np.dtype]  # HDF5 types of the fixed-length string attributes
+    encoding: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+
+@dataclasses.dataclass
+class _StoredGroup:
+    attrs: dict[str, Any]
+    string_types: dict[str, np.dtype]
+    variables: list[_StoredVar]
+    unlimited: set[str]
+
+
+@dataclasses.dataclass
+class _Read:
+    root: dict[str, Any]      # root attributes, h5py values (content_sha256 included)
+    problems: list[str]
+    values: dict[str, Any]    # "group/name" -> data, for the variables asked for
+    groups: dict[str, _StoredGroup]
+    root_string_types: dict[str, np.dtype] = dataclasses.field(default_factory=dict)
 
 
 def _read_attrs(obj: h5py.HLObject) -> dict[str, Any]:
-    return {k: obj.attrs[k] for k in obj.attrs.keys() if k not in _STRUCTURAL}
+    """An HDF5 object's attributes in file order (h5py values), HDF5/netCDF-4 bookkeeping left out."""
+    attrs = obj.attrs
+    return {k: attrs[k] for k in attrs.keys() if k not in _NOT_READ}
+
+
+def _string_types(obj: h5py.HLObject, attrs: Mapping[str, Any]) -> dict[str, np.dtype]:
+    """HDF5 types of an object's fixed-length string attributes (their character set and length
+    decide how h5netcdf decodes them); h5py's value does not carry them."""
+    return {k: obj.attrs.get_id(k).dtype for k, v in attrs.items()
+            if getattr(v, "dtype", None) is not None and v.dtype.kind == "S"}
 
 
 def _parse_version(value: Any) -> tuple[int, int] | None:
@@ -650,79 +745,204 @@ def _parse_version(value: Any) -> tuple[int, int] | None:
     return (int(m.group(1)), int(m.group(2))) if m else None
 
 
-def _inspect(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None
-             ) -> tuple[dict[str, Any], list[str], dict[str, Any]]:
-    """Check a trial file with h5py: readable, schema version, every channel, content digests.
+def _dims_of(f: h5py.File, dset: h5py.Dataset, scales: dict[Any, tuple[str, int]]) -> tuple[str, ...]:
+    """Dimension names of a non-scale dataset, as h5netcdf looks them up: per axis, the name of
+    the last dimension scale its DIMENSION_LIST references.
 
-    Returns (root attributes, problems, values of the variables asked for in ``want`` as
-    ``{"group/name": value}``). Never raises for a bad file: each problem is a message.
+    ``scales`` maps the object ids of known scales to (name, length) and is filled as a cache
+    (h5py's ``.name`` costs about 0.1 ms an object). Raises ValueError for a dataset xarray
+    cannot read without phony dims, or one whose length disagrees with its dimension's.
     """
-    problems: list[str] = []
+    if dset.ndim == 0:
+        return ()
+    refs = dset.attrs.get("DIMENSION_LIST")
+    if refs is None or len(refs) != dset.ndim or any(len(r) == 0 for r in refs):
+        raise ValueError("has no dimension scale on every axis (not a netCDF-4 variable)")
+    dims = []
+    for axis, axis_refs in enumerate(refs):
+        oid = h5r.dereference(axis_refs[-1], f.id)
+        if oid not in scales:
+            scales[oid] = (h5i.get_name(oid).decode().rsplit("/", 1)[-1], oid.shape[0] if len(oid.shape) == 1 else -1)
+        dim, length = scales[oid]
+        if length != dset.shape[axis]:
+            raise ValueError(f"has length {dset.shape[axis]} along dimension {dim!r} of length {length}")
+        dims.append(dim)
+    return tuple(dims)
+
+
+def _storage_encoding(dset: h5py.Dataset, dims: tuple[str, ...]) -> dict[str, Any]:
+    """A variable's encoding as xarray's H5NetCDFStore.open_store_variable reports it (minus source)."""
+    dtype = dset.dtype
+    enc: dict[str, Any] = {"dtype": str if h5py.check_dtype(vlen=dtype) is str else dtype}
+    chunks = dset.chunks if dset.shape != () else None
+    if chunks:
+        enc.update(contiguous=False, chunksizes=chunks, preferred_chunks=dict(zip(dims, chunks, strict=True)))
+    else:
+        enc.update(contiguous=True, chunksizes=None)
+    # h5netcdf Variable.filters()
+    compression = dset.compression
+    enc.update(zlib=False, szip=False, bzip2=False, blosc=False, zstd=False, shuffle=dset.shuffle,
+               fletcher32=dset.fletcher32)
+    if compression == "gzip":
+        enc["zlib"] = True
+        enc["complevel"] = dset.compression_opts
+    for filter_id, opts in dset._filters.items():  # the attribute h5netcdf reads too
+        name = _H5_FILTER_TO_COMPRESSION.get(filter_id)
+        if name is not None:
+            enc[name] = True
+            if opts and len(opts) > 0:
+                enc["complevel"] = opts[0]
+    # H5NetCDFStore: gzip as above; other h5py compression kept as h5py names it
+    if compression == "gzip":
+        enc["complevel"] = dset.compression_opts
+    elif compression is not None:
+        enc["compression"] = compression
+        enc["compression_opts"] = dset.compression_opts
+    return enc
+
+
+def _read_group(f: h5py.File, group: str, base: str, problems: list[str], want: Sequence[str]
+                ) -> tuple[_StoredGroup, dict[str, Any]]:
+    """Read and check one group: every channel present, dims, readable data; digest checked by the caller."""
+    grp = f[group]
+    names = list(grp.keys())
+    present = set(names)
+    for spec in variables(group, base):
+        if spec.name not in present:
+            problems.append(f"channel {group}/{spec.name} is missing")
+    schema_dims = {spec.name: spec.dims for spec in variables(group, base)}
+    scales: dict[Any, tuple[str, int]] = {}
+    stored: list[_StoredVar] = []
+    unlimited: set[str] = set()
     values: dict[str, Any] = {}
+    for name in names:
+        oid = h5o.open(grp.id, name.encode())  # what grp[name] does, at half the cost
+        if not isinstance(oid, h5d.DatasetID):
+            problems.append(f"{group}/{name} is not a variable")
+            continue
+        dset = h5py.Dataset(oid)
+        try:
+            data = dset[()]
+            vattrs = _read_attrs(dset)
+        except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+            problems.append(f"{group}/{name}: cannot read data (corrupt): {exc}")
+            continue
+        is_variable = True
+        dtype = dset.dtype
+        dims: tuple[str, ...] | None = None  # None: unreadable (reported); still digested
+        try:
+            info = h5py.check_string_dtype(dtype)
+            if dtype.kind not in "iufS" and not (info is not None and info.length is None):
+                raise ValueError(f"has HDF5 type {dtype}, neither numbers nor strings")
+            if h5ds.is_scale(dset.id):
+                if dset.ndim != 1:
+                    raise ValueError(f"is a {dset.ndim}-d dimension scale")
+                dims = (name,)
+                scales[dset.id] = (name, dset.shape[0])
+                if dset.maxshape == (None,):
+                    unlimited.add(name)
+                is_variable = _NC_DIM_ONLY not in (h5ds.get_scale_name(dset.id) or b"")
+            else:
+                dims = _dims_of(f, dset, scales)
+        except ValueError as exc:  # a layout this reader (and xarray without phony_dims) does not take
+            problems.append(f"{group}/{name} {exc}")
+        except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+            problems.append(f"{group}/{name}: cannot read its dimensions (corrupt): {exc}")
+        if dims is not None and name in schema_dims and dims != schema_dims[name]:
+            problems.append(f"{group}/{name} has dims {dims}, schema says {schema_dims[name]}")
+        if name not in CLOCKS and name not in COORDS:
+            for key in ("units", "long_name"):
+                if key not in vattrs:
+                    problems.append(f"{group}/{name} has no {key} attribute")
+        stored.append(_StoredVar(name, data, vattrs, dims, dset, is_variable, dtype, _string_types(dset, vattrs)))
+        if name in want:
+            values[f"{group}/{name}"] = data
+    gattrs = _read_attrs(grp)
+    return _StoredGroup(gattrs, _string_types(grp, gattrs), stored, unlimited), values
+
+
+def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None,
+                encodings: bool = False) -> _Read:
+    """Read and check a trial file with h5py: readable, schema version, every channel, dims,
+    content digests. Never raises for a bad file: each problem is a message.
+
+    With ``encodings``, each variable's storage encoding is read as well (what the Datasets
+    of :func:`open_trial` report), while the file is open.
+    """
+    out = _Read({}, [], {}, {})
+    problems = out.problems
     if not path.is_file():
-        return {}, ["file does not exist"], values
+        problems.append("file does not exist")
+        return out
     try:
         f = h5py.File(path, "r")
     except Exception as exc:  # noqa: BLE001 - see _CORRUPT
-        return {}, [f"not a readable HDF5 file (truncated or corrupt): {exc}"], values
+        problems.append(f"not a readable HDF5 file (truncated or corrupt): {exc}")
+        return out
     try:
         with f:
-            root = _read_attrs(f)
+            root = out.root = _read_attrs(f)
+            out.root_string_types = _string_types(f, root)
             version = _parse_version(root.get("schema_version"))
             if version is None:
-                return root, [f"no valid schema_version attribute ({root.get('schema_version')!r}): "
-                              "not a campaign trial file"], values
+                problems.append(f"no valid schema_version attribute ({root.get('schema_version')!r}): "
+                                "not a campaign trial file")
+                return out
             if version[0] > _SCHEMA_MAJOR:
-                return root, [f"schema version {version[0]}.{version[1]} is newer than this campaign reads "
-                              f"({SCHEMA_VERSION}); upgrade the campaign package"], values
+                problems.append(f"schema version {version[0]}.{version[1]} is newer than this campaign reads "
+                                f"({SCHEMA_VERSION}); upgrade the campaign package")
+                return out
             if version[0] < _SCHEMA_MAJOR:
-                return root, [f"schema version {version[0]}.{version[1]} is older than this campaign reads "
-                              f"({SCHEMA_VERSION}) and there is no converter"], values
+                problems.append(f"schema version {version[0]}.{version[1]} is older than this campaign reads "
+                                f"({SCHEMA_VERSION}) and there is no converter")
+                return out
             base = root.get("base")
             if base not in BASES:
-                return root, [f"root attribute base is {base!r}, expected one of {list(BASES)}"], values
-            stored = f.attrs.get("content_sha256")
+                problems.append(f"root attribute base is {base!r}, expected one of {list(BASES)}")
+                return out
+            stored = root.get("content_sha256")
             if stored is None:
                 problems.append("root group has no content_sha256")
             elif stored != _digest(root, {}):
                 problems.append("root attributes do not match their content_sha256 (altered or corrupt)")
+            if set(groups) == set(GROUPS):  # the whole file: nothing beside the groups
+                extra = sorted(set(f.keys()) - set(GROUPS))
+                if extra:
+                    problems.append(f"the root group holds {', '.join(extra)}; a trial file holds only the "
+                                    f"groups {', '.join(GROUPS)}")
             for group in groups:
                 if group not in f:
                     problems.append(f"group /{group} is missing")
                     continue
-                grp = f[group]
-                present = set(grp.keys())
-                for spec in variables(group, base):
-                    if spec.name not in present:
-                        problems.append(f"channel {group}/{spec.name} is missing")
-                contents = {}
-                for name in grp.keys():
-                    dset = grp[name]
-                    if not isinstance(dset, h5py.Dataset):
-                        problems.append(f"{group}/{name} is not a variable")
-                        continue
-                    try:
-                        data = dset[()]
-                        vattrs = _read_attrs(dset)
-                    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
-                        problems.append(f"{group}/{name}: cannot read data (corrupt): {exc}")
-                        continue
-                    if name not in CLOCKS and name not in COORDS:
-                        for key in ("units", "long_name"):
-                            if key not in vattrs:
-                                problems.append(f"{group}/{name} has no {key} attribute")
-                    contents[name] = (data, vattrs)
-                    if want and name in want.get(group, ()):
-                        values[f"{group}/{name}"] = data
-                stored = grp.attrs.get("content_sha256")
+                read, values = _read_group(f, group, base, problems, (want or {}).get(group, ()))
+                out.values.update(values)
+                contents = {v.name: (v.data, v.attrs) for v in read.variables}
+                stored = read.attrs.get("content_sha256")
                 if stored is None:
                     problems.append(f"group /{group} has no content_sha256")
-                elif stored != _digest(_read_attrs(grp), contents):
+                elif stored != _digest(read.attrs, contents):
                     problems.append(f"group /{group} does not match its content_sha256 (altered or corrupt)")
+                if encodings and not problems:
+                    for var in read.variables:
+                        var.encoding = _storage_encoding(var.dset, var.dims)
+                for var in read.variables:
+                    var.dset = None  # closed with the file
+                out.groups[group] = read
     except Exception as exc:  # noqa: BLE001 - see _CORRUPT
         problems.append(f"cannot read the file (corrupt): {exc}")
-        return {}, problems, values
-    return root, problems, values
+        out.root, out.groups = {}, {}
+    return out
+
+
+def _inspect(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None
+             ) -> tuple[dict[str, Any], list[str], dict[str, Any]]:
+    """Check a trial file with h5py (:func:`_read_trial`).
+
+    Returns (root attributes, problems, values of the variables asked for in ``want`` as
+    ``{"group/name": value}``). Never raises for a bad file: each problem is a message.
+    """
+    read = _read_trial(path, groups=groups, want=want)
+    return {k: v for k, v in read.root.items() if k != "content_sha256"}, read.problems, read.values
 
 
 def _inspect_isolated(path: Path) -> list[str]:
@@ -757,12 +977,14 @@ def _inspect_isolated(path: Path) -> list[str]:
     return json.loads(payload)
 
 
-def _checked_root(path: Path, groups: Sequence[str]) -> dict[str, Any]:
-    root, problems, _ = _inspect(path, groups=groups)
+def _checked_read(path: Path, groups: Sequence[str]) -> _Read:
+    """:func:`_read_trial` with encodings; raises TrialFileError naming the file on any problem."""
+    read = _read_trial(path, groups=groups, encodings=True)
+    problems = read.problems
     if problems:
         raise TrialFileError(f"{path}: {problems[0]}" + (f" (and {len(problems) - 1} more problems)"
                                                           if len(problems) > 1 else ""))
-    return root
+    return read
 
 
 def _plain(value: Any) -> Any:
@@ -770,6 +992,118 @@ def _plain(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     return value
+
+
+def _xr_attr(key: str, value: Any, string_types: Mapping[str, np.dtype]) -> Any:
+    """An attribute's h5py value as xarray's h5netcdf engine returns it.
+
+    h5netcdf (``Attributes.__getitem__``): an empty attribute is b"" (1-char string type) or an
+    empty array; fixed-length strings (longer than 1) are decoded with their HDF5 character set;
+    string arrays become lists; a 1-element array or list becomes its element. xarray
+    (``_read_attributes``): bytes are decoded as UTF-8, except ``_FillValue``/``missing_value``.
+    ``string_types`` holds the HDF5 types of the fixed-length string attributes.
+    """
+    if isinstance(value, h5py.Empty):
+        info = h5py.check_string_dtype(value.dtype)
+        value = b"" if info and info.length == 1 else np.array([], dtype=value.dtype)
+    else:
+        dtype = getattr(value, "dtype", None)  # None for str/bytes: variable-length, left as they are
+        info = None
+        if dtype is not None and dtype.kind == "S":
+            info = h5py.check_string_dtype(string_types[key])
+        elif dtype is not None and dtype.kind == "O":
+            info = h5py.check_string_dtype(dtype)
+        if info is not None:
+            if info.length is not None and info.length > 1:
+                if np.isscalar(value):
+                    value = value.decode(info.encoding, "surrogateescape")
+                else:
+                    value = [b.decode(info.encoding, "surrogateescape") for b in value.flat]
+            elif not np.isscalar(value):
+                value = value.tolist()
+        if not np.isscalar(value) and len(value) == 1:
+            value = value[0]
+    if key not in ("_FillValue", "missing_value") and isinstance(value, bytes):
+        try:
+            value = value.decode("utf-8")
+        except UnicodeDecodeError:
+            warnings.warn(f"'utf-8' codec can't decode bytes for attribute {key!r}, returning bytes undecoded.",
+                          UnicodeWarning, stacklevel=3)
+    return value
+
+
+def _xr_attrs(attrs: Mapping[str, Any], string_types: Mapping[str, np.dtype]) -> dict[str, Any]:
+    return {k: _xr_attr(k, v, string_types) for k, v in attrs.items() if k not in _NC_HIDDEN}
+
+
+class _Loaded(BackendArray):
+    """A variable's data, read by the check, served to xarray's decoding as a backend array.
+
+    Indexed like h5netcdf's variables: the dtype is the HDF5 dataset's (variable-length strings:
+    object dtype with h5py's metadata) and a 0-d index returns a scalar.
+    """
+
+    def __init__(self, data: np.ndarray, dtype: np.dtype):
+        self.array = data
+        self.shape = data.shape
+        self.dtype = dtype
+
+    def __getitem__(self, key: Any) -> Any:
+        return xr_indexing.explicit_indexing_adapter(key, self.shape, xr_indexing.IndexingSupport.OUTER_1VECTOR,
+                                                     self.array.__getitem__)
+
+
+class _GroupStore(AbstractDataStore):
+    """One group of a trial file, already read and checked, as an xarray data store."""
+
+    def __init__(self, variables_: Mapping[str, xr.Variable], attrs: Mapping[str, Any], unlimited: set[str]):
+        self._variables = dict(variables_)
+        self._attrs = dict(attrs)
+        self._unlimited = set(unlimited)
+
+    def get_variables(self) -> dict[str, xr.Variable]:
+        return self._variables
+
+    def get_attrs(self) -> dict[str, Any]:
+        return self._attrs
+
+    def get_dimensions(self) -> dict[str, int]:
+        return {d: n for v in self._variables.values() for d, n in zip(v.dims, v.shape)}
+
+    def get_encoding(self) -> dict[str, Any]:
+        return {"unlimited_dims": set(self._unlimited)}
+
+
+def _dataset(group: _StoredGroup, source: str) -> xr.Dataset:
+    """One group as ``xr.open_dataset(path, engine="h5netcdf", group=...).load()`` returns it.
+
+    The group's dataset encoding is ``unlimited_dims`` only (as in ``open_datatree``'s nodes);
+    :func:`open_trial` adds ``source`` as ``open_dataset`` does.
+    """
+    made = {}
+    for var in group.variables:
+        if not var.is_variable:
+            continue
+        data = var.data
+        dtype = var.dtype
+        info = h5py.check_string_dtype(dtype)
+        if info is not None and info.length is None:
+            # h5netcdf's decode_vlen_strings: h5py's asstr(), decoded with the dataset's character set
+            raw = np.asarray(data, dtype=object)
+            data = np.array([b.decode(info.encoding) if isinstance(b, bytes) else b for b in raw.ravel().tolist()],
+                            dtype=object).reshape(raw.shape)
+        else:
+            data = np.asarray(data)
+        encoding = {**var.encoding, "source": source, "original_shape": data.shape}
+        made[var.name] = xr.Variable(var.dims, xr_indexing.LazilyIndexedArray(_Loaded(data, dtype)),
+                                     _xr_attrs(var.attrs, var.string_types), encoding)
+    store = _GroupStore(made, _xr_attrs(group.attrs, group.string_types), group.unlimited)
+    return xr.open_dataset(store, engine="store").load()
+
+
+def _source(path: Path) -> str:
+    """The ``source`` encoding xarray records: the absolute path as given (xarray's _normalize_path)."""
+    return os.path.abspath(os.path.expanduser(os.fspath(path)))
 
 
 def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Dataset:
@@ -785,8 +1119,10 @@ def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Datase
     Returns
     -------
     xarray.Dataset
-        The group's variables; its attributes are the file's global attributes (scene JSON,
-        provenance, ACDD) followed by the group's own.
+        The group's variables, exactly as ``xr.open_dataset(path, engine="h5netcdf",
+        group=group)`` decodes them (values, dtypes, attributes, encodings), built from the
+        arrays the content check read (one read of the file); its attributes are the file's
+        global attributes (scene JSON, provenance, ACDD) followed by the group's own.
 
     Raises
     ------
@@ -799,12 +1135,15 @@ def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Datase
     if group not in GROUPS:
         raise InputError(f"unknown trial group {group!r}; expected one of {list(GROUPS)}")
     path = Path(path)
-    root = _checked_root(path, (group,))
+    read = _checked_read(path, (group,))
+    source = _source(path)
     try:
-        with xr.open_dataset(path, engine="h5netcdf", group=group) as ds:
-            ds.load()
-    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        ds = _dataset(read.groups[group], source)
+    except Exception as exc:  # noqa: BLE001 - a file whose content xarray cannot decode
         raise TrialFileError(f"{path}: cannot read group /{group}: {exc}") from exc
+    ds.encoding["source"] = source
+    # the global attributes as xarray decodes the root group, numbers as Python numbers
+    root = _xr_attrs(read.root, read.root_string_types)
     ds.attrs = {**{k: _plain(v) for k, v in root.items() if k != "content_sha256"}, **ds.attrs}
     return ds
 
@@ -812,19 +1151,21 @@ def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Datase
 def open_trial_tree(path: str | os.PathLike) -> xr.DataTree:
     """Open a whole trial file (both groups), loaded into memory, the file closed again.
 
-    Returns the tree exactly as stored: ``open_trial_tree(p)`` is identical to
-    ``prepare_trial(tree)`` of the tree written to ``p``. Raises :class:`TrialFileError`
-    like :func:`open_trial`.
+    Returns the tree exactly as stored, and as ``xr.open_datatree(path, engine="h5netcdf")``
+    decodes it: ``open_trial_tree(p)`` is identical to ``prepare_trial(tree)`` of the tree
+    written to ``p``. Raises :class:`TrialFileError` like :func:`open_trial`.
     """
     path = Path(path)
-    _checked_root(path, GROUPS)
+    read = _checked_read(path, GROUPS)
+    source = _source(path)
     try:
-        with xr.open_datatree(path, engine="h5netcdf") as tree:
-            tree.load()
-    except Exception as exc:  # noqa: BLE001 - see _CORRUPT
+        nodes = {"/": _dataset(_StoredGroup(read.root, read.root_string_types, [], set()), source)}
+        nodes.update({f"/{g}": _dataset(read.groups[g], source) for g in GROUPS})
+        tree = xr.DataTree.from_dict(nodes)
+    except Exception as exc:  # noqa: BLE001 - a file whose content xarray cannot decode
         raise TrialFileError(f"{path}: cannot read the trial: {exc}") from exc
+    tree.encoding["source"] = source
     return tree
-
 
 # ---------------------------------------------------------------------------------------
 # campaign folders

@@ -122,6 +122,62 @@ def test_files_decode_like_files_xarray_writes_itself(tmp_path):
     open_trial(reference)
 
 
+@pytest.fixture(scope="module")
+def decoded_alike_files(tmp_path_factory):
+    """Real rig trials of both bases (a flexible simulation takes about 1 s) and a trial file
+    xarray writes itself."""
+    from campaign.rig import simulate
+    from campaign.scene import make_scene
+
+    folder = tmp_path_factory.mktemp("decoded")
+    files = {base: write_trial(simulate(scene), folder / f"{base}.nc") for base, scene in (
+        ("fixed", make_scene(config=1, speed=1.5)),
+        ("flexible", make_scene(base="flexible", config=2, gain="high", speed=2.0)))}
+    files["written by xarray"] = folder / "xarray.nc"
+    prepare_trial(synthetic_trial(base="flexible", duration=DURATION)).to_netcdf(files["written by xarray"],
+                                                                               engine="h5netcdf")
+    return files
+
+
+def _assert_decoded_alike(actual: xr.Dataset, expected: xr.Dataset, where) -> None:
+    """Identical, and alike in what assert_identical leaves out: order, dtypes, attribute types, encodings."""
+    xr.testing.assert_identical(actual, expected)
+    assert list(actual.variables) == list(expected.variables), where
+    assert list(actual.xindexes) == list(expected.xindexes), where
+    assert list(actual.attrs) == list(expected.attrs), where
+    assert all(type(actual.attrs[k]) is type(v) for k, v in expected.attrs.items()), where
+    assert actual.encoding == expected.encoding, where
+    for name, var in expected.variables.items():
+        got = actual.variables[name]
+        assert got.dtype == var.dtype, (where, name)
+        assert got.encoding == var.encoding, (where, name, got.encoding, var.encoding)
+        assert list(got.attrs) == list(var.attrs), (where, name)
+        assert all(type(got.attrs[k]) is type(v) for k, v in var.attrs.items()), (where, name)
+
+
+@pytest.mark.parametrize("kind", ["fixed", "flexible", "written by xarray"])
+def test_fast_reader_decodes_exactly_like_xarray(decoded_alike_files, kind):
+    """open_trial/open_trial_tree build their Datasets from the arrays the content check read;
+    the result is what xarray's h5netcdf engine returns for the same file."""
+    path = decoded_alike_files[kind]
+    with xr.open_dataset(path, engine="h5netcdf") as root:
+        global_attrs = {k: archive._plain(v) for k, v in root.attrs.items() if k != "content_sha256"}
+    for group in archive.GROUPS:
+        with xr.open_dataset(path, engine="h5netcdf", group=group) as expected:
+            expected.load()
+        expected.attrs = {**global_attrs, **expected.attrs}  # open_trial's merged global attributes
+        _assert_decoded_alike(open_trial(path, group=group), expected, (kind, group))
+    with xr.open_datatree(path, engine="h5netcdf") as expected_tree:
+        expected_tree.load()
+    actual_tree = open_trial_tree(path)
+    xr.testing.assert_identical(actual_tree, expected_tree)
+    assert list(actual_tree.children) == list(expected_tree.children)
+    for node in ("/", *(f"/{g}" for g in archive.GROUPS)):
+        assert actual_tree[node].encoding == expected_tree[node].encoding, (kind, node)
+        _assert_decoded_alike(actual_tree[node].to_dataset(inherit=False),
+                              expected_tree[node].to_dataset(inherit=False), (kind, node))
+
+
 def test_plain_xarray_shows_units_and_long_names_without_campaign(tmp_path):
     path = write_trial(synthetic_trial(base="flexible", duration=DURATION), tmp_path / "t.nc")
     script = textwrap.dedent("""
