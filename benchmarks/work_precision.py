@@ -64,10 +64,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-cost", action="store_true", help="skip the per-trial cost section")
     ap.add_argument("--readme", type=Path, help=f"write '{WP_HEADING}' and '{COST_HEADING}' into this file")
     ap.add_argument("--png", type=Path, default=None, help="write the log-log plot here")
+    ap.add_argument("--json", type=Path, default=None, help="write the raw rows here (after every scene)")
+    ap.add_argument("--only", default=None, help="run only scenes whose label contains this text")
     args = ap.parse_args(argv)
 
     log = (lambda s: print(s, file=sys.stderr))
-    res = bench.work_precision(quick=args.quick, repeats=args.repeats, flexible=not args.no_flexible, log=log)
+    def checkpoint(partial):
+        if args.json:
+            import json
+
+            from campaign.commands.bench import _jsonable
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps(_jsonable(partial), indent=1))
+
+    res = bench.work_precision(quick=args.quick, repeats=args.repeats, flexible=not args.no_flexible, log=log,
+                               only=args.only, checkpoint=checkpoint)
     png = bench.plot_work_precision(res, args.png) if args.png else None
     verdict = "\n".join(bench.wp_verdict(res))
     skipped = ("\n\nNot run: " + "; ".join(f"{a} ({b})" for a, b in res["skipped"])) if res["skipped"] else ""
