@@ -401,6 +401,16 @@ class LambdaFit:
                 msgs.append(f"{name} is not identifiable from these trials: " + "; ".join(why))
             else:
                 findings.append(f"{name}: ok (max |d ln m*/d ln {name}| = {smax:.3g})")
+        if self.n_configurations_ < n_par or not np.isfinite(self.condition_number_):
+            # too few distinct poses, or a rank-deficient sensitivity: no component is pinned
+            # down by the data, whatever its bootstrap spread (resamples of one pose agree
+            # with each other and say nothing about the truth)
+            cause = (f"{self.n_configurations_} distinct configuration(s) for {n_par} parameters"
+                     if self.n_configurations_ < n_par else "the sensitivity matrix is rank deficient")
+            for j, name in enumerate(names):
+                if ok[j]:
+                    ok[j] = False
+                    findings[j] = f"{name}: not identifiable: {cause}"
         if np.isfinite(self.condition_number_) and self.condition_number_ > 100:
             msgs.append(f"sensitivity matrix condition number {self.condition_number_:.3g}: the components are "
                         f"poorly separated by these configurations")

@@ -51,6 +51,8 @@ import json
 import numpy as np
 import pinocchio as pin
 import xarray as xr
+
+from campaign.schema import SCHEMA_VERSION
 from scipy.integrate import solve_ivp
 from scipy.signal import cont2discrete, lfilter
 
@@ -383,6 +385,8 @@ def make_trial(spec: Spec | None = None, **kw) -> SyntheticTrial:
         meas = meas.assign_coords(t_base=tb, axis2=list(axis))
         meas["base_mass"] = ((), spec.base_mass, {"units": "kg"})
         meas["base_inertia"] = (("axis", "axis2"), np.diag(spec.base_inertia), {"units": "kg m2"})
+        meas["base_com"] = (("axis",), np.zeros(3), {"units": "m"})      # BaseBody above: COM at the base origin
+        meas["base_mount"] = (("axis",), np.zeros(3), {"units": "m"})
 
     tt = np.arange(0.0, t_end, 1e-3)
     ph = pend(tt)
@@ -410,7 +414,7 @@ def make_trial(spec: Spec | None = None, **kw) -> SyntheticTrial:
         "scene_json": scene.to_json(), "scene_sha256": scene.sha256,
         "seed": int(scene.seed), "base": scene.base, "config": int(scene.config), "gain": scene.gain,
         "speed": float(scene.speed), "repeat": int(scene.repeat), "robot": robot.name,
-        "schema_version": "1.0",
+        "schema_version": SCHEMA_VERSION,
         "synthetic_spec": json.dumps(dataclasses.asdict(spec), default=str),
     }
     tree = xr.DataTree.from_dict({"/": xr.Dataset(attrs=attrs), "/measured": meas, "/truth": truth_ds})

@@ -168,11 +168,41 @@ def test_trial_cli_bad_input_exits_2_naming_the_cause_and_leaves_no_file(tmp_pat
     assert list(tmp_path.iterdir()) == []
 
 
-def test_a_blow_up_is_reported_never_stored():
-    # a stiff contact forced onto far too coarse a step diverges: detected, not returned
-    scene = make_scene(config=1, speed=2.0, params={"contact.stiffness": 1e9, "contact.exponent": 1.0})
-    with pytest.raises(SimulationError, match="blew up|non-finite|chattering"):
-        simulate(scene, integration={"substeps_contact": 1})
+def _diverging_rhs(monkeypatch, after=50):
+    """Make the arm's dynamics diverge mid-trial (after ``after`` evaluations)."""
+    from campaign.rig.plant import FixedBasePlant
+    rhs = FixedBasePlant.rhs
+    calls = {"n": 0}
+
+    def bad(self, *args, **kwargs):
+        calls["n"] += 1
+        xd = rhs(self, *args, **kwargs)
+        if calls["n"] > after:
+            xd[self.i_v] = np.inf
+        return xd
+
+    monkeypatch.setattr(FixedBasePlant, "rhs", bad)
+
+
+def test_a_blow_up_is_reported_never_stored(monkeypatch):
+    _diverging_rhs(monkeypatch)
+    with pytest.raises(SimulationError, match="blew up"):
+        simulate(make_scene(config=1, speed=2.0))
+
+
+def test_a_blow_up_exits_2_and_leaves_no_file(monkeypatch, tmp_path, capsys):
+    _diverging_rhs(monkeypatch)
+    out = tmp_path / "t.nc"
+    assert main(["trial", "--speed", "2", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "blew up" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_integration_override_too_coarse_for_the_contact_is_refused():
+    with pytest.raises(InputError, match="RK4 steps over a contact"):
+        simulate(make_scene(config=1, speed=2.0, params={"contact.stiffness": 1e9, "contact.exponent": 1.0}),
+                 integration={"substeps_contact": 1})
 
 
 def test_contact_too_stiff_for_the_integrator_is_refused_before_simulating():

@@ -2,9 +2,7 @@
 invariants or is refused before simulating with a message naming the cause.
 
 The full grid is ``benchmarks/stress.py`` (``campaign bench stress``); this is its reduced
-set (``campaign.bench.stress_cases(reduced=True)``), plus the closed-form stress. Cases that
-the rig does not refuse yet although it should are marked ``xfail(strict=True)`` with the
-check they need: once the rig refuses them, the mark must go.
+set (``campaign.bench.stress_cases(reduced=True)``), plus the closed-form stress; a refusal must name its cause (``REFUSAL_CAUSE``).
 """
 
 from __future__ import annotations
@@ -25,33 +23,21 @@ REFUSAL_CAUSE = {
     "1000x High": "unstable at the servo rate",
     "10 m/s, zero": "beyond what the pendulum can reach",
     "EI 10000x, loop": "first-mode frequency",
+    "stiffness 0.01x, zero": "outlasts the recording",
+    "m_b = 100x m*, configuration 2": "keep pushing the arm",
+    "ideal contact, substeps_contact=1": "RK4 steps over a contact",
+    "EI 100x, ideal": "highest mode",
+    "VES bandwidth 300 Hz": "loop is unstable",
 }
-
-#: corners the rig should refuse up front but does not yet (proposed checks, see benchmarks/README.md)
-MISSING_CHECK = {
-    "stiffness 0.01x, zero": "contact (~0.45 s) outlasts the recording after the touch: refuse a contact-duration "
-                             "estimate beyond trial.min_post_contact (or record min_post after the contact end)",
-    "m_b = 100x m*, configuration 2": "contact of a 100x m* hammer outlasts the recording: same check",
-    "ideal contact, substeps_contact=1": "an integration override with ~1 RK4 step per contact gains energy: "
-                                         "refuse overrides below a minimum number of steps per contact",
-    "EI 100x, ideal": "ideal coupling at 1 ms out of contact cannot resolve the stiff beam (reported blow-up): "
-                      "choose substeps_free from the structure's highest mode, or refuse",
-    "VES bandwidth 300 Hz": "the VES loop is unstable at that bandwidth (base motion grows, file written): refuse "
-                            "when VesLoop.closed_loop_poles has a negative damping ratio",
-}
-
 
 def _param(case):
-    marks = []
-    if case.label in MISSING_CHECK:
-        marks.append(pytest.mark.xfail(strict=True, reason="missing rig check: " + MISSING_CHECK[case.label]))
-    return pytest.param(case, id=f"{case.axis}: {case.label}", marks=marks)
+    return pytest.param(case, id=f"{case.axis}: {case.label}")
 
 
 def test_the_reduced_set_covers_every_axis_of_the_grid():
     axes = {c.axis for c in CASES}
     assert {"pose", "gains", "contact", "speed", "hammer", "servo", "integration", "beam"} <= axes
-    assert set(REFUSAL_CAUSE) <= {c.label for c in CASES} and set(MISSING_CHECK) <= {c.label for c in CASES}
+    assert set(REFUSAL_CAUSE) <= {c.label for c in CASES}
 
 
 @pytest.mark.parametrize("case", [_param(c) for c in CASES])
@@ -124,9 +110,6 @@ def test_closed_form_stress_reports_no_problem_and_the_paper_designs_conditionin
             assert np.all(np.isfinite(r["lam"]))
 
 
-@pytest.mark.xfail(strict=True, reason="LambdaFit marks every component identifiable on a one-pose design "
-                   "(condition number inf) and its bootstrap gives tight CIs around wrong values; proposed: "
-                   "identifiable_ all False when n_configurations_ < n_parameters or condition_number_ is inf")
 def test_lambda_fit_on_a_single_pose_flags_every_component():
     fitmod = pytest.importorskip("campaign.fit")
     robot = load_robot()

@@ -78,7 +78,14 @@ def _hermite(x0, f0, x1, f1, h, s):
     return h00 * x0 + h10 * h * f0 + h01 * x1 + h11 * h * f1
 
 
-def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
+def integrate_trial(plant, pid, **kwargs) -> Trajectory:
+    """Integrate one trial (see :func:`_integrate`); a diverging state is reported as a
+    :class:`SimulationError` by the per-step finiteness check, not as NumPy warnings."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        return _integrate(plant, pid, **kwargs)
+
+
+def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
                     substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
                     settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf) -> Trajectory:
     """Integrate one trial from the first touch at ``t_contact`` until its outputs are recorded.
@@ -264,6 +271,8 @@ def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed:
         if h > 1e-15:
             x_new, k1 = rk4(x, h)
             n_steps += 1
+            if not np.all(np.isfinite(x_new)):
+                raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
             g1 = event_values(x_new)
             candidates = [k for k, v1 in g1.items() if v1 > 0]
             fired = []

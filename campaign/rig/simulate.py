@@ -31,6 +31,10 @@ __all__ = ["simulate", "build", "Rig"]
 
 #: RK4 steps per contact duration estimate: the step is set from the contact's own time scale
 STEPS_PER_CONTACT = 32
+#: the ideal coupling refuses a structure needing more RK4 steps than this per servo tick
+MAX_SUBSTEPS_IDEAL = 16
+#: an integration override must keep at least this many RK4 steps over the shortest contact
+MIN_STEPS_PER_CONTACT = 8
 #: a contact needing more RK4 substeps than this per servo tick is refused as too stiff
 MAX_SUBSTEPS = 4096
 
@@ -51,8 +55,11 @@ class Rig:
     streams: dict
 
 
-def build(scene: Scene) -> Rig:
-    """Assemble the plant of ``scene`` and check it; raises InputError naming the cause."""
+def build(scene: Scene, *, integration: dict | None = None) -> Rig:
+    """Assemble the plant of ``scene`` and check it; raises InputError naming the cause.
+
+    ``integration`` overrides the integrator's substeps (``substeps_contact``,
+    ``substeps_free``), checked here too: an override must still resolve the contact."""
     p = scene.p
     robot = load_robot(p("robot"))
     q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
@@ -65,6 +72,15 @@ def build(scene: Scene) -> Rig:
     friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
                     gravity=gravity)
     min_post, max_post = float(p("trial.min_post_contact")), float(p("trial.max_post_contact"))
+    # the hammer must rebound: one at least as heavy as the arm's free effective mass (eq 11,
+    # lambda = 0, the smallest m* the arm can show) keeps pushing it and never leaves cleanly
+    from ..exiit import effective_mass
+    m1 = effective_mass(robot, q0, impact_direction())
+    if pend.m_b >= m1:
+        raise InputError(
+            f"hammer effective mass m_b = {pend.m_b:.4g} kg (pendulum.head_mass, pendulum.rod_mass) is not below "
+            f"the arm's free effective mass m* = {m1:.4g} kg (eq 11, lambda = 0) at this pose: it would keep "
+            "pushing the arm instead of rebounding")
     streams = noise_streams(scene.seed)
     t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
     if scene.base == "fixed":
@@ -79,16 +95,28 @@ def build(scene: Scene) -> Rig:
         import pinocchio as pin
         pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
         arm = beam.base_body().mount.act(data.oYcrb[0])
-        f1 = beam.first_mode_frequency(tip=arm)
+        freqs = beam.modes(tip=arm)[0]
+        f1 = float(freqs[0])
         min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
         if p("ves.mode") == "ideal":
             plant = IdealCouplingPlant(robot, q0, impact_direction(), pend, contact, beam, **friction)
+            # the structure is integrated with the arm: RK4 must resolve its highest mode
+            # (omega h <= 1) out of contact too
+            sub_free_min = math.ceil(2.0 * math.pi * float(freqs[-1]) / float(p("controller.servo_rate")))
         else:
             plant = VesLoopPlant(robot, q0, impact_direction(), pend, contact, beam, **friction,
                                  rate=float(p("ves.rate")), latency=float(p("ves.latency")),
                                  bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
             T_e = plant.emulator_period
             plant.reset_loop(math.floor(t_contact / T_e + 1e-9) * T_e)
+            # the emulation loop closed through the (locked) arm must be stable
+            fz, zeta = plant.loop.closed_loop_poles(np.asarray(arm.matrix()))
+            if np.any(zeta < 0):
+                k = int(np.argmin(zeta))
+                raise InputError(
+                    f"the VES emulation loop is unstable at ves.rate = {p('ves.rate'):g} Hz, ves.latency = "
+                    f"{p('ves.latency'):g} s, ves.bandwidth = {p('ves.bandwidth'):g} Hz: its {fz[k]:.4g} Hz mode has "
+                    f"damping ratio {zeta[k]:.3g} < 0 with the arm on the platform; lower the bandwidth or the latency")
 
     T = 1.0 / float(p("controller.servo_rate"))
     P, D, I = scene.gains_counts
@@ -109,6 +137,11 @@ def build(scene: Scene) -> Rig:
 
     # contact step from the contact's own time scale (hammer against a wall bounds it)
     t_contact_scale = contact_duration_estimate(contact.stiffness, contact.exponent, pend.m_b, scene.speed)
+    if t_contact_scale > max_post:
+        raise InputError(
+            f"a contact of ~{t_contact_scale:.3g} s (contact.stiffness = {contact.stiffness:g}, hammer m_b = "
+            f"{pend.m_b:.3g} kg at {scene.speed:g} m/s) outlasts the recording after the touch "
+            f"({max_post:g} s, trial.max_post_contact): stiffen the contact or lengthen the recording")
     sub_c = max(1, math.ceil(T / (t_contact_scale / STEPS_PER_CONTACT)))
     sub_c = max(sub_c, int(p("integration.substeps_contact")))
     if sub_c > MAX_SUBSTEPS:
@@ -116,8 +149,32 @@ def build(scene: Scene) -> Rig:
             f"contact too stiff for the integrator: a contact of ~{t_contact_scale * 1e3:.3g} ms needs "
             f"{sub_c} RK4 steps per {T * 1e3:g} ms servo tick (limit {MAX_SUBSTEPS}); lower contact.stiffness"
         )
-    return Rig(scene, plant, pid, min_post, max_post, T, sub_c, int(p("integration.substeps_free")), t_contact,
-               streams)
+    sub_f = int(p("integration.substeps_free"))
+    if scene.base == "flexible" and p("ves.mode") == "ideal":
+        if sub_free_min > MAX_SUBSTEPS_IDEAL:
+            raise InputError(
+                f"ideal coupling cannot resolve the structure's highest mode ({freqs[-1]:.4g} Hz: "
+                f"{sub_free_min} RK4 steps per servo tick, limit {MAX_SUBSTEPS_IDEAL}); use ves.mode = loop, "
+                "whose emulator steps the structure exactly, or a softer beam (flexible.beam_EI, beam_EA_ratio)")
+        sub_f = max(sub_f, sub_free_min)
+    for key, value in (integration or {}).items():
+        if key not in ("substeps_contact", "substeps_free") or not (isinstance(value, int) and value >= 1):
+            raise InputError(f"integration override {key}={value!r}: expected substeps_contact or substeps_free, "
+                             "an integer >= 1")
+    sub_c = int((integration or {}).get("substeps_contact", sub_c))
+    sub_f = int((integration or {}).get("substeps_free", sub_f))
+    # the contact must stay resolved: the shortest it can be is against the arm's free
+    # effective mass (reduced mass of the hammer and m1)
+    m_red = pend.m_b * m1 / (pend.m_b + m1)
+    t_short = contact_duration_estimate(contact.stiffness, contact.exponent, m_red, scene.speed)
+    steps = sub_c * t_short / T
+    if steps < MIN_STEPS_PER_CONTACT:
+        raise InputError(
+            f"substeps_contact={sub_c} gives only {steps:.2g} RK4 steps over a contact of ~{t_short * 1e3:.3g} ms "
+            f"(at least {MIN_STEPS_PER_CONTACT} needed)")
+    rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
+    rig.m1 = m1
+    return rig
 
 
 def _offset():
@@ -152,10 +209,9 @@ def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
     SimulationError
         The integration failed (blow-up); nothing is returned.
     """
-    rig = build(scene)
+    rig = build(scene, integration=integration)
     p = scene.p
     subs = dict(substeps_contact=rig.substeps_contact, substeps_free=rig.substeps_free)
-    subs.update(integration or {})
     traj = integrate_trial(
         rig.plant, rig.pid, t_contact=rig.t_contact, speed=scene.speed, servo_period=rig.servo_period,
         min_post=rig.min_post, max_post=rig.max_post,
