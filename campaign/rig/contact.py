@@ -22,7 +22,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from ..errors import InputError
@@ -36,6 +35,8 @@ def restitution_of_damping(d: float, p: float = 1.0) -> float:
     The contact ends when ``x`` returns to 0 or the force ``x^p (1 + d x')`` reaches 0
     (no tension); ``e = -x'`` then.
     """
+
+    from scipy.integrate import solve_ivp   # only this independent check integrates
 
     def rhs(_, y):
         x, xd = y

@@ -1,0 +1,88 @@
+"""The committed reference archive as a regression baseline (issue 5, item 6).
+
+``archive/reference`` was produced by the project's own commands (the reduced campaign,
+see archive/README.md). Re-simulating its stored scenes must reproduce its channels, and
+identification on it must reproduce the results stored beside it; a change to the rig or
+to identification that moves a number shows up here, and the archive is then regenerated
+deliberately, not silently.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import xarray as xr
+
+from campaign import archive
+from campaign.identify import identify_file
+from campaign.rig import simulate
+from campaign.scene import Scene
+
+ROOT = Path(__file__).resolve().parents[1] / "archive"
+REFERENCE = ROOT / "reference"
+STORED = ROOT / "reference.identification.csv"
+
+#: a spread of the reference's cells: both bases, every gain, three configurations
+RESIMULATED = (
+    "fixed/config1/zero/v1.500/r00.nc",
+    "fixed/config3/high/v2.500/r00.nc",
+    "fixed/config2/low/v1.500/r00.nc",
+    "flexible/config2/high/v2.500/r00.nc",
+)
+
+
+def test_the_reference_archive_verifies_clean():
+    assert archive.verify(REFERENCE) == []
+    # 26 trials: 18 fixed-base, 8 flexible-base, as archive/README.md says
+    assert len(archive.list_trials(REFERENCE)) == 26
+    assert len(archive.list_trials(REFERENCE, base="flexible")) == 8
+
+
+@pytest.mark.parametrize("rel", RESIMULATED)
+def test_resimulating_a_stored_scene_reproduces_its_channels(rel):
+    path = REFERENCE / rel
+    stored = archive.open_trial_tree(path)
+    scene = Scene.from_json(stored.attrs["scene_json"])
+    fresh = simulate(scene)
+    for group in ("measured", "truth"):
+        a, b = stored[group].to_dataset(), fresh[group].to_dataset()
+        assert set(a.data_vars) == set(b.data_vars)
+        for name in a.data_vars:
+            xr.testing.assert_allclose(a[name].reset_coords(drop=True), b[name].reset_coords(drop=True),
+                                       rtol=1e-9, atol=1e-12)
+
+
+def test_identification_on_the_reference_reproduces_its_stored_results():
+    stored = pd.read_csv(STORED)
+    assert len(stored) == 26
+    for _, row in stored.iterrows():
+        rel = Path(row["path"])
+        path = rel if rel.is_absolute() and rel.exists() else REFERENCE / Path(
+            *Path(row["path"]).parts[-5:])
+        res = identify_file(path)
+        assert bool(res.excluded) == bool(row["excluded"]), path
+        for key in ("m_eff", "e", "v_a", "v_a_post", "v_b", "v_b_post", "impulse", "contact_start", "contact_end"):
+            got, want = float(getattr(res, key)), float(row[key])
+            if math.isnan(want):
+                assert math.isnan(got), (path, key)
+            else:
+                assert got == pytest.approx(want, rel=1e-9, abs=1e-12), (path, key)
+
+
+def test_the_reference_reproduces_the_papers_fixed_base_effective_masses_within_10_percent():
+    # what the calibration promised, read from the stored identification (no simulation)
+    from campaign.paper import load_paper
+    t2 = load_paper()["table2"]
+    df = pd.read_csv(STORED)
+    fixed = df[(df.base == "fixed") & (df.excluded == 0)]
+    for config in (1, 2, 3):
+        m2 = fixed[(fixed.config == config) & fixed.gain.isin(["zero", "low"])].m_eff.mean()
+        m3 = fixed[(fixed.config == config) & (fixed.gain == "high")].m_eff.mean()
+        assert abs(m2 / t2["m2"][config] - 1) < 0.10, (config, m2)
+        assert abs(m3 / t2["m3"][config] - 1) < 0.10, (config, m3)
+    assert abs(fixed.e.mean() - 0.55) < 0.03
+    assert np.all(np.isfinite(df.m_eff)) and np.all((df.e > 0) & (df.e < 1))
