@@ -16,9 +16,11 @@ include: "workflow/rules/fit.smk"
 include: "workflow/rules/tables.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/archive.smk"
+include: "workflow/rules/calibration.smk"
 
 
 rule all:
     input:
         default_targets(),
+        calibration_targets(),
     default_target: True

@@ -307,3 +307,12 @@ def log_file(rule_name, unit=None):
 def bench_file(rule_name, unit=None):
     """Snakemake benchmark record of one job (wall time, CPU time, memory)."""
     return str(Path(RESULTS, "benchmarks", rule_name, *([unit] if unit else [])).with_suffix(".tsv"))
+
+
+def calibration_targets():
+    """The calibration report, when the campaign has what its held-out rows need."""
+    flex = config.get("bases", {}).get("flexible") or {}
+    if {1, 2} <= set(flex.get("configurations", [])) and {"low", "high"} <= set(flex.get("gains", [])) \
+            and not missing_requirement("table4") and not missing_requirement("fig9"):
+        return [f"{RESULTS}/calibration/calibration.md"]
+    return []
