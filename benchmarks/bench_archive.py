@@ -52,7 +52,6 @@ from campaign import __version__, archive  # noqa: E402
 from synthetic import synthetic_trial  # noqa: E402
 
 HEADING = "## Archive I/O"
-README_HEADER = "# Benchmarks\n"
 BUDGET_MS = 50.0
 
 
@@ -148,20 +147,10 @@ def format_tables(writes: list[dict], reads: list[dict]) -> str:
 
 
 def write_section(readme: Path, body: str) -> None:
-    """Replace (or append) this script's section of ``readme``, creating the file if needed."""
-    text = readme.read_text() if readme.is_file() else README_HEADER
-    section = f"{HEADING}\n\n{body.rstrip()}\n"
-    lines = text.splitlines(keepends=True)
-    start = next((i for i, line in enumerate(lines) if line.rstrip() == HEADING), None)
-    if start is None:
-        text = text.rstrip("\n") + "\n\n" + section
-    else:
-        end = next((j for j in range(start + 1, len(lines)) if lines[j].startswith("## ")), len(lines))
-        tail = "".join(lines[end:])
-        text = "".join(lines[:start]) + section + ("\n" + tail if tail else "")
-    tmp = readme.with_name(f".{readme.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, readme)
+    """Replace (or append) this script's section of ``readme`` (campaign.bench.write_section)."""
+    from campaign.bench import write_section as _write_section
+
+    _write_section(readme, HEADING, body)
 
 
 def main(argv: list[str] | None = None) -> int:

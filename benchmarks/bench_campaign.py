@@ -49,13 +49,6 @@ SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 HEADING = "## Campaign wall time"
 TARGETS = {"full": 60.0, "ci": 20.0}  # seconds, issue 7
 CONFIGS = {"full": REPO / "config" / "config.yaml", "ci": REPO / "config" / "ci.yaml"}
-README_HEADER = """# Benchmarks
-
-Measurements of the campaign's cost, one script per topic in this folder (`bench_*.py`),
-run together with `make bench`. They are not timed tests: numbers depend on the machine, so
-each section below records the machine and library versions next to the printed summary.
-Each script documents how to rerun it and how to update its section here.
-"""
 
 
 def run(cmd: list[str], cwd: Path) -> tuple[float, float]:
@@ -178,20 +171,10 @@ def machine() -> str:
 
 
 def write_section(readme: Path, body: str) -> None:
-    """Replace (or append) this script's section of ``readme``, creating the file if needed."""
-    text = readme.read_text() if readme.is_file() else README_HEADER
-    section = f"{HEADING}\n\n{body.rstrip()}\n"
-    lines = text.splitlines(keepends=True)
-    start = next((i for i, line in enumerate(lines) if line.rstrip() == HEADING), None)
-    if start is None:
-        text = text.rstrip("\n") + "\n\n" + section
-    else:
-        end = next((j for j in range(start + 1, len(lines)) if lines[j].startswith("## ")), len(lines))
-        tail = "".join(lines[end:])
-        text = "".join(lines[:start]) + section + ("\n" + tail if tail else "")
-    tmp = readme.with_name(readme.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, readme)
+    """Replace (or append) this script's section of ``readme`` (campaign.bench.write_section)."""
+    from campaign.bench import write_section as _write_section
+
+    _write_section(readme, HEADING, body)
 
 
 def main(argv: list[str] | None = None) -> int:
