@@ -8,14 +8,13 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
 import pytest
 from scipy.optimize import brentq
 
 from campaign import exiit
 from campaign.cli import main
 from campaign.paper import configuration_q
-from campaign.robot.floating import BaseBody, attach_to_floating_base
+from campaign.robot.floating import attach_to_floating_base
 from campaign.scene import load_rig
 
 # The paper's published Table 2 [kg].

@@ -363,7 +363,6 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         ``rnea(q, v, [a_b, 0])_m`` holds gravity, Coriolis and the base acceleration."""
         model, data = self.fmodel, self.fdata
         qf, vb, ab = self._qfull(q, self._t)
-        na = self.na
         vf = self._vf
         vf[:6] = vb
         vf[6:] = v

@@ -25,7 +25,7 @@ from .controller import PID, check_stability
 from .integrate import integrate_trial
 from .pendulum import Pendulum
 from .plant import FixedBasePlant
-from .sensors import StateSampler, base_wrench, noise_streams, quantize, sample_grid
+from .sensors import StateSampler, noise_streams, quantize, sample_grid
 
 __all__ = ["simulate", "build", "Rig"]
 
@@ -363,7 +363,6 @@ def record(rig: Rig, traj) -> xr.DataTree:
             rec = np.vstack([np.zeros(24), rec])
             chan = np.column_stack([np.interp(tb, tk, rec[:, i]) for i in range(18)])
             structure, platform, command = chan[:, 0:6], chan[:, 6:12], chan[:, 12:18]
-            tb_state = np.column_stack([P_hist, V_hist])
             base_truth = np.column_stack([P_hist, V_hist])
         else:
             Xb, _ = sampler(tb)
