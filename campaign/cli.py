@@ -32,13 +32,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"campaign {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in COMMANDS:
-        try:
-            module = importlib.import_module(f"campaign.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"campaign.commands.{name}":
-                continue  # stage not installed in this build
-            raise
-        module.register(sub)
+        importlib.import_module(f"campaign.commands.{name}").register(sub)
     return parser
 
 
