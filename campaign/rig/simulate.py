@@ -31,6 +31,8 @@ __all__ = ["simulate", "build", "Rig"]
 
 #: RK4 steps per contact duration estimate: the step is set from the contact's own time scale
 STEPS_PER_CONTACT = 32
+#: longest recording after the touch a flexible-base trial may need [s]
+MAX_FLEXIBLE_RECORD = 20.0
 #: the ideal coupling refuses a structure needing more RK4 steps than this per servo tick
 MAX_SUBSTEPS_IDEAL = 16
 #: an integration override must keep at least this many RK4 steps over the shortest contact
@@ -98,6 +100,12 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
         freqs = beam.modes(tip=arm)[0]
         f1 = float(freqs[0])
         min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
+        if max_post > MAX_FLEXIBLE_RECORD:
+            raise InputError(
+                f"the structure's first mode ({f1:.3g} Hz with the arm on top; flexible.beam_EI = "
+                f"{p('flexible.beam_EI'):g} N m^2, beam_length = {p('flexible.beam_length'):g} m) needs a "
+                f"{max_post:.3g} s recording for flexible.trial_periods = {p('flexible.trial_periods'):g} periods, "
+                f"beyond the {MAX_FLEXIBLE_RECORD:g} s a trial may last: stiffen the structure or record fewer periods")
         if p("ves.mode") == "ideal":
             plant = IdealCouplingPlant(robot, q0, impact_direction(), pend, contact, beam, **friction)
             # the structure is integrated with the arm: RK4 must resolve its highest mode
