@@ -31,6 +31,8 @@ __all__ = ["simulate", "build", "Rig"]
 
 #: RK4 steps per contact duration estimate: the step is set from the contact's own time scale
 STEPS_PER_CONTACT = 32
+#: longest VES latency accepted [s]; real emulators run at a few ms
+MAX_VES_LATENCY = 0.1
 #: longest recording after the touch a flexible-base trial may need [s]
 MAX_FLEXIBLE_RECORD = 20.0
 #: the ideal coupling refuses a structure needing more RK4 steps than this per servo tick
@@ -112,6 +114,11 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
             # (omega h <= 1) out of contact too
             sub_free_min = math.ceil(2.0 * math.pi * float(freqs[-1]) / float(p("controller.servo_rate")))
         else:
+            if float(p("ves.latency")) > MAX_VES_LATENCY:
+                raise InputError(
+                    f"VES latency {p('ves.latency'):g} s (ves.latency) is beyond {MAX_VES_LATENCY:g} s: a force loop "
+                    f"delayed that long cannot emulate a {f1:.3g} Hz structure (it destabilises it), and its "
+                    "stability check would have to analyse the whole delay line")
             plant = VesLoopPlant(robot, q0, impact_direction(), pend, contact, beam, **friction,
                                  rate=float(p("ves.rate")), latency=float(p("ves.latency")),
                                  bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
