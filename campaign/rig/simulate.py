@@ -172,12 +172,20 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                 f"{sub_free_min} RK4 steps per servo tick, limit {MAX_SUBSTEPS_IDEAL}); use ves.mode = loop, "
                 "whose emulator steps the structure exactly, or a softer beam (flexible.beam_EI, beam_EA_ratio)")
         sub_f = max(sub_f, sub_free_min)
+        # in contact the structure is integrated with the same RK4 step: it must resolve that
+        # mode as well (with 1 step per tick the ideal coupling's m* was 18 % off, benchmarks/)
+        sub_c = max(sub_c, sub_free_min)
     for key, value in (integration or {}).items():
         if key not in ("substeps_contact", "substeps_free") or not (isinstance(value, int) and value >= 1):
             raise InputError(f"integration override {key}={value!r}: expected substeps_contact or substeps_free, "
                              "an integer >= 1")
     sub_c = int((integration or {}).get("substeps_contact", sub_c))
     sub_f = int((integration or {}).get("substeps_free", sub_f))
+    if scene.base == "flexible" and p("ves.mode") == "ideal" and min(sub_c, sub_f) < sub_free_min:
+        raise InputError(
+            f"integration override substeps_contact={sub_c}, substeps_free={sub_f}: the ideal coupling needs at "
+            f"least {sub_free_min} RK4 steps per servo tick to resolve the structure's highest mode "
+            f"({freqs[-1]:.4g} Hz)")
     # the contact must stay resolved: the shortest it can be is against the arm's free
     # effective mass (reduced mass of the hammer and m1)
     m_red = pend.m_b * m1 / (pend.m_b + m1)
