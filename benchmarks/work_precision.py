@@ -66,6 +66,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--png", type=Path, default=None, help="write the log-log plot here")
     ap.add_argument("--json", type=Path, default=None, help="write the raw rows here (after every scene)")
     ap.add_argument("--only", default=None, help="run only scenes whose label contains this text")
+    ap.add_argument("--from-json", type=Path, nargs="+", default=None, metavar="JSON",
+                    help="do not run the sweep: render the rows saved by --json (later files replace the scenes "
+                    "of earlier ones)")
+    ap.add_argument("--cost-only", action="store_true", help="only the per-trial cost section")
+    ap.add_argument("--note", default="", help="a sentence added under the verdict (e.g. where the rows come from)")
     args = ap.parse_args(argv)
 
     log = (lambda s: print(s, file=sys.stderr))
@@ -77,23 +82,17 @@ def main(argv: list[str] | None = None) -> int:
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.write_text(json.dumps(_jsonable(partial), indent=1))
 
-    res = bench.work_precision(quick=args.quick, repeats=args.repeats, flexible=not args.no_flexible, log=log,
-                               only=args.only, checkpoint=checkpoint)
-    png = bench.plot_work_precision(res, args.png) if args.png else None
-    verdict = "\n".join(bench.wp_verdict(res))
-    skipped = ("\n\nNot run: " + "; ".join(f"{a} ({b})" for a, b in res["skipped"])) if res["skipped"] else ""
-    machine = bench.machine_line()
-    plot = f"\n\n![work-precision]({png.name if args.readme and png and png.parent == args.readme.parent else png})" \
-        if png else ""
-    wp_body = "\n\n".join([
-        WP_INTRO, bench.format_wp_table(res), bench.format_wp_references(res),
-        "Verdict per scene (default setting):\n\n" + verdict + skipped + plot,
-        machine + f" Repeats per setting: {res['repeats']} (naive: half). Rerun: `.venv/bin/python "
-        "benchmarks/work_precision.py --readme benchmarks/README.md --png benchmarks/work_precision.png`.",
-    ])
-    print(wp_body)
+    if args.cost_only:
+        res = None
+    elif args.from_json:
+        res = load_results(args.from_json)
+    else:
+        res = bench.work_precision(quick=args.quick, repeats=args.repeats, flexible=not args.no_flexible, log=log,
+                                   only=args.only, checkpoint=checkpoint)
+        checkpoint(res)
+    wp_body = render(res, args) if res is not None else None
     cost_body = None
-    if not args.no_cost:
+    if not args.no_cost and (args.cost_only or not args.from_json):
         cost = bench.trial_cost(quick=args.quick, log=log)
         cost_body = "\n\n".join([
             "Median wall time per trial at the default integration setting over the campaign's trials "
@@ -101,16 +100,65 @@ def main(argv: list[str] | None = None) -> int:
             f"{cost['repeats']} timed runs each after a warm-up), the trial file written by "
             "`campaign.archive.write_trial` timed separately, and the naive baseline of issue 3 in the same run. "
             "Targets: simulation <= 25 ms (fixed) / <= 150 ms (flexible), writing <= 50 ms.",
-            bench.format_cost(cost), machine,
+            bench.format_cost(cost), bench.machine_line(),
         ])
         print("\n" + cost_body)
     if args.readme:
-        bench.write_section(args.readme, WP_HEADING, wp_body)
+        if wp_body:
+            bench.write_section(args.readme, WP_HEADING, wp_body)
         if cost_body:
             bench.write_section(args.readme, COST_HEADING, cost_body)
-        print(f"\nwrote {WP_HEADING!r}{' and ' + repr(COST_HEADING) if cost_body else ''} in {args.readme}",
-              file=sys.stderr)
+        print(f"\nwrote the sections in {args.readme}", file=sys.stderr)
     return 0
+
+
+def load_results(paths) -> dict:
+    """Rows saved by --json; a later file replaces the scenes of earlier ones. Fronts are
+    recomputed."""
+    import json
+
+    def num(x):
+        if isinstance(x, str) and x in ("inf", "-inf", "nan"):
+            return float(x)
+        if isinstance(x, dict):
+            return {k: num(v) for k, v in x.items()}
+        if isinstance(x, list):
+            return [num(v) for v in x]
+        return x
+
+    res = {"rows": [], "scenes": [], "skipped": [], "repeats": 0}
+    for path in paths:
+        part = num(json.loads(Path(path).read_text()))
+        labels = {sc["label"] for sc in part["scenes"]}
+        res["rows"] = [r for r in res["rows"] if r["scene"] not in labels] + part["rows"]
+        res["scenes"] = [sc for sc in res["scenes"] if sc["label"] not in labels] + part["scenes"]
+        res["skipped"] = [sk for sk in res["skipped"] if sk[0] not in labels] + [tuple(x) for x in part["skipped"]]
+        res["repeats"] = part["repeats"]
+    order = [sc.label for sc in bench.wp_scenes()]
+    res["scenes"].sort(key=lambda sc: order.index(sc["label"]) if sc["label"] in order else 99)
+    res["rows"].sort(key=lambda r: order.index(r["scene"]) if r["scene"] in order else 99)
+    for sc in res["scenes"]:
+        bench.assign_fronts([r for r in res["rows"] if r["scene"] == sc["label"]])
+    return res
+
+
+def render(res, args) -> str:
+    png = bench.plot_work_precision(res, args.png) if args.png else None
+    verdict = "\n".join(bench.wp_verdict(res))
+    skipped = ("\n\nNot run: " + "; ".join(f"{a} ({b})" for a, b in res["skipped"])) if res["skipped"] else ""
+    plot = ""
+    if png:
+        rel = png.name if args.readme and png.resolve().parent == args.readme.resolve().parent else png
+        plot = f"\n\n![work-precision]({rel})"
+    wp_body = "\n\n".join([
+        WP_INTRO, bench.format_wp_table(res), bench.format_wp_references(res),
+        "Verdict per scene (default setting):\n\n" + verdict + skipped + (f"\n\n{args.note}" if args.note else "") + plot,
+        bench.machine_line() + f" Repeats per setting: {res['repeats']} (flexible: 3; naive: half). Rerun: "
+        "`.venv/bin/python benchmarks/work_precision.py --readme benchmarks/README.md --png "
+        "benchmarks/work_precision.png`.",
+    ])
+    print(wp_body)
+    return wp_body
 
 
 if __name__ == "__main__":
