@@ -168,6 +168,7 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
     from .rig.integrate import Trajectory
+    from .rig.plant import FrictionState
     from .rig.simulate import build
 
     if scene.base != "fixed":
@@ -193,7 +194,7 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     th, thd = plant.pend.swing(np.array([-rig.t_contact]), speed)
     x[ith], x[ithd] = float(th[0]), float(thd[0])
     x0 = x.copy()
-    no_stuck = np.zeros(0, dtype=int)
+    all_free = np.ones(nv, dtype=int)
     tau = plant.servo(pid.update(x[arm_q]))
     tau_static = tau.copy()
     servo_t, servo_tau = [0.0], [tau.copy()]
@@ -212,11 +213,11 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     next_tick = 1
     for i in range(n_steps):
         t = i * step
-        modes = np.where(sticky, np.sign(x[iv]), 1.0).astype(int)
-        coulomb = plant.coulomb(modes)
+        # Coulomb friction by the sign of each joint's velocity (none at rest), no stick phase
+        fs = FrictionState(all_free, plant.coulomb(np.where(sticky, np.sign(x[iv]), 1.0).astype(int)), iv.start)
 
         def f(xx, tt):
-            return rhs(xx, tau, coulomb, no_stuck, speed, caught, tt)
+            return rhs(xx, tau, fs, speed, caught, tt)
 
         k1 = f(x, t)
         k2 = f(x + 0.5 * step * k1, t + 0.5 * step)
@@ -251,8 +252,8 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
             servo_t.append(t)
             servo_tau.append(tau.copy())
             next_tick += 1
-    xds[n_steps] = rhs(x, tau, plant.coulomb(np.where(sticky, np.sign(x[iv]), 1.0).astype(int)), no_stuck,
-                       speed, caught, ts[n_steps])
+    xds[n_steps] = rhs(x, tau, FrictionState(all_free, plant.coulomb(np.where(sticky, np.sign(x[iv]), 1.0).astype(int)),
+                                             iv.start), speed, caught, ts[n_steps])
     n_rhs += 1
     if not contacts or contacts[0][1] is None:
         raise SimulationError("naive RK4: the contact had not ended by the end of the trial")

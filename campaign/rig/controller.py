@@ -132,12 +132,15 @@ class PID:
         return np.round(c) if self.quantize else c
 
     def update(self, q: np.ndarray) -> np.ndarray:
-        """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m]."""
+        """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m].
+
+        Called at every servo tick of every trial: NumPy's ``clip`` and ``round`` wrappers
+        cost more than the arithmetic here, so their ufuncs are called directly."""
         if not self.active:
-            return np.clip(self.tau_gc, -self.tau_max, self.tau_max)
-        ref = np.round(self._ref_counts) if self.quantize else self._ref_counts
-        e = ref - self.counts(q)
+            return np.minimum(np.maximum(self.tau_gc, -self.tau_max), self.tau_max)
+        c = q / self.resolution
+        e = (np.rint(self._ref_counts) - np.rint(c)) if self.quantize else (self._ref_counts - c)
         self.e_sum = self.e_sum + e
         u = self.P * e + self.D * (e - self.e_prev) / self.period + self.I * self.period * self.e_sum
         self.e_prev = e
-        return np.clip(self.scale * u + self.tau_gc, -self.tau_max, self.tau_max)
+        return np.minimum(np.maximum(self.scale * u + self.tau_gc, -self.tau_max), self.tau_max)

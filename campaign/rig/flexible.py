@@ -37,7 +37,7 @@ from .beam import Beam
 from .contact import Contact
 from .ideal_base import IdealBase, static_arm_wrench
 from .pendulum import Pendulum
-from .plant import FixedBasePlant
+from .plant import _EMPTY, FixedBasePlant
 from .ves import VesLoop
 
 __all__ = ["IdealCouplingPlant", "VesLoopPlant"]
@@ -53,19 +53,32 @@ def _quat_of_rotvec(r):
 
 def _platform_free_flyer(pose, twist, accel):
     """Free-flyer configuration (7), body twist (6) and body acceleration (6) of a
-    small-angle platform state: :func:`.ves.platform_motion` without the object churn."""
-    R = pin.exp3(pose[3:])
-    Jr = pin.Jexp3(pose[3:])
-    q = np.empty(7)
-    q[0:3] = pose[0:3]
-    q[3:7] = _quat_of_rotvec(pose[3:])
-    v = R.T @ twist[:3]
-    w = Jr @ twist[3:]
-    a = R.T @ accel[:3]
-    a[0] -= w[1] * v[2] - w[2] * v[1]
-    a[1] -= w[2] * v[0] - w[0] * v[2]
-    a[2] -= w[0] * v[1] - w[1] * v[0]
-    return q, np.concatenate([v, w]), np.concatenate([a, Jr @ accel[3:]])
+    small-angle platform state: :func:`.ves.platform_motion` without the object churn.
+
+    Evaluated several times per RK4 step of a flexible trial: after Pinocchio's ``exp3``
+    and ``Jexp3`` the 3-vector algebra is done in Python floats (three times cheaper than
+    NumPy calls on 3-vectors), ``v = R^T v_w``, ``w = Jexp3(r) r'``,
+    ``a = R^T a_w - w x v``, ``alpha = Jexp3(r) r''``."""
+    p0, p1, p2, rx, ry, rz = pose.tolist()
+    t0, t1, t2, t3, t4, t5 = twist.tolist()
+    a0, a1, a2, a3, a4, a5 = accel.tolist()
+    r = pose[3:]
+    (R00, R01, R02), (R10, R11, R12), (R20, R21, R22) = pin.exp3(r).tolist()
+    (J00, J01, J02), (J10, J11, J12), (J20, J21, J22) = pin.Jexp3(r).tolist()
+    v0 = R00 * t0 + R10 * t1 + R20 * t2
+    v1 = R01 * t0 + R11 * t1 + R21 * t2
+    v2 = R02 * t0 + R12 * t1 + R22 * t2
+    w0 = J00 * t3 + J01 * t4 + J02 * t5
+    w1 = J10 * t3 + J11 * t4 + J12 * t5
+    w2 = J20 * t3 + J21 * t4 + J22 * t5
+    qx, qy, qz, qw = _quat_of_rotvec(r)
+    q = np.array((p0, p1, p2, qx, qy, qz, qw))
+    v = np.array((v0, v1, v2, w0, w1, w2))
+    a = np.array((R00 * a0 + R10 * a1 + R20 * a2 - (w1 * v2 - w2 * v1),
+                  R01 * a0 + R11 * a1 + R21 * a2 - (w2 * v0 - w0 * v2),
+                  R02 * a0 + R12 * a1 + R22 * a2 - (w0 * v1 - w1 * v0),
+                  J00 * a3 + J01 * a4 + J02 * a5, J10 * a3 + J11 * a4 + J12 * a5, J20 * a3 + J21 * a4 + J22 * a5))
+    return q, v, a
 
 
 class _FloatingMixin:
@@ -201,12 +214,19 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
         lam = H[stuck] @ a - b[stuck]
         return lam, a
 
-    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught, t=0.0):
+    #: the base dofs never stick; the general constrained solve serves (see :meth:`constrained`)
+    _locks_stuck_joints = False
+
+    def constrained(self, q, v, tau, fs):
+        return self.holding_torque(q, v, tau, fs.stuck)
+
+    def rhs(self, x, tau_servo, fs, contact_v0, caught, t=0.0):
         nv = self.nv
         q = x[:nv]
         v = x[self.i_v]
         th, thd = x[nv], x[self.i_thd]
-        tau = tau_servo - self.viscous * v - coulomb
+        tau = tau_servo - self.viscous * v - fs.coulomb
+        stuck = fs.stuck
         F = 0.0
         xd = np.zeros(self.size)
         if contact_v0 is not None:
@@ -288,6 +308,12 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self.loop = VesLoop(beam, rate, latency, bandwidth, duration=duration)
         self.emulator_period = 1.0 / rate
         self._na0 = np.zeros(self.na)
+        # the arm alone without gravity: its mass matrix is the free-flyer's H_mm (gravity and
+        # the platform's motion are in the bias), and reduced copies lock stuck joints
+        m0 = self.model.copy()
+        m0.gravity.linear = np.zeros(3)
+        self._arm0 = (m0, m0.createData())
+        self._lock_model = m0
         self._t = 0.0
         self._vf = np.zeros(6 + self.na)
         self._z6 = np.zeros(6)
@@ -305,16 +331,19 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self.t_last = t_last
         self.t_first = t_last
         self.history = []      # (t, record row) per emulator tick
-        self._cache_t = None
+        self._cache = {}
 
     def _platform(self, t):
-        if t == self._cache_t:
-            return self._cache
+        # the RK4 stages, event checks and servo tick of one emulator tick ask for a few
+        # instants repeatedly; the cache lives until the emulator's next tick
+        hit = self._cache.get(t)
+        if hit is not None:
+            return hit
         frac = (t - self.t_last) * self.loop.rate
         frac = 0.0 if frac < 0.0 else (1.0 if frac > 1.0 else frac)
         pose, twist, accel = self.loop.platform_at(frac)
-        self._cache_t, self._cache = t, _platform_free_flyer(pose, twist, accel)
-        return self._cache
+        hit = self._cache[t] = _platform_free_flyer(pose, twist, accel)
+        return hit
 
     def _qfull(self, q_arm, t):
         qb, vb, ab = self._platform(t)
@@ -334,7 +363,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         state = self.loop.step(w)
         self.history.append((t, w, np.concatenate([state.structure_pose, state.pose, state.command, state.twist])))
         self.t_last = t
-        self._cache_t = None
+        self._cache = {}
 
     # -- dynamics ----------------------------------------------------------------------
     def tip(self, q, t=None):
@@ -375,27 +404,55 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
 
     def holding_torque(self, q, v, tau, stuck):
         Hm, b = self._dyn(q, v, tau)
-        if not len(stuck):
-            return np.zeros(0), np.linalg.solve(Hm, b)
         return self._constrained(Hm, b, stuck)
 
-    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught, t=0.0):
+    def _bias(self, q, v):
+        """``rnea(q, v, [a_b, 0])_m`` on the free-flyer model with the platform's motion at
+        ``self._t``: gravity, Coriolis and the base acceleration felt by the arm joints."""
+        qf, vb, ab = self._qfull(q, self._t)
+        vf = self._vf
+        vf[:6] = vb
+        vf[6:] = v
+        af = self._af
+        af[:6] = ab
+        return pin.rnea(self.fmodel, self.fdata, qf, vf, af)[6:]
+
+    def constrained(self, q, v, tau, fs):
+        """``(lam, a)`` of the arm on the prescribed platform: ``H_mm a = u + S^T lam`` with
+        ``u = tau - bias`` (:meth:`_bias`) and ``a_S = 0``. ``H_mm`` depends on the arm's
+        angles only (the same matrix as the fixed-base arm's), so the free joints'
+        accelerations are ABA at rest without gravity on the arm model with the stuck joints
+        locked (``H_FF^-1 u_F`` in one call), and ``lam = (H_mm a)_S - u_S`` is its RNEA."""
+        u = tau - self._bias(q, v)
+        if fs.all_stuck:
+            return -u, self._na0
+        m0, d0 = self._arm0
+        if fs.none_stuck:
+            return _EMPTY, pin.aba(m0, d0, q, self._na0, u)
+        a = np.zeros(self.na)
+        rm, rd = fs.reduced
+        free = fs.free
+        a[free] = pin.aba(rm, rd, q[free], self._na0[:free.size], u[free])
+        stuck = fs.stuck
+        return pin.rnea(m0, d0, q, self._na0, a)[stuck] - u[stuck], a
+
+    def rhs(self, x, tau_servo, fs, contact_v0, caught, t=0.0):
         self._t = t
         na = self.na
         q = x[:na]
         v = x[self.i_v]
         th, thd = x[na], x[self.i_thd]
-        tau = tau_servo - self.viscous * v - coulomb
+        tau = tau_servo - self.viscous * v - fs.coulomb
         F = 0.0
         if contact_v0 is not None:
             delta, ddelta, Jn = self.gap(x)
             F = self.contact_force(delta, ddelta, contact_v0)
             tau = tau + Jn * F
         thdd = 0.0 if caught else (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
-        if len(stuck) == na:
+        if fs.all_stuck:
             a = self._na0          # every arm joint held by friction
         else:
-            _, a = self.holding_torque(q, v, tau, stuck)
+            _, a = self.constrained(q, v, tau, fs)
         xd = np.empty(self.size)
         xd[:na] = v
         xd[na] = thd

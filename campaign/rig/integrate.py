@@ -100,11 +100,15 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     """
     nv = plant.nv
     iv, ithd, iP = plant.i_v, plant.i_thd, plant.i_P
+    iv0 = iv.start
     r = plant.pend.radius
     sticky = plant.sticky            # dofs with Coulomb friction (base dofs never stick)
     friction_events = bool(np.any(sticky))
+    # with every dof stuck the arm cannot move (a prescribed platform moves it as a rigid body)
+    can_freeze = friction_events and bool(np.all(sticky))
     arm_q = plant.arm_q
     T_emu = plant.emulator_period    # VES emulator ticks (None: no emulator)
+    zero_xd = np.zeros(plant.size)
 
     # -- initial state at the first touch: arm at rest on q0, head at the bottom ------------
     x = np.zeros(plant.size)
@@ -113,9 +117,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     x0 = x.copy()
     tau = plant.servo(pid.update(plant.q0[arm_q]))   # the static servo output held at the touch
     tau_static = tau.copy()
-    modes = np.where(sticky, 0, 1)
-    stuck = np.flatnonzero(modes == 0)
-    coulomb = plant.coulomb(modes)
+    fs = plant.friction_state(np.where(sticky, 0, 1), x[:nv])
     contact_v0 = speed                  # first touch: delta = 0, ddelta = v_b - v_a = v_b
     caught = False
     rebound_seen = False
@@ -129,9 +131,8 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     servo_tau = [tau.copy()]
 
     t = t_contact
-    t_stage = t
     k_emu = (math.floor(t_contact / T_emu + 1e-9) + 1) if T_emu is not None else 0
-    ts, xs, xds = [t], [x.copy()], []
+    ts, xs, xds = [t], [x], []
     n_steps = n_rhs = n_events = tick_events = 0
     t_static = None
     settled = False
@@ -140,76 +141,59 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
 
     rhs = plant.rhs
 
-    def f(xx):
-        nonlocal n_rhs
-        n_rhs += 1
-        return rhs(xx, tau, coulomb, stuck, contact_v0, caught, t_stage)
-
     def rk4(xx, h, k1=None):
-        nonlocal t_stage
-        t_stage = t
-        k1 = f(xx) if k1 is None else k1
-        t_stage = t + 0.5 * h
-        k2 = f(xx + (0.5 * h) * k1)
-        k3 = f(xx + (0.5 * h) * k2)
-        t_stage = t + h
-        k4 = f(xx + h * k3)
-        return xx + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4), k1
+        """One RK4 step from (t, xx); returns the new state and the derivative at xx."""
+        nonlocal n_rhs
+        if k1 is None:
+            k1 = rhs(xx, tau, fs, contact_v0, caught, t)
+            n_rhs += 1
+        th = t + 0.5 * h
+        k2 = rhs(xx + (0.5 * h) * k1, tau, fs, contact_v0, caught, th)
+        k3 = rhs(xx + (0.5 * h) * k2, tau, fs, contact_v0, caught, th)
+        k4 = rhs(xx + h * k3, tau, fs, contact_v0, caught, t + h)
+        n_rhs += 3
+        return xx + (h / 6.0) * (k1 + k4 + 2.0 * (k2 + k3)), k1
 
-    def holding(xx):
-        """Holding friction torque of stuck joints at state xx (the constrained solve)."""
-        q, v = xx[:nv], xx[iv]
-        tt = tau - plant.viscous * v - coulomb
-        if contact_v0 is not None:
-            d, dd, Jn = plant.gap(xx)
-            tt = tt + Jn * plant.contact_force(d, dd, contact_v0)
-        lam, _ = plant.holding_torque(q, v, tt, stuck)
-        return lam
-
-    def violation(lam):
-        """> 0 where a stuck joint's holding torque exceeds its static limit."""
-        lim = np.where(lam < 0, plant.tc_pos[stuck], plant.tc_neg[stuck])
-        return np.abs(lam) - lim
-
-    def event_values(xx):
-        """Event functions at state xx; each event fires where its value crosses 0 upward."""
+    def event_values(xx, tt):
+        """Event functions at state xx and time tt; each fires where its value crosses 0 upward."""
         vals = {}
         if contact_v0 is not None:
             # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
             # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
+            plant._t = tt
             d, dd, _ = plant.gap(xx)
             vals["contact_end"] = -min(d, _END_SCALE * (1.0 + plant._d * dd / contact_v0))
         elif not caught:
+            plant._t = tt
             vals["contact_start"] = plant.gap(xx)[0]
             if rebound_seen or contacts[-1][1] is not None:
                 vals["catch"] = xx[ithd]          # rebounding hammer (thd < 0) reaches its top
         if friction_events:
-            for j in np.flatnonzero((modes != 0) & sticky):
-                vals[f"stop{j}"] = -modes[j] * xx[iv][j]
-            # with every joint stuck, no contact and a constant servo torque the holding
-            # torques cannot change: skip the constrained solve
-            if len(stuck) and not (len(stuck) == nv and contact_v0 is None and not pid.active and T_emu is None):
-                for jj, val in zip(stuck, violation(holding(xx))):
-                    vals[f"break{jj}"] = val
+            if not fs.none_stuck:
+                # with every joint stuck, no contact and a constant servo torque on a fixed
+                # base the holding torques cannot change: skip the constrained solve
+                if not (fs.all_stuck and contact_v0 is None and not pid.active and T_emu is None):
+                    lam = plant.holding(xx, tau, fs, contact_v0, tt)[0]
+                    for jj, val in zip(fs.stuck.tolist(), fs.violations(lam)):
+                        vals[f"break{jj}"] = val
+            for j, m, ij in fs.slipping:
+                vals[f"stop{j}"] = -m * float(xx[ij])
         return vals
 
     def consistent(xx, m):
         """Is friction mode assignment ``m`` consistent at state ``xx``? Stuck joints need a
         holding torque within their static limit; slipping joints at rest must accelerate
         in their slip direction."""
-        st = np.flatnonzero(m == 0)
-        q, v = xx[:nv], xx[iv]
-        tt = tau - plant.viscous * v - plant.coulomb(m)
-        if contact_v0 is not None:
-            d, dd, Jn = plant.gap(xx)
-            tt = tt + Jn * plant.contact_force(d, dd, contact_v0)
-        lam, a = plant.holding_torque(q, v, tt, st)
-        if len(st):
-            lim = np.where(lam < 0, plant.tc_pos[st], plant.tc_neg[st])
-            if np.any(np.abs(lam) > lim * (1 + 1e-12)):
-                return False
-        at_rest = (m != 0) & (v == 0.0) & sticky
-        return not np.any(a[at_rest] * m[at_rest] < 0)
+        cand = fs if m is fs.modes or np.array_equal(m, fs.modes) else plant.friction_state(m, xx[:nv])
+        lam, a = plant.holding(xx, tau, cand, contact_v0, t)
+        # |lam| > limit (1 + 1e-12), i.e. |lam| - limit > 1e-12 limit
+        for x_l, (tp, tn) in zip(lam.tolist(), cand.stuck_limits):
+            if (-x_l - tp * (1 + 1e-12)) > 0 if x_l < 0 else (x_l - tn * (1 + 1e-12)) > 0:
+                return None
+        for j, mj, ij in cand.slipping:
+            if xx[ij] == 0.0 and a[j] * mj < 0:   # at rest, accelerating against its slip direction
+                return None
+        return cand
 
     def settle_modes(xx):
         """Make the friction modes consistent at ``xx`` (after a stop, a break-away or a new
@@ -217,18 +201,17 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
         P-matrix complementarity problem with a unique solution; among the joints at rest
         we try the current assignment first, then every stick/slip+/slip- assignment,
         sticking preferred."""
-        nonlocal modes, stuck, coulomb
-        if consistent(xx, modes):
+        nonlocal fs
+        if consistent(xx, fs.modes) is not None:
             return
-        rest = np.flatnonzero(((modes == 0) | (xx[iv] == 0.0)) & sticky)
+        rest = np.flatnonzero(((fs.modes == 0) | (xx[iv] == 0.0)) & sticky)
         import itertools
         for combo in itertools.product((0, 1, -1), repeat=len(rest)):
-            m = modes.copy()
+            m = fs.modes.copy()
             m[rest] = combo
-            if consistent(xx, m):
-                modes = m
-                stuck = np.flatnonzero(modes == 0)
-                coulomb = plant.coulomb(modes)
+            cand = consistent(xx, m)
+            if cand is not None:
+                fs = cand
                 return
         raise SimulationError(f"no consistent stick-slip state at t = {t:.6g} s (joints at rest: {rest.tolist()})")
 
@@ -236,14 +219,12 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
         settle_modes(x)
 
     while True:
-        if not np.all(np.isfinite(x)):
-            raise SimulationError(f"the integration blew up at t = {t:.6g} s (non-finite state)")
         # -- stop? ---------------------------------------------------------------------------
         if contact_v0 is None:
             # all joints stuck and a servo output that cannot change any more, or (without
             # Coulomb friction) every joint slower than the settle velocity
             static = T_emu is None and (
-                (friction_events and not np.any(modes)
+                (friction_events and fs.all_stuck
                  and (not pid.active or pid.I == 0 or not np.any(pid.e_prev)))
                 or (not friction_events and float(np.max(np.abs(x[iv]))) < settle_velocity))
             if static and caught:
@@ -264,20 +245,50 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             if t_catch - t <= 1e-15:
                 # the device's brake catches the hammer now
                 caught = True
+                x = x.copy()
                 x[ithd] = 0.0
-                xs[-1] = x.copy()
+                xs[-1] = x
                 continue
             h = t_catch - t
-        if h > 1e-15:
+        if h > 1e-15 and can_freeze and fs.all_stuck and caught and contact_v0 is None:
+            # -- frozen arm: every joint stuck, hammer caught, no contact. Nothing in x moves,
+            # so no integration: hold x to the boundary. Only a prescribed platform can change
+            # the holding torques inside the interval; a break-away is located in time.
+            h = t_tick - t
+            fired_at = None
+            if T_emu is not None:
+                lam1 = plant.holding(x, tau, fs, None, t + h)[0]
+                if max(fs.violations(lam1)) > 0:
+                    def gfun(s):
+                        return max(fs.violations(plant.holding(x, tau, fs, None, t + s * h)[0]))
+                    g0 = gfun(0.0)
+                    fired_at = brentq(gfun, 0.0, 1.0, xtol=1e-14) if g0 < 0 else 0.0
+            if fired_at is None:
+                xds.append(zero_xd)
+                t = t + h
+                ts.append(t)
+                xs.append(x)
+            else:
+                n_events += 1
+                h_ev = min(h, fired_at * h + 1e-10)
+                if h_ev > 1e-15:
+                    xds.append(zero_xd)
+                    t = t + h_ev
+                    ts.append(t)
+                    xs.append(x)
+                plant._t = t
+                settle_modes(x)
+                continue
+        elif h > 1e-15:
             x_new, k1 = rk4(x, h)
             n_steps += 1
-            if not np.all(np.isfinite(x_new)):
+            if not math.isfinite(x_new.sum()):
                 raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
-            g1 = event_values(x_new)
+            g1 = event_values(x_new, t + h)
             candidates = [k for k, v1 in g1.items() if v1 > 0]
             fired = []
             if candidates:
-                g0 = event_values(x)
+                g0 = event_values(x, t)
                 # a stop needs a strict crossing: a joint released at rest (v = 0) whose
                 # acceleration was marginal may start the wrong way; that is fixed below,
                 # locating it would refire at the same instant (Zeno)
@@ -287,14 +298,14 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                 xds.append(k1)
                 x, t = x_new, t + h
                 ts.append(t)
-                xs.append(x.copy())
-                if friction_events:
-                    wrong = np.flatnonzero(sticky & (modes != 0) & (modes * x[iv] < 0))
-                    if len(wrong):
-                        modes = modes.copy()
-                        modes[wrong] = np.sign(x[iv][wrong]).astype(int)
-                        stuck = np.flatnonzero(modes == 0)
-                        coulomb = plant.coulomb(modes)
+                xs.append(x)
+                # a joint released at rest that started against its slip direction slips the
+                # way it moves
+                wrong = [j for j, mj, ij in fs.slipping if mj * x[ij] < 0]
+                if wrong:
+                    m = fs.modes.copy()
+                    m[wrong] = np.sign(x[iv][wrong]).astype(int)
+                    fs = plant.friction_state(m, x[:nv])
             else:
                 n_events += 1
                 tick_events += 1
@@ -302,7 +313,8 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     raise SimulationError(
                         f"more than {_MAX_EVENTS_PER_TICK} events within one servo tick at t = {t:.6g} s "
                         "(chattering contact or stick-slip: reduce the contact stiffness or the servo gains)")
-                f1 = f(x_new)
+                f1 = rhs(x_new, tau, fs, contact_v0, caught, t + h)
+                n_rhs += 1
                 best_s, best_k = 2.0, None
                 for key in fired:
                     def gfun(s, key=key):
@@ -310,7 +322,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                             return g0.get(key, -1.0)
                         if s >= 1.0:
                             return g1[key]
-                        return event_values(_hermite(x, k1, x_new, f1, h, s)).get(key, -1.0)
+                        return event_values(_hermite(x, k1, x_new, f1, h, s), t + s * h).get(key, -1.0)
                     s_k = brentq(gfun, 0.0, 1.0, xtol=1e-14) if gfun(0.0) <= 0 else 0.0
                     if s_k < best_s:
                         best_s, best_k = s_k, key
@@ -324,10 +336,11 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     xds.append(k1)
                     t = t + h_ev
                     ts.append(t)
-                    xs.append(x.copy())
-                # -- apply the event at (t, x) -------------------------------------------------
+                else:
+                    x = x.copy()
+                plant._t = t
+                # -- apply the event at (t, x) (x is a fresh array: xs[-1] is set below) -------
                 if best_k == "contact_end":
-                    d, dd, Jn = plant.gap(x)
                     contacts[-1][1] = t
                     if not post:   # the first contact is the impact the trial is about
                         post = {"v_a": plant.tip_speed(x), "v_b": r * math.cos(x[nv]) * x[ithd], "P": float(x[iP])}
@@ -344,43 +357,49 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     x[ithd] = 0.0
                 elif best_k.startswith("stop"):
                     j = int(best_k[4:])
-                    x[nv + 1 + j] = 0.0      # the joint comes to rest: stick, or reverse
+                    x[iv0 + j] = 0.0      # the joint comes to rest: stick, or reverse
                     settle_modes(x)
                 else:  # break-away: at the located instant the holding torque sits on the
                     # static limit, so release the joint in the direction it pushes (the
                     # unchanged stick assignment is still "consistent" to rounding there)
                     j = int(best_k[5:])
-                    lam = holding(x)
-                    m = modes.copy()
-                    m[j] = 1 if lam[list(stuck).index(j)] < 0 else -1
-                    if consistent(x, m):
-                        modes, stuck, coulomb = m, np.flatnonzero(m == 0), plant.coulomb(m)
+                    lam = plant.holding(x, tau, fs, contact_v0, t)[0]
+                    m = fs.modes.copy()
+                    m[j] = 1 if lam[fs.stuck.tolist().index(j)] < 0 else -1
+                    cand = consistent(x, m)
+                    if cand is not None:
+                        fs = cand
                     else:
                         settle_modes(x)
-                xs[-1] = x.copy()
+                if h_ev > 1e-15:
+                    xs.append(x)
+                else:
+                    xs[-1] = x
                 continue
         # -- servo tick ----------------------------------------------------------------------
         if T_emu is not None and k_emu * T_emu - t <= 1e-12:
             t = k_emu * T_emu
             ts[-1] = t
-            t_stage = t
-            plant.on_emulator_tick(t, x, f(x))
+            frozen = can_freeze and fs.all_stuck and caught and contact_v0 is None
+            plant.on_emulator_tick(t, x, zero_xd if frozen else rhs(x, tau, fs, contact_v0, caught, t))
+            n_rhs += 0 if frozen else 1
             k_emu += 1
         if k_tick * T - t <= 1e-12:
             t = k_tick * T
             ts[-1] = t
             tau_new = plant.servo(pid.update(x[arm_q]))
-            changed = not np.array_equal(tau_new, tau)
+            changed = bool((tau_new != tau).any())
             tau = tau_new
             servo_t.append(t)
-            servo_tau.append(tau.copy())
+            servo_tau.append(tau)
             k_tick += 1
             tick_events = 0
             if friction_events and changed:
+                plant._t = t
                 settle_modes(x)   # a new torque may break a stuck joint loose at once
 
-    t_stage = t
-    xds.append(f(x))
+    xds.append(rhs(x, tau, fs, contact_v0, caught, t))
+    n_rhs += 1
     if contacts[-1][1] is None:
         raise SimulationError("the contact had not ended by the end of the trial (hammer pressed against the arm)")
     t_end = max(t, t_min_end)

@@ -32,7 +32,56 @@ from ..robot import Robot
 from .contact import Contact
 from .pendulum import Pendulum
 
-__all__ = ["FixedBasePlant"]
+__all__ = ["FixedBasePlant", "FrictionState"]
+
+_EMPTY = np.zeros(0)
+
+
+class FrictionState:
+    """A stick/slip mode assignment and what the right-hand side needs of it, computed once
+    per mode change instead of at every evaluation.
+
+    Attributes
+    ----------
+    modes : ndarray of int
+        Per dof: ``+1``/``-1`` slipping (friction ``-(b v +- Tc)``), ``0`` stuck.
+    stuck, free : ndarray of int
+        Indices of the stuck and of the moving dofs.
+    coulomb : ndarray
+        Coulomb torque of the slipping dofs (:meth:`FixedBasePlant.coulomb`) [N m].
+    all_stuck, none_stuck : bool
+    reduced : tuple or None
+        ``(model, data)`` of the arm with the stuck joints locked at their angles (Pinocchio
+        ``buildReducedModel``), for a partly stuck fixed-base arm: its ABA gives the free
+        joints' accelerations of the constrained dynamics directly.
+    """
+
+    __slots__ = ("modes", "stuck", "free", "coulomb", "all_stuck", "none_stuck", "reduced", "iv_free", "key",
+                 "stuck_limits", "slipping")
+
+    def __init__(self, modes, coulomb, iv0: int, tc_pos=None, tc_neg=None, sticky=None):
+        self.modes = np.asarray(modes, dtype=int)
+        self.stuck = np.flatnonzero(self.modes == 0)
+        self.free = np.flatnonzero(self.modes != 0)
+        self.coulomb = coulomb
+        self.all_stuck = self.free.size == 0
+        self.none_stuck = self.stuck.size == 0
+        self.reduced = None
+        self.iv_free = iv0 + self.free
+        self.key = tuple(self.modes.tolist())
+        # plain-float views for the integrator's per-step checks (3-6 dofs: Python floats
+        # are cheaper than NumPy calls): static limits (pushing +, pushing -) of each stuck
+        # dof, and (dof, mode, state index of its velocity) of each slipping sticky dof
+        if tc_pos is not None:
+            self.stuck_limits = [(float(tc_pos[j]), float(tc_neg[j])) for j in self.stuck.tolist()]
+            self.slipping = [(j, int(self.modes[j]), iv0 + j) for j in self.free.tolist() if sticky[j]]
+        else:
+            self.stuck_limits, self.slipping = [], []
+
+    def violations(self, lam) -> list:
+        """Per stuck dof, ``|lam| - limit`` (> 0 where the holding torque ``lam`` exceeds the
+        static friction it pushes against)."""
+        return [(-x - tp) if x < 0 else (x - tn) for x, (tp, tn) in zip(lam.tolist(), self.stuck_limits)]
 
 
 class FixedBasePlant:
@@ -97,6 +146,10 @@ class FixedBasePlant:
         import itertools
         self._free_of = {k: {c: [i for i in range(nv) if i not in c] for c in itertools.combinations(range(nv), k)}
                          for k in range(nv + 1)}
+        # Pinocchio joint id of each dof, for locking stuck joints (buildReducedModel)
+        self._jid_of_dof = {self.model.joints[j].idx_v: j for j in range(1, self.model.njoints)}
+        self._reduced_cache = {}
+        self._lock_model = self.model    # reduced models lock stuck joints of this model
 
     # -- kinematics ---------------------------------------------------------------------
     def tip(self, q):
@@ -137,6 +190,59 @@ class FixedBasePlant:
         """Friction torque of slipping joints (zero on stuck ones) [N m]."""
         return -(self.viscous * v) - self.coulomb(modes)
 
+    def friction_state(self, modes, q) -> FrictionState:
+        """The :class:`FrictionState` of mode assignment ``modes`` with the arm at ``q``.
+
+        On a partly stuck fixed-base arm the stuck joints are locked at their current angles
+        in a reduced Pinocchio model (cached: a stuck joint does not move, so the same model
+        serves until the modes change)."""
+        fs = FrictionState(modes, self.coulomb(np.asarray(modes)), self.i_v.start, self.tc_pos, self.tc_neg,
+                           self.sticky)
+        if self._locks_stuck_joints and not (fs.all_stuck or fs.none_stuck):
+            key = (fs.key, np.asarray(q, dtype=float)[fs.stuck].tobytes())
+            red = self._reduced_cache.get(key)
+            if red is None:
+                rm = pin.buildReducedModel(self._lock_model, [self._jid_of_dof[int(j)] for j in fs.stuck],
+                                           np.asarray(q, dtype=float))
+                red = (rm, rm.createData())
+                if len(self._reduced_cache) >= 64:
+                    self._reduced_cache.clear()
+                self._reduced_cache[key] = red
+            fs.reduced = red
+        return fs
+
+    #: a fixed-base arm's constrained dynamics use reduced models (see :meth:`constrained`)
+    _locks_stuck_joints = True
+
+    def constrained(self, q, v, tau, fs: FrictionState):
+        """Friction ``lam`` holding the stuck joints and the accelerations ``a`` of the
+        constrained dynamics (``H a + c + g = tau + S^T lam``, ``a_S = 0``) for the modes
+        ``fs``: the free joints from ABA on the model with the stuck ones locked, then
+        ``lam = rnea(q, v, a)_S - tau_S``. Same solution as :meth:`holding_torque`, with
+        two Pinocchio calls instead of a CRBA, the bias terms and a small solve."""
+        model, data = self.model, self.data
+        if fs.none_stuck:
+            return _EMPTY, pin.aba(model, data, q, v, tau)
+        a = np.zeros(self.nv)
+        if not fs.all_stuck:
+            rm, rd = fs.reduced
+            free = fs.free
+            a[free] = pin.aba(rm, rd, q[free], v[free], tau[free])
+        stuck = fs.stuck
+        return pin.rnea(model, data, q, v, a)[stuck] - tau[stuck], a
+
+    def holding(self, x, tau_servo, fs: FrictionState, contact_v0, t=0.0):
+        """``(lam, a)`` of :meth:`constrained` at state ``x`` with the held servo torque, the
+        friction of the slipping joints and the contact force (for the stick-slip events)."""
+        self._t = t
+        nv = self.nv
+        v = x[self.i_v]
+        tau = tau_servo - self.viscous * v - fs.coulomb
+        if contact_v0 is not None:
+            d, dd, Jn = self.gap(x)
+            tau = tau + Jn * self.contact_force(d, dd, contact_v0)
+        return self.constrained(x[:nv], v, tau, fs)
+
     def holding_torque(self, q, v, tau, stuck):
         """Friction torque ``lam`` that keeps the ``stuck`` joints still, and the constrained
         accelerations: ``H a + c + g = tau + S^T lam`` with ``a_S = 0``, so
@@ -164,8 +270,23 @@ class FixedBasePlant:
             det = H[i, i] * H[j, j] - H[i, j] * H[j, i]
             a[i] = (H[j, j] * b[i] - H[i, j] * b[j]) / det
             a[j] = (H[i, i] * b[j] - H[j, i] * b[i]) / det
+        elif len(free) == 3 and self.nv == 3:
+            # the whole (3 x 3, symmetric positive definite) system by cofactors: NumPy's
+            # solve costs ~10 us of call overhead on a matrix this small
+            (h00, h01, h02), (h10, h11, h12), (h20, h21, h22) = H.tolist()
+            b0, b1, b2 = b.tolist()
+            c00 = h11 * h22 - h12 * h21
+            c01 = h12 * h20 - h10 * h22
+            c02 = h10 * h21 - h11 * h20
+            det = h00 * c00 + h01 * c01 + h02 * c02
+            a[0] = (b0 * c00 + b1 * (h02 * h21 - h01 * h22) + b2 * (h01 * h12 - h02 * h11)) / det
+            a[1] = (b0 * c01 + b1 * (h00 * h22 - h02 * h20) + b2 * (h02 * h10 - h00 * h12)) / det
+            a[2] = (b0 * c02 + b1 * (h01 * h20 - h00 * h21) + b2 * (h00 * h11 - h01 * h10)) / det
+            return _EMPTY, a
         elif len(free) > 2:
             a[free] = np.linalg.solve(H[np.ix_(free, free)], b[free])
+        if not len(stuck):
+            return _EMPTY, a
         lam = H[stuck] @ a - b[stuck]
         return lam, a
 
@@ -190,7 +311,7 @@ class FixedBasePlant:
         """Generalised servo torque from the arm's joint torques (identity for a fixed base)."""
         return tau_arm
 
-    def rhs(self, x, tau_servo, coulomb, stuck, contact_v0, caught, t=0.0):
+    def rhs(self, x, tau_servo, fs: FrictionState, contact_v0, caught, t=0.0):
         """State derivative.
 
         Parameters
@@ -198,10 +319,8 @@ class FixedBasePlant:
         x : ndarray
         tau_servo : ndarray
             Held servo torque incl. gravity compensation [N m].
-        coulomb : ndarray
-            Coulomb torque of the current friction modes (:meth:`coulomb`).
-        stuck : ndarray of int
-            Indices of stuck joints (precomputed from ``modes``).
+        fs : FrictionState
+            Current stick/slip modes (:meth:`friction_state`).
         contact_v0 : float or None
             Approach speed at first touch while in contact, else None.
         caught : bool
@@ -211,30 +330,31 @@ class FixedBasePlant:
         """
         nv = self.nv
         q = x[:nv]
-        v = x[self.i_v]
+        v = x[nv + 1:2 * nv + 1]
         th = x[nv]
         thd = x[self.i_thd]
-        tau = tau_servo - self.viscous * v - coulomb if self.has_friction else tau_servo.copy()
         F = 0.0
-        if contact_v0 is not None:
-            delta, ddelta, Jn = self.gap(x)
-            F = self.contact_force(delta, ddelta, contact_v0)
-            tau = tau + Jn * F
-        if caught:
-            thdd = 0.0
+        if fs.all_stuck:
+            if contact_v0 is not None:
+                delta, ddelta, Jn = self.gap(x)
+                F = self.contact_force(delta, ddelta, contact_v0)
         else:
-            thdd = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
-        if len(stuck) == nv:
-            a = np.zeros(nv)   # every joint held by friction
-        elif len(stuck):
-            _, a = self.holding_torque(q, v, tau, stuck)
-        else:
-            a = pin.aba(self.model, self.data, q, v, tau)
-        xd = np.empty(self.size)
+            tau = tau_servo - self.viscous * v - fs.coulomb if self.has_friction else tau_servo
+            if contact_v0 is not None:
+                delta, ddelta, Jn = self.gap(x)
+                F = self.contact_force(delta, ddelta, contact_v0)
+                tau = tau + Jn * F
+        xd = np.zeros(self.size)
         xd[:nv] = v
         xd[nv] = thd
-        xd[self.i_v] = a
-        xd[self.i_thd] = thdd
+        if fs.none_stuck:
+            xd[nv + 1:2 * nv + 1] = pin.aba(self.model, self.data, q, v, tau)
+        elif not fs.all_stuck:   # every joint held by friction: a = 0
+            rm, rd = fs.reduced
+            free = fs.free
+            xd[fs.iv_free] = pin.aba(rm, rd, q[free], v[free], tau[free])
+        if not caught:
+            xd[self.i_thd] = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
         xd[self.i_P] = F
         return xd
 
