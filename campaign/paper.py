@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-__all__ = ["yaml_load", "config_dir", "load_paper", "paper_q", "configuration_q", "impact_direction"]
+__all__ = ["yaml_load", "read_yaml", "copy_tree", "config_dir", "load_paper", "paper_q", "configuration_q", "impact_direction"]
 
 
 class _Loader(yaml.SafeLoader):
@@ -49,15 +49,37 @@ def config_dir() -> Path:
     return path
 
 
-@functools.lru_cache(maxsize=4)
-def _load(path: str) -> dict:
-    with open(path) as fh:
-        return yaml_load(fh)
+@functools.lru_cache(maxsize=32)
+def _parse(path: str, content: bytes):
+    return yaml_load(content.decode("utf-8"))
+
+
+def copy_tree(node):
+    """Copy of a parsed YAML tree (its dicts and lists; the scalars are immutable)."""
+    if isinstance(node, dict):
+        return {k: copy_tree(v) for k, v in node.items()}
+    if isinstance(node, list):
+        return [copy_tree(v) for v in node]
+    return node
+
+
+def read_yaml(path, *, copy: bool = True):
+    """Parse the YAML file ``path``, once per content.
+
+    The cache is keyed on the file's bytes (read every call, tens of microseconds), so a
+    file edited on disk is picked up at once, even when rewritten within one tick of the
+    file system's clock with the same size, where its mtime would not change. With
+    ``copy=False`` the cached tree itself is returned: the caller must not modify it."""
+    path = str(path)
+    with open(path, "rb") as fh:
+        content = fh.read()
+    tree = _parse(path, content)
+    return copy_tree(tree) if copy else tree
 
 
 def load_paper() -> dict:
-    """The parsed ``paper.yaml`` (cached; treat as read-only)."""
-    return _load(str(config_dir() / "paper.yaml"))
+    """The parsed ``paper.yaml`` (cached while the file is unchanged; treat as read-only)."""
+    return read_yaml(config_dir() / "paper.yaml", copy=False)
 
 
 def paper_q(q_paper_deg) -> np.ndarray:

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from .errors import InputError
-from .paper import config_dir, load_paper, yaml_load
+from .paper import config_dir, load_paper, read_yaml
 
 __all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES"]
 
@@ -65,8 +65,7 @@ def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, 
     path = Path(path) if path is not None else config_dir() / "rig.yaml"
     if not path.is_file():
         raise InputError(f"rig parameter file {path} does not exist")
-    with open(path) as fh:
-        tree = yaml_load(fh)
+    tree = read_yaml(path)      # parsed once per file content; a fresh copy to modify
     scenes = tree.pop("scenes", {}) or {}
     tree.pop("calibration", None)
     return _flatten(tree), {k: dict(v.get("overrides", {})) for k, v in scenes.items()}
@@ -138,7 +137,9 @@ class Scene:
 
     # -- identity -------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
+        # the fields are scalars and tuples (no nested dataclasses): what dataclasses.asdict
+        # gave, without its recursive copying (the scene's identity is hashed every trial)
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         d["params"] = dict(self.params)
         d["q_paper_deg"] = list(self.q_paper_deg)
         d["gains_counts"] = list(self.gains_counts)

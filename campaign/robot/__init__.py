@@ -19,12 +19,13 @@ referred to the joint side once, here, so no later stage has to remember the gea
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from ..paper import yaml_load
+from ..paper import _parse as _parse_yaml
 
 __all__ = ["Robot", "load_robot", "robot_dir", "ROBOTS_DIR"]
 
@@ -132,9 +133,32 @@ def load_robot(name_or_path: str | Path = "puma560") -> Robot:
     """
     folder = robot_dir(name_or_path)
     drive_file = Path(name_or_path) if Path(name_or_path).is_file() else folder / "drives.yaml"
-    with open(drive_file) as fh:
-        spec = yaml_load(fh)
-    full = pin.buildModelFromUrdf(str(folder / spec["urdf"]))
+    with open(drive_file, "rb") as fh:
+        drive_content = fh.read()
+    spec = _parse_yaml(str(drive_file), drive_content)
+    urdf = folder / spec["urdf"]
+    try:
+        with open(urdf, "rb") as fh:
+            urdf_content = fh.read()
+    except OSError:
+        urdf_content = None          # Pinocchio reports the missing file, as before
+    robot = _load_robot(str(drive_file), drive_content, str(urdf), urdf_content)
+    # a fresh model and arrays per call (callers may modify them), as from a fresh parse
+    return dataclasses.replace(robot, model=robot.model.copy(), **{
+        f.name: getattr(robot, f.name).copy() for f in dataclasses.fields(robot)
+        if isinstance(getattr(robot, f.name), np.ndarray)})
+
+
+@functools.lru_cache(maxsize=16)
+def _load_robot(drive_file: str, drive_content: bytes, urdf: str, urdf_content: bytes | None) -> Robot:
+    """The robot of a drive file and its URDF, built once per content of both files (an
+    edited file is picked up at the next call; the key holds their bytes)."""
+    return _build_robot(Path(drive_file), _parse_yaml(drive_file, drive_content), urdf)
+
+
+def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
+    """Build the robot from a parsed drive file (not modified: it is the cached parse)."""
+    full = pin.buildModelFromUrdf(urdf)
 
     locked = spec.get("locked_q") or {}
     active = list(spec["active_joints"])
