@@ -220,6 +220,14 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
     def constrained(self, q, v, tau, fs):
         return self.holding_torque(q, v, tau, fs.stuck)
 
+    def evaluate(self, x, tau_servo, fs, contact_v0, caught, t=0.0):
+        """:meth:`FixedBasePlant.evaluate` composed from :meth:`rhs` and :meth:`holding`
+        (the ideal coupling is the reference mode, not the fast path)."""
+        xd = self.rhs(x, tau_servo, fs, contact_v0, caught, t)
+        lam = _EMPTY if fs.none_stuck else self.holding(x, tau_servo, fs, contact_v0, t)[0]
+        gap = self.gap(x)[:2] if (contact_v0 is not None or not caught) else None
+        return xd, lam, gap
+
     def rhs(self, x, tau_servo, fs, contact_v0, caught, t=0.0):
         nv = self.nv
         q = x[:nv]

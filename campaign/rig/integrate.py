@@ -140,13 +140,28 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     t_max_end = t_contact + max_post
 
     rhs = plant.rhs
+    last = None     # the last plant.evaluate: its inputs (by identity) and outputs
+
+    def ev(xx, tt, f=None):
+        """``plant.evaluate`` at (xx, tt) with the current torque, contact and friction modes
+        (or modes ``f``); a repeat with the same inputs costs nothing. The step-end
+        evaluation serves the events, the emulator's F/T sample and the next step's k1."""
+        nonlocal last, n_rhs
+        f = fs if f is None else f
+        c = last
+        if (c is not None and c[0] is xx and c[1] is tau and c[2] is f and c[3] == contact_v0
+                and c[4] == caught and c[5] == tt):
+            return c[6]
+        out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
+        n_rhs += 1
+        last = (xx, tau, f, contact_v0, caught, tt, out)
+        return out
 
     def rk4(xx, h, k1=None):
         """One RK4 step from (t, xx); returns the new state and the derivative at xx."""
         nonlocal n_rhs
         if k1 is None:
-            k1 = rhs(xx, tau, fs, contact_v0, caught, t)
-            n_rhs += 1
+            k1 = ev(xx, t)[0]
         th = t + 0.5 * h
         k2 = rhs(xx + (0.5 * h) * k1, tau, fs, contact_v0, caught, th)
         k3 = rhs(xx + (0.5 * h) * k2, tau, fs, contact_v0, caught, th)
@@ -157,23 +172,21 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     def event_values(xx, tt):
         """Event functions at state xx and time tt; each fires where its value crosses 0 upward."""
         vals = {}
+        _, lam, gap = ev(xx, tt)
         if contact_v0 is not None:
             # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
             # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
-            plant._t = tt
-            d, dd, _ = plant.gap(xx)
+            d, dd = gap
             vals["contact_end"] = -min(d, _END_SCALE * (1.0 + plant._d * dd / contact_v0))
         elif not caught:
-            plant._t = tt
-            vals["contact_start"] = plant.gap(xx)[0]
+            vals["contact_start"] = gap[0]
             if rebound_seen or contacts[-1][1] is not None:
                 vals["catch"] = xx[ithd]          # rebounding hammer (thd < 0) reaches its top
         if friction_events:
             if not fs.none_stuck:
                 # with every joint stuck, no contact and a constant servo torque on a fixed
-                # base the holding torques cannot change: skip the constrained solve
+                # base the holding torques cannot change
                 if not (fs.all_stuck and contact_v0 is None and not pid.active and T_emu is None):
-                    lam = plant.holding(xx, tau, fs, contact_v0, tt)[0]
                     for jj, val in zip(fs.stuck.tolist(), fs.violations(lam)):
                         vals[f"break{jj}"] = val
             for j, m, ij in fs.slipping:
@@ -185,7 +198,8 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
         holding torque within their static limit; slipping joints at rest must accelerate
         in their slip direction."""
         cand = fs if m is fs.modes or np.array_equal(m, fs.modes) else plant.friction_state(m, xx[:nv])
-        lam, a = plant.holding(xx, tau, cand, contact_v0, t)
+        xd, lam, _ = ev(xx, t, cand)
+        a = xd[iv]
         # |lam| > limit (1 + 1e-12), i.e. |lam| - limit > 1e-12 limit
         for x_l, (tp, tn) in zip(lam.tolist(), cand.stuck_limits):
             if (-x_l - tp * (1 + 1e-12)) > 0 if x_l < 0 else (x_l - tn * (1 + 1e-12)) > 0:
@@ -284,7 +298,10 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             n_steps += 1
             if not math.isfinite(x_new.sum()):
                 raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
-            g1 = event_values(x_new, t + h)
+            t_new = t + h
+            if abs(t_new - t_tick) <= 1e-12:
+                t_new = t_tick     # the tick's own time, so its evaluations are shared
+            g1 = event_values(x_new, t_new)
             candidates = [k for k, v1 in g1.items() if v1 > 0]
             fired = []
             if candidates:
@@ -296,7 +313,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                          if g0.get(k, -1.0) < 0 or (g0.get(k, -1.0) == 0 and not k.startswith("stop"))]
             if not fired:
                 xds.append(k1)
-                x, t = x_new, t + h
+                x, t = x_new, t_new
                 ts.append(t)
                 xs.append(x)
                 # a joint released at rest that started against its slip direction slips the
@@ -313,8 +330,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     raise SimulationError(
                         f"more than {_MAX_EVENTS_PER_TICK} events within one servo tick at t = {t:.6g} s "
                         "(chattering contact or stick-slip: reduce the contact stiffness or the servo gains)")
-                f1 = rhs(x_new, tau, fs, contact_v0, caught, t + h)
-                n_rhs += 1
+                f1 = ev(x_new, t_new)[0]
                 best_s, best_k = 2.0, None
                 for key in fired:
                     def gfun(s, key=key):
@@ -381,15 +397,15 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             t = k_emu * T_emu
             ts[-1] = t
             frozen = can_freeze and fs.all_stuck and caught and contact_v0 is None
-            plant.on_emulator_tick(t, x, zero_xd if frozen else rhs(x, tau, fs, contact_v0, caught, t))
-            n_rhs += 0 if frozen else 1
+            plant.on_emulator_tick(t, x, zero_xd if frozen else ev(x, t)[0])
             k_emu += 1
         if k_tick * T - t <= 1e-12:
             t = k_tick * T
             ts[-1] = t
             tau_new = plant.servo(pid.update(x[arm_q]))
             changed = bool((tau_new != tau).any())
-            tau = tau_new
+            if changed:      # keep the same object otherwise: evaluations at this state stay valid
+                tau = tau_new
             servo_t.append(t)
             servo_tau.append(tau)
             k_tick += 1
@@ -398,8 +414,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                 plant._t = t
                 settle_modes(x)   # a new torque may break a stuck joint loose at once
 
-    xds.append(rhs(x, tau, fs, contact_v0, caught, t))
-    n_rhs += 1
+    xds.append(ev(x, t)[0])
     if contacts[-1][1] is None:
         raise SimulationError("the contact had not ended by the end of the trial (hammer pressed against the arm)")
     t_end = max(t, t_min_end)

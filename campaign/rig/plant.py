@@ -243,6 +243,37 @@ class FixedBasePlant:
             tau = tau + Jn * self.contact_force(d, dd, contact_v0)
         return self.constrained(x[:nv], v, tau, fs)
 
+    def evaluate(self, x, tau_servo, fs: FrictionState, contact_v0, caught, t=0.0):
+        """Everything the integrator needs at one state, from one dynamics solve: the state
+        derivative (:meth:`rhs`), the stuck joints' holding torques ``lam``
+        (:meth:`holding`) and the contact gap ``(delta, ddelta)`` (None once the hammer is
+        caught and out of contact). At a step's end these serve the event checks, the
+        emulator's F/T sample and, when nothing changes at the tick, the next step's first
+        RK4 stage."""
+        self._t = t
+        nv = self.nv
+        q = x[:nv]
+        v = x[nv + 1:2 * nv + 1]
+        th = x[nv]
+        tau = tau_servo - self.viscous * v - fs.coulomb
+        F = 0.0
+        gap = None
+        if contact_v0 is not None or not caught:
+            delta, ddelta, Jn = self.gap(x)
+            gap = (delta, ddelta)
+            if contact_v0 is not None:
+                F = self.contact_force(delta, ddelta, contact_v0)
+                tau = tau + Jn * F
+        lam, a = self.constrained(q, v, tau, fs)
+        xd = np.zeros(self.size)
+        xd[:nv] = v
+        xd[nv] = x[self.i_thd]
+        xd[nv + 1:2 * nv + 1] = a
+        if not caught:
+            xd[self.i_thd] = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
+        xd[self.i_P] = F
+        return xd, lam, gap
+
     def holding_torque(self, q, v, tau, stuck):
         """Friction torque ``lam`` that keeps the ``stuck`` joints still, and the constrained
         accelerations: ``H a + c + g = tau + S^T lam`` with ``a_S = 0``, so
