@@ -25,7 +25,7 @@ from .controller import PID, check_stability
 from .integrate import integrate_trial
 from .pendulum import Pendulum
 from .plant import FixedBasePlant
-from .sensors import StateSampler, noise_streams, quantize, sample_grid
+from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
 __all__ = ["simulate", "build", "Rig"]
 
@@ -263,19 +263,26 @@ def record(rig: Rig, traj) -> xr.DataTree:
     spec = {v.name: v for v in schema.MEASURED}       # the groups share some names: keep them apart
     tspec = {v.name: v for v in schema.TRUTH}
     joints = list(robot.joint_names)
+    grids = {}
+
+    def at(rate_key):
+        """(times, states, derivatives) on a channel's clock; channels at one rate share them."""
+        rate = float(p(rate_key))
+        if rate not in grids:
+            t = sample_grid(rate, t_end)
+            grids[rate] = (t, *sampler(t))
+        return grids[rate]
 
     # joint encoders
-    tj = sample_grid(float(p("sensors.joint_encoder_rate")), t_end)
-    Xj, _ = sampler(tj)
+    tj, Xj, _ = at("sensors.joint_encoder_rate")
     res = robot.encoder_resolution
     q_meas = Xj[:, aq] + streams["joint_encoder"].normal(0.0, 1.0, (tj.size, na)) * float(
         p("sensors.joint_encoder_noise_counts")) * res
     if quant:
         q_meas = np.round(q_meas / res) * res
     # pendulum encoder
-    tp = sample_grid(float(p("sensors.pendulum_encoder_rate")), t_end)
-    Xp, _ = sampler(tp)
-    theta = quantize(Xp[:, plant.i_th], 2 * np.pi / float(p("sensors.pendulum_encoder_counts")) if quant else 0.0)
+    tp, Xp, _ = at("sensors.pendulum_encoder_rate")
+    theta = quantize(Xp[:, plant.i_th].copy(), 2 * np.pi / float(p("sensors.pendulum_encoder_counts")) if quant else 0.0)
     # piezo
     tf = sample_grid(float(p("sensors.piezo_rate")), t_end)
     f_true = sampler.contact_force(tf)
@@ -285,7 +292,7 @@ def record(rig: Rig, traj) -> xr.DataTree:
     f_meas = np.clip(f_meas, -fs, fs)
     # base F/T at the arm's mounting: the wrench only changes while the arm moves; at rest
     # before the touch and after the integration stopped one evaluation serves every sample
-    tft = sample_grid(float(p("sensors.ft_rate")), t_end)
+    tft, Xft, XDft = at("sensors.ft_rate")
     wrench = np.empty((tft.size, 6))
     pre = tft < traj.t_contact
     post = tft > traj.t[-1]
@@ -299,13 +306,11 @@ def record(rig: Rig, traj) -> xr.DataTree:
         for i in range(6):
             wrench[~pre, i] = np.interp(tft[~pre], tk, wk[:, i])
     else:
-        Xft, XDft = sampler(tft)
-        Fft = sampler.contact_force(tft)
         if np.any(post):
             last = traj.x[-1]
-            wrench[post] = np.concatenate(plant.mount_wrench(last, np.zeros_like(last), 0.0))
-        for k in np.flatnonzero(~(pre | post)):
-            wrench[k] = np.concatenate(plant.mount_wrench(Xft[k], XDft[k], Fft[k], tft[k]))
+            wrench[post] = mount_wrenches(plant, last[None], np.zeros((1, last.size)), np.zeros(1))[0]
+        mid = ~(pre | post)
+        wrench[mid] = mount_wrenches(plant, Xft[mid], XDft[mid], sampler.contact_force(tft[mid]))
     g = streams["ft"]
     force = wrench[:, :3] + g.normal(0.0, float(p("sensors.ft_noise_force")), (tft.size, 3))
     torque = wrench[:, 3:] + g.normal(0.0, float(p("sensors.ft_noise_torque")), (tft.size, 3))
@@ -332,29 +337,17 @@ def record(rig: Rig, traj) -> xr.DataTree:
     }
 
     # truth
-    tt = sample_grid(float(p("sensors.truth_rate")), t_end)
-    Xt, _ = sampler(tt)
+    tt, Xt, _ = at("sensors.truth_rate")
     f_t = sampler.contact_force(tt)
-    tip_v = np.zeros(tt.size)
-    energy = np.empty(tt.size)
     pre = tt < traj.t_contact
     post = tt > traj.t[-1]
+    # tip velocity and energy are exact at the samples (Pinocchio per sample); before the
+    # touch and after the integration stopped the arm is at rest (one evaluation each)
     if loop:
         P_hist, V_hist = plant.platform_history(tt)
-    # tip velocity and energy are exact at the samples (Pinocchio per sample); before the
-    # touch and after the integration stopped the arm is at rest
-    for k in np.flatnonzero(~(pre | post)):
-        if loop:
-            tip_v[k] = plant.arm_at(Xt[k, aq], Xt[k, av], P_hist[k], V_hist[k])
-            energy[k] = plant.energy_at(Xt[k], P_hist[k], V_hist[k])
-        else:
-            tip_v[k] = plant.tip_speed(Xt[k])
-            energy[k] = plant.energy(Xt[k])
-    for k in np.flatnonzero(pre | post):
-        if loop:
-            energy[k] = plant.energy_at(Xt[k], np.zeros(6), np.zeros(6))
-        else:
-            energy[k] = plant.energy(Xt[k])
+        energy, tip_v = truth_terms(plant, Xt, pre, post, P_hist, V_hist)
+    else:
+        energy, tip_v = truth_terms(plant, Xt, pre, post)
     c0, c1, _ = traj.contacts[0]
     peak = float(np.max(sampler.contact_force(np.linspace(c0, c1, 2001))))
     truth = {
@@ -414,15 +407,15 @@ def record(rig: Rig, traj) -> xr.DataTree:
         })
         truth_coords["axis"] = ("axis", ["x", "y", "z"])
 
+    for name, group in (("measured", measured), ("truth", truth)):
+        for key, var in group.items():
+            if var.dtype.kind == "f" and not np.all(np.isfinite(var.values)):
+                raise SimulationError(f"channel {name}/{key} has non-finite values; nothing is stored")
     measured = xr.Dataset(measured, coords=coords)
     truth = xr.Dataset(truth, coords=truth_coords,
                        attrs={"n_contacts": len(traj.contacts), "settled": int(traj.settled),
                               "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
                               "ves_mode": str(p("ves.mode")) if flexible else "none"})
-    for name, ds in (("measured", measured), ("truth", truth)):
-        for var in ds.data_vars.values():
-            if var.dtype.kind == "f" and not np.all(np.isfinite(var.values)):
-                raise SimulationError(f"channel {name}/{var.name} has non-finite values; nothing is stored")
     root = xr.Dataset(attrs={
         "scene_json": scene.to_json(), "scene_sha256": scene.sha256, "seed": int(scene.seed), "base": scene.base,
         "config": int(scene.config), "gain": scene.gain, "speed": float(scene.speed), "repeat": int(scene.repeat),
