@@ -208,3 +208,182 @@ def test_an_integration_override_too_coarse_for_the_contact_is_refused():
 def test_contact_too_stiff_for_the_integrator_is_refused_before_simulating():
     with pytest.raises(InputError, match="too stiff"):
         build(make_scene(config=1, speed=2.0, params={"contact.stiffness": 1e14, "contact.exponent": 1.0}))
+
+
+# -- the fast recording (campaign.rig.sensors) against plain per-sample Pinocchio -------------
+
+def _plain_fixed(plant, x, xd, F):
+    """F/T wrench, energy and tip speed of a fixed-base state the straightforward way: fresh
+    Pinocchio data, forward kinematics, RNEA with the contact force as fext, CRBA."""
+    import pinocchio as pin
+    model = plant.model
+    data = model.createData()
+    nv = plant.nv
+    q, v, a = x[:nv], x[plant.i_v], xd[plant.i_v]
+    fid = plant.fid
+    jid = model.frames[fid].parentJoint
+    pin.forwardKinematics(model, data, q)
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
+    f_local = data.oMi[jid].rotation.T @ (plant.n * F)
+    fext[jid] = pin.Force(f_local, np.cross(model.frames[fid].placement.translation, f_local))
+    pin.rnea(model, data, q, v, a, fext)
+    w = data.oMi[1].act(data.f[1])
+    wrench = -np.concatenate([w.linear, w.angular])
+    H = pin.crba(model, data, q)
+    H = np.triu(H) + np.triu(H, 1).T
+    pe = pin.computePotentialEnergy(model, data, q)
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+    pend = plant.pend
+    th, thd = x[plant.i_th], x[plant.i_thd]
+    delta = pend.radius * np.sin(th) - plant.n @ (data.oMf[fid].translation - plant.p_tip0)
+    energy = (0.5 * v @ H @ v + 0.5 * pend.inertia * thd**2 + pe + pend.mgl * (1 - np.cos(th))
+              + float(plant.contact.energy(delta)))
+    return wrench, energy, float(plant.n @ J @ v)
+
+
+def test_recorded_ft_wrench_energy_and_tip_speed_equal_plain_per_sample_pinocchio(monkeypatch):
+    # end to end through simulate(): the recording's channels at samples before, in and after
+    # the contact are recomputed from the sampled states with plain Pinocchio calls
+    import importlib
+
+    from campaign.rig.sensors import StateSampler, sample_grid
+    sim = importlib.import_module("campaign.rig.simulate")   # the module (campaign.rig exports the function)
+    seen = {}
+    real_record = sim.record
+
+    def spy(rig, traj):
+        seen["rig"], seen["traj"] = rig, traj
+        return real_record(rig, traj)
+
+    monkeypatch.setattr(sim, "record", spy)
+    scene = make_scene(config=2, gain="high", speed=2.0,
+                       params={"sensors.ft_noise_force": 0.0, "sensors.ft_noise_torque": 0.0})
+    tree = simulate(scene)
+    rig, traj = seen["rig"], seen["traj"]
+    plant, sampler = rig.plant, StateSampler(rig.plant, seen["traj"])
+    c0, c1, _ = traj.contacts[0]
+    ms, tr = tree["measured"], tree["truth"]
+    for name, rate in (("ft", scene.p("sensors.ft_rate")), ("truth", scene.p("sensors.truth_rate"))):
+        t = sample_grid(float(rate), traj.t_end)
+        X, XD = sampler(t)
+        F = sampler.contact_force(t)
+        inside = np.flatnonzero((t > c0) & (t < c1))
+        moving = np.flatnonzero((t > c1) & (t <= traj.t[-1]))
+        picks = [0, inside[0], inside[inside.size // 2], inside[-1], moving[0], moving[moving.size // 2], t.size - 1]
+        assert F[picks[2]] > 0
+        for k in picks:
+            wrench, energy, tip_v = _plain_fixed(plant, X[k], XD[k], F[k])
+            if name == "ft":
+                got = np.concatenate([ms.ft_force.values[k], ms.ft_torque.values[k]])
+                np.testing.assert_allclose(got, wrench, rtol=1e-10, atol=1e-10 * np.abs(wrench).max())
+            else:
+                assert tr.energy.values[k] == pytest.approx(energy, rel=1e-10)
+                if traj.t_contact <= t[k] <= traj.t[-1]:
+                    assert tr.tip_velocity_n.values[k] == pytest.approx(tip_v, rel=1e-10, abs=1e-12)
+
+
+@pytest.mark.parametrize("mode", ["fixed", "loop", "ideal"])
+def test_fast_truth_and_wrench_helpers_equal_per_sample_evaluation(mode):
+    # arbitrary states (no integration): the batched helpers against one evaluation per sample,
+    # plain Pinocchio for the fixed base, the plants' own per-sample methods on a flexible base
+    import pinocchio as pin
+    from campaign.rig.sensors import mount_wrenches, truth_terms
+    kw = {"base": "fixed"} if mode == "fixed" else {"base": "flexible", "params": {"ves.mode": mode}}
+    plant = build(make_scene(config=2, gain="high", speed=2.0, **kw)).plant
+    rng = np.random.default_rng(5)
+    N = 12
+    X = np.tile(np.zeros(plant.size), (N, 1))
+    nq = plant.nv if mode != "loop" else plant.na
+    X[:, :nq] = plant.q0[:nq] + rng.normal(0, 0.05, (N, nq))
+    X[:, plant.i_th] = rng.normal(0.0, 0.1, N)
+    X[:, plant.i_v] = rng.normal(0.0, 0.5, (N, plant.i_v.stop - plant.i_v.start))
+    X[:, plant.i_thd] = rng.normal(0.0, 5.0, N)
+    XD = rng.normal(0.0, 3.0, X.shape)
+    F = np.where(rng.random(N) < 0.5, rng.uniform(1.0, 60.0, N), 0.0)
+    pre, post = np.zeros(N, bool), np.zeros(N, bool)
+    pre[:3], post[-2:] = True, True
+    X[1:3, :plant.i_th] = X[0, :plant.i_th]           # the arm held still over each group
+    X[1:3, plant.i_th + 1:plant.i_thd] = X[0, plant.i_th + 1:plant.i_thd]
+    X[-2] = X[-1]
+    pose = rng.normal(0.0, 1e-2, (N, 6))
+    twist = rng.normal(0.0, 1e-1, (N, 6))
+    if mode == "loop":
+        energy, tip_v = truth_terms(plant, X, pre, post, pose, twist)
+        for k in range(N):
+            p, w = (np.zeros(6), np.zeros(6)) if pre[k] or post[k] else (pose[k], twist[k])
+            assert energy[k] == pytest.approx(plant.energy_at(X[k], p, w), rel=1e-10)
+            if not (pre[k] or post[k]):
+                ref = plant.arm_at(X[k, :plant.na], X[k, plant.i_v], p, w)
+                assert tip_v[k] == pytest.approx(ref, rel=1e-10, abs=1e-13)
+        return
+    energy, tip_v = truth_terms(plant, X, pre, post)
+    wrench = mount_wrenches(plant, X, XD, F)
+    for k in range(N):
+        if mode == "fixed":
+            w_ref, e_ref, v_ref = _plain_fixed(plant, X[k], XD[k], F[k])
+        else:
+            model = plant.fmodel
+            data = model.createData()
+            q7 = plant.q7(X[k, :plant.nv])
+            jid = model.frames[plant.ffid].parentJoint
+            pin.forwardKinematics(model, data, q7)
+            fext = [pin.Force.Zero() for _ in range(model.njoints)]
+            f_local = data.oMi[jid].rotation.T @ (plant.n * F[k])
+            fext[jid] = pin.Force(f_local, np.cross(model.frames[plant.ffid].placement.translation, f_local))
+            pin.rnea(model, data, q7, X[k, plant.i_v], XD[k, plant.i_v], fext)
+            pin.updateFramePlacements(model, data)
+            w = data.oMf[plant.mount_id].actInv(data.oMi[plant.arm_joint].act(data.f[plant.arm_joint]))
+            w_ref = -np.concatenate([w.linear, w.angular])
+            e_ref, v_ref = plant.energy(X[k]), plant.tip_speed(X[k])
+        np.testing.assert_allclose(wrench[k], w_ref, rtol=1e-10, atol=1e-10 * np.abs(w_ref).max())
+        assert energy[k] == pytest.approx(e_ref, rel=1e-10)
+        if not (pre[k] or post[k]):
+            assert tip_v[k] == pytest.approx(v_ref, rel=1e-10, abs=1e-13)
+        else:
+            assert tip_v[k] == 0.0
+
+
+# -- parse caches: a file edited on disk is picked up ----------------------------------------
+
+def test_cached_rig_robot_and_paper_files_pick_up_an_edit(tmp_path, monkeypatch):
+    import shutil
+
+    from campaign.paper import config_dir
+    from campaign.robot import ROBOTS_DIR
+    from campaign.scene import load_rig
+    # rig file: same size, rewritten at once (its mtime may not even change)
+    rig = tmp_path / "rig.yaml"
+    shutil.copy(config_dir() / "rig.yaml", rig)
+    values, _ = load_rig(rig)
+    m = values["pendulum.head_mass"]
+    values["pendulum.head_mass"] = -1.0                # the caller's copy: the cache is untouched
+    assert load_rig(rig)[0]["pendulum.head_mass"] == m
+    text = rig.read_text()
+    old = f"head_mass: {{value: {m}"
+    assert old in text
+    new = old[:-1] + ("1" if old[-1] != "1" else "2")
+    rig.write_text(text.replace(old, new, 1))
+    assert load_rig(rig)[0]["pendulum.head_mass"] == float(new.split("value: ")[1])
+    # robot: drive file edited; every load hands its own model
+    folder = tmp_path / "bot"
+    shutil.copytree(ROBOTS_DIR / "puma560", folder)
+    r1 = load_robot(folder)
+    r1.model.armature[:] = 0.0
+    r1.tau_max[:] = 0.0
+    r2 = load_robot(folder)
+    assert np.all(r2.model.armature > 0) and r2.tau_max[0] == 97.6
+    drives = folder / "drives.yaml"
+    drives.write_text(drives.read_text().replace("tau_max: 97.6,", "tau_max: 98.6,"))
+    assert load_robot(folder).tau_max[0] == 98.6
+    # paper.yaml through CAMPAIGN_CONFIG_DIR
+    cfg = tmp_path / "config"
+    shutil.copytree(config_dir(), cfg)
+    monkeypatch.setenv("CAMPAIGN_CONFIG_DIR", str(cfg))
+    n0 = load_paper()["impact_direction"]
+    paper = cfg / "paper.yaml"
+    text = paper.read_text()
+    assert "impact_direction: [-1.0, 0.0, 0.0]" in text
+    paper.write_text(text.replace("impact_direction: [-1.0, 0.0, 0.0]", "impact_direction: [0.0, 1.0, 0.0]"))
+    assert load_paper()["impact_direction"] == [0.0, 1.0, 0.0] != n0
