@@ -105,10 +105,10 @@ class _FloatingMixin:
         """Wrench of the arm on the platform at the mount, platform axes, about the mount
         origin (what the F/T sensor reads): (force [N], moment [N m])."""
         model, data = self.fmodel, self.fdata
-        fext = self._fext
-        for i in range(len(fext)):
-            fext[i] = pin.Force.Zero()
         if F > 0.0:
+            fext = self._fext
+            for i in range(len(fext)):
+                fext[i] = pin.Force.Zero()
             pin.forwardKinematics(model, data, q7full)
             jid = model.frames[self.ffid].parentJoint
             R = data.oMi[jid].rotation
@@ -117,7 +117,9 @@ class _FloatingMixin:
             fext[jid] = pin.Force(f_local, np.array([r[1] * f_local[2] - r[2] * f_local[1],
                                                      r[2] * f_local[0] - r[0] * f_local[2],
                                                      r[0] * f_local[1] - r[1] * f_local[0]]))
-        pin.rnea(model, data, q7full, vfull, afull, fext)
+            pin.rnea(model, data, q7full, vfull, afull, fext)
+        else:   # no external force: plain RNEA (same forces, none of the fext set-up)
+            pin.rnea(model, data, q7full, vfull, afull)
         pin.updateFramePlacement(model, data, self.mount_id)
         w_world = data.oMi[self.arm_joint].act(data.f[self.arm_joint])
         w_mount = data.oMf[self.mount_id].actInv(w_world)
@@ -316,6 +318,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self.loop = VesLoop(beam, rate, latency, bandwidth, duration=duration)
         self.emulator_period = 1.0 / rate
         self._na0 = np.zeros(self.na)
+        self._qf = np.zeros(7 + self.na)
         # the arm alone without gravity: its mass matrix is the free-flyer's H_mm (gravity and
         # the platform's motion are in the bias), and reduced copies lock stuck joints
         m0 = self.model.copy()
@@ -354,8 +357,14 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         return hit
 
     def _qfull(self, q_arm, t):
+        """Free-flyer configuration of platform + arm, platform twist and acceleration at t.
+        The configuration is a buffer reused by the next call (callers hand it straight to
+        Pinocchio)."""
         qb, vb, ab = self._platform(t)
-        return np.concatenate([qb, q_arm]), vb, ab
+        qf = self._qf
+        qf[:7] = qb
+        qf[7:] = q_arm
+        return qf, vb, ab
 
     def on_emulator_tick(self, t, x, xd):
         """Sample the F/T wrench at ``t`` and advance the emulator one tick."""
