@@ -7,9 +7,12 @@ real VES-II allows (paper section 3, design brief section 5):
    come from the record itself (median and MAD, refined on the samples within 5 sigma);
    the threshold is ``max(k_sigma * sigma, force_floor, force_floor_rel * peak)``
    (default 8 sigma, 0.5 N, 2 % of the peak). Runs above the threshold closer than
-   ``merge_gap`` (2 ms) are one contact. Each edge is refined by a straight line fitted to
-   the edge samples between the threshold and ``edge_fit_level`` (4x) times it,
-   extrapolated to zero force (a threshold crossing alone is late by 0.1-0.5 ms). The
+   ``merge_gap`` (2 ms) are one contact. Each edge is refined by a power law
+   ``c |t - t0|^p`` fitted to the edge samples from ``edge_low_sigma`` (3) noise levels up
+   to ``edge_fit_level`` (4x) the threshold (``edge_model="power"``; the contact law is
+   ``F ~ delta^p`` with p < 1, so a straight line on those samples, ``edge_model="line"``,
+   lands 0.5-0.65 ms after the true end -- 3-7 % of v'_a at High gains, where the tip
+   decelerates through the contact end; the power law: both edges within 0.15 ms). The
    impulse is the trapezoid integral of the baseline-corrected force over the refined
    interval (edge triangles included).
 2. **Hammer velocities** ``v_b``, ``v'_b`` from the pendulum encoder: a cubic in time
@@ -20,7 +23,42 @@ real VES-II allows (paper section 3, design brief section 5):
    choice (synthetic, 16-bit encoder at 1 kHz, 1.0-2.5 m/s): a quadratic on 30 ms is
    biased by the pendulum's jerk near the bottom (0.2-0.3 % on v_b); cubic on 50 ms:
    median error 0.08 %, worst 0.6 % (the slow rebound at 1 m/s, a quantisation limit).
-3. **Arm tip velocities** ``v_a``, ``v'_a`` from the joint encoders. The impact point's
+3. **Arm tip velocities** ``v_a``, ``v'_a``, by one of two methods (``arm_velocity``):
+
+   **F/T momentum** (``"ft"``). The base F/T sensor (``ft_force``, ``ft_torque``, 1 kHz,
+   about the base origin) reads ``W = C + G - dh/dt``: the contact wrench ``C`` (piezo force
+   along n at the impact point), the arm's gravity wrench ``G`` and the rate of the arm's
+   spatial momentum ``h = A(q) v`` about the base origin (link inertias; the armature is a
+   joint-space term the mounting does not see). So ``h(t)`` is integrated on the F/T clock
+   from the pre-contact state (encoder line over the pre window: ``q_s``, ``qdot_s``):
+   ``dh = n dI + (p x n) dI + (c(q) - c(q_s)) x m g dt - (W - W_rest) dt``, ``dI`` the piezo
+   impulse increment, ``W_rest`` the mean reading before the contact (``ft_rest_window``
+   up to ``ft_guard`` before it; its force is ``m g``, so gravity's size comes from the
+   sensor), ``c`` the arm's centre of mass. The servo torques (``tau_cmd``) are held between
+   ticks and step the reading by ``-A H^-1 dtau`` at each tick: that part is integrated
+   exactly, the rest by trapezoids (a plain trapezoid is off by 1-3 % of h at High gains).
+   At every F/T sample ``v`` is the weighted least-squares solution of ``A(q) v = h``
+   (``ft_rows``: all six rows by default, each weighted by its measured noise; ``q`` is
+   advanced with ``v``, Adams-Bashforth 2, since the gravity moment is 10-20 % of the
+   angular momentum at the contact end), the tip velocity ``n . J v``, interpolated at
+   the contact end. The force rows alone are noise-limited (0.2 N over 70 samples is
+   1.7e-3 N s against 0.05-0.7 N s of arm momentum): m* worst 4-10 %; the moment rows are
+   10x quieter but carry the gravity model; all six rows: see :data:`ACCURACY_NOTE`.
+   ``m*`` then depends only on the F/T, the piezo and the model (the encoders give the
+   configuration and ``v_a``). Falls back to the encoders, recording why in
+   ``arm_velocity_note``, when the trial has no F/T channels, the F/T force does not
+   respond to the contact (e.g. a channel of zeros), the contact spans fewer than
+   ``ft_min_samples`` (20) F/T samples (the ideal scene's 1 ms contact), the record does not
+   cover the contact, or the base is flexible: there the sensor rides on the accelerating
+   platform, and its reading holds the platform's inertial wrench on the arm, which the
+   platform pose channels would have to give by double differentiation; that is not
+   built, flexible trials keep the encoder method below (not measured with F/T).
+   ``"auto"`` (default) uses the F/T when the joint samples are coarser than
+   ``auto_joint_interval`` (5 ms) and the encoders otherwise: measured over the sweep of
+   :data:`ACCURACY_NOTE`, the F/T wins at 50 Hz (High gains worst 2.9 % against 9.5 %) and
+   the encoders win at 1 kHz (every gain).
+
+   **Joint encoders** (``"encoders"``). The impact point's
    position along n, ``s(t) = n . p(q(t))`` (forward kinematics of each sample), is fitted
    over a pre-contact window (``joint_pre_window``, 0.2 s) and a post-contact window
    ``max(joint_post_window_min, joint_post_samples / rate)`` (0.1 s = 5 samples at 50 Hz;
@@ -44,10 +82,9 @@ real VES-II allows (paper section 3, design brief section 5):
    Alternatives kept for comparison (``arm_model``): ``poly`` (the force-shaped term plus
    a polynomial deceleration of order ``resistance_order`` from the contact start) and
    ``onesided`` (independent polynomial fits before the start and after the end,
-   extrapolated to the edges). Measured on the rig (72 default trials, 50 Hz), the
-   worst m* errors were: lti 2.4 % / 6.8 % / 10.9 % (Zero / Low / High gains), poly
-   4.4 % / 5.7 % / 22 %; on synthetic trials the one-sided fits reach 10-20 % on
-   decaying motions and fail on servo-like ones.
+   extrapolated to the edges). With the power-law contact edges the ``lti`` model follows
+   the rig closely at 1 kHz; at 50 Hz its High-gain worst case is 9.5 % (the servo reverses
+   the tip 10-20 ms after the contact, between two samples), hence the F/T method there.
    On a flexible base the tip's inertial velocity is the base point's plus the arm's:
    the platform pose channels (1 kHz; the emulated base channels when the platform ones
    are absent) give ``n . (p_b + R r0)`` (``r0`` the tip at ``q_cmd`` in the base frame,
@@ -115,30 +152,37 @@ FLEXIBLE_CONSTANTS = {"base_mass": (), "base_inertia": ("axis", "axis2")}
 BASE_POSE_CHANNELS = (("platform_position", "platform_rotation"), ("base_position", "base_rotation"))
 
 ARM_MODELS = ("lti", "poly", "onesided")
+EDGE_MODELS = ("power", "line")
+ARM_VELOCITIES = ("auto", "ft", "encoders")
+FT_ROWS = ("all", "linear", "angular")
+#: channels the F/T momentum method reads (``tau_cmd`` optional: the servo-step split)
+FT_CHANNELS = {"ft_force": ("t_ft", "axis"), "ft_torque": ("t_ft", "axis")}
 
 ACCURACY_NOTE = """\
 |relative error| of m* (eq 10) and e (eq 12) against eq 10/12 on the simulator's true edge
-velocities, default options, campaign.rig with config/rig.yaml as calibrated on 2026-11-21,
-configurations 1-3 x 1.0/1.5/2.0/2.5 m/s x 2 repeats per gain (random contact phase,
-encoder noise and quantisation), median / 90th percentile / worst:
+velocities, default options (arm_velocity="auto", power-law contact edges), campaign.rig
+with config/rig.yaml as calibrated on 2026-11-21, fixed base, configurations 1-3 x
+1.0/1.5/2.0/2.5 m/s x 2 repeats per gain (random contact phase, sensor noise and
+quantisation), median / 90th percentile / worst (benchmarks/identification_accuracy.py):
 
-  joint encoders at 50 Hz (the paper's 20 ms):
-    Zero  m* 0.57 / 1.8 / 3.5 %    e 0.12 / 0.32 / 0.42 %
-    Low   m* 0.42 / 1.0 / 1.8 %    e 0.13 / 0.22 / 0.34 %
-    High  m* 4.4  / 8.1 / 21 %     e 0.18 / 0.39 / 0.61 %   (biased: signed mean +4.7 %)
-  joint encoders at 1 kHz:
-    Zero  m* 0.43 / 0.71 / 1.1 %   Low m* 0.25 / 0.49 / 3.0 %   High m* 2.1 / 4.1 / 6.4 %
-    e within 0.5 % everywhere
-  ideal scene (no gravity, friction, servo, noise; stiff contact): m*, e < 0.005 %
-  contact edges: start within 0.10 ms, end within 0.37 ms (the rig's truth ends the
-  contact at geometric separation, which the force, clipped at zero, cannot show);
-  piezo impulse within 0.04 %; v_b within 0.17 %, v'_b within 0.41 %.
+  joint encoders at 50 Hz (the paper's 20 ms): F/T momentum method
+    Zero  m* 0.33 / 1.2 / 1.7 %    e 0.11 / 0.23 / 1.1 %
+    Low   m* 0.44 / 0.95 / 1.4 %   e 0.11 / 0.36 / 0.60 %
+    High  m* 0.96 / 2.2 / 2.9 %    e 0.08 / 0.25 / 0.48 %   (signed mean -0.35 %)
+    (encoders at 50 Hz: High m* 0.94 / 3.9 / 9.5 %, mean +1.6 %; the previous default,
+    encoders with straight-line edges: High 4.2 / 7.7 / 12.5 %, mean +5.1 %)
+  joint encoders at 1 kHz: encoder method
+    Zero  m* 0.13 / 0.28 / 0.48 %  Low m* 0.18 / 0.46 / 0.50 %  High m* 0.32 / 0.84 / 2.9 %
+    e 0.06-0.11 % median, worst 1.2 % (Zero)
+    (F/T at 1 kHz encoders: as at 50 Hz, it does not use their rate: High 0.88 / 2.2 / 2.7 %)
+  ideal scene (no gravity, friction, servo, noise; stiff 1 ms contact -> encoders):
+  m* < 0.005 %, e < 0.001 %.
+  contact edges (power law): start and end within 0.15 ms of the truth.
 
-Zero/Low: the largest errors are resolution limits (stretched configuration 2 at 1 m/s:
-the tip moves a few encoder steps per 20 ms sample). High: the servo decelerates the tip
-at 4-9 m/s^2 through the contact end and reverses it within 10-20 ms, which a single
-second-order resistance law with a Coulomb step follows only approximately (the model,
-not the noise: noise-free trials show the same bias)."""
+The F/T method's spread is the sensor noise (0.2 N, 0.02 N m at 1 kHz integrated over the
+~70 ms contact, against 0.05-0.7 N s of arm momentum); noise-free trials give m* within
+0.5 % for every gain. The encoder method's High-gain worst cases at 50 Hz are the model
+(the servo reverses the tip within 10-20 ms after the contact, between two samples)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -156,7 +200,11 @@ class IdentifyOptions:
     merge_gap : float
         Runs above the threshold closer than this are one contact [s].
     edge_fit_level : float
-        Edge samples up to this multiple of the threshold fit the edge line.
+        Edge samples up to this multiple of the threshold fit the edge.
+    edge_model : {"power", "line"}
+        Edge refinement: power law (default) or the straight line (for comparison).
+    edge_low_sigma : float
+        The power-law edge fit takes samples down to this many noise levels.
     pendulum_window, pendulum_guard : float
         Length of the one-sided pendulum windows and their distance from the edge [s].
     pendulum_degree : int
@@ -179,6 +227,20 @@ class IdentifyOptions:
     min_tip_counts : float
         The tip must move along n by at least this many encoder steps (projected on the
         tip) after the contact, or the trial is excluded.
+    arm_velocity : {"auto", "ft", "encoders"}
+        Tip-velocity method (module docstring, step 3): F/T momentum, joint encoders, or
+        ``auto`` (default): F/T when the joint samples are coarser than
+        ``auto_joint_interval``, else the encoders. F/T falls back to the encoders with the
+        reason in ``arm_velocity_note``.
+    auto_joint_interval : float
+        Joint sampling interval above which ``auto`` uses the F/T [s].
+    ft_min_samples : int
+        The contact must span at least this many F/T samples for the F/T method.
+    ft_rows : {"all", "linear", "angular"}
+        Momentum rows of ``A(q) v = h`` solved for v (noise-weighted).
+    ft_rest_window, ft_guard : float
+        The static F/T reference is the mean over up to ``ft_rest_window`` ending
+        ``ft_guard`` before the contact start [s].
     """
 
     k_sigma: float = 8.0
@@ -186,6 +248,8 @@ class IdentifyOptions:
     force_floor_rel: float = 0.02
     merge_gap: float = 2e-3
     edge_fit_level: float = 4.0
+    edge_model: str = "power"
+    edge_low_sigma: float = 3.0
     pendulum_window: float = 0.05
     pendulum_guard: float = 1e-3
     pendulum_degree: int = 3
@@ -198,6 +262,12 @@ class IdentifyOptions:
     arm_model: str = "lti"
     min_tip_counts: float = 5.0
     base_window: float = 0.02
+    arm_velocity: str = "auto"
+    auto_joint_interval: float = 5e-3
+    ft_min_samples: int = 20
+    ft_rows: str = "all"
+    ft_rest_window: float = 0.5
+    ft_guard: float = 2e-3
 
     def post_window(self, rate: float) -> float:
         """Post-contact joint window [s] at a joint sampling ``rate`` [Hz]:
@@ -206,16 +276,17 @@ class IdentifyOptions:
 
     def __post_init__(self):
         for name in ("k_sigma", "merge_gap", "edge_fit_level", "pendulum_window", "joint_pre_window",
-                     "joint_post_window_min", "base_window"):
+                     "joint_post_window_min", "base_window", "edge_low_sigma", "ft_rest_window",
+                     "auto_joint_interval"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"identification option {name} must be > 0, got {v!r}")
-        for name in ("force_floor", "force_floor_rel", "pendulum_guard", "min_tip_counts"):
+        for name in ("force_floor", "force_floor_rel", "pendulum_guard", "min_tip_counts", "ft_guard"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"identification option {name} must be >= 0, got {v!r}")
         for name in ("pendulum_degree", "min_pre_samples", "min_post_samples", "resistance_order",
-                     "joint_post_samples"):
+                     "joint_post_samples", "ft_min_samples"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 0:
                 raise InputError(f"identification option {name} must be an integer >= 0, got {v!r}")
@@ -223,6 +294,9 @@ class IdentifyOptions:
             raise InputError(f"pendulum_degree must be >= 1, got {self.pendulum_degree}")
         if self.arm_model not in ARM_MODELS:
             raise InputError(f"arm_model must be one of {ARM_MODELS}, got {self.arm_model!r}")
+        for name, allowed in (("edge_model", EDGE_MODELS), ("arm_velocity", ARM_VELOCITIES), ("ft_rows", FT_ROWS)):
+            if getattr(self, name) not in allowed:
+                raise InputError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -308,6 +382,10 @@ class TrialIdentification:
     base_com, base_mount : tuple of float
         Base centre of mass and the arm's mounting point in the base frame [m] (flexible
         base; see :func:`base_geometry`).
+    arm_velocity : str
+        Tip-velocity method used: "ft" or "encoders".
+    arm_velocity_note : str
+        Why the F/T method was not used when it was asked for ("" otherwise).
     """
 
     m_eff: float
@@ -341,6 +419,8 @@ class TrialIdentification:
     base_inertia: tuple = ()
     base_com: tuple = ()
     base_mount: tuple = ()
+    arm_velocity: str = ""
+    arm_velocity_note: str = ""
 
     def to_dict(self) -> dict:
         """A JSON-safe dict: non-finite numbers become ``None``, tuples lists."""
@@ -397,6 +477,39 @@ def _edge_zero(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_cross: float, si
     return float(t0 - a / b)
 
 
+def _edge_power(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_line: float, sign: float) -> float:
+    """Refine a contact edge with a power law ``r = c |t - t0|^p`` on the edge samples.
+
+    The contact law is ``F ~ delta^p`` with ``p`` near 1 but not 1 (0.82 on the calibrated
+    rig), so the force leaves zero with a steep, curved edge: a straight line through the
+    samples between the threshold and 4x it lands 0.5-0.65 ms after the true end (measured
+    on the rig's 10 kHz records), which at High gains (tip decelerating at 4-9 m/s^2 through
+    the contact end) is 3-7 % of v'_a. The power law on the samples from ``edge_low_sigma``
+    noise levels up to 4x the threshold brings both edges within 0.15 ms. ``t_line``
+    (the straight-line edge) is the starting point and the fallback when the fit fails or
+    has fewer than 4 samples; ``sign`` is +1 on the rising edge, -1 on the falling one.
+    """
+    if idx.size < 4:
+        return float(t_line)
+    tt, rr = t[idx], r[idx]
+    span = float(np.ptp(tt)) or float(t[1] - t[0])
+
+    def resid(x):
+        u = np.clip(sign * (tt - x[1]), 0.0, None) / span
+        return x[0] * u ** x[2] - rr
+
+    x0 = np.array([max(rr.max(), 1e-12), t_line, 1.0])
+    lo = [0.0, t_line - 5.0 * span, 0.3]
+    hi = [np.inf, t_line + 5.0 * span, 3.0]
+    try:
+        fit = least_squares(resid, x0, bounds=(lo, hi), x_scale=[x0[0], 0.1 * span, 0.1])
+    except ValueError:
+        return float(t_line)
+    if not fit.success or not math.isfinite(fit.x[1]):
+        return float(t_line)
+    return float(fit.x[1])
+
+
 def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = None) -> Contact:
     """Find the contact in a piezo force record.
 
@@ -446,18 +559,29 @@ def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = No
     lvl = opt.edge_fit_level * thr
     # rising edge: the samples from the crossing up to lvl (levels only: a sample-to-sample
     # monotonicity test would stop at the first noise wiggle on a slow edge)
+    lo = max(opt.edge_low_sigma * sigma, 1e-3 * peak)
     i = a
     while i + 1 <= b and r[i + 1] <= lvl:
         i += 1
     t_cross_s = t[a] if a == 0 else t[a - 1] + (thr - r[a - 1]) * (t[a] - t[a - 1]) / (r[a] - r[a - 1])
     t_s = _edge_zero(t, r, np.arange(a, i + 1), t_cross_s, 1.0)
-    lo = t[merged[k - 1][1]] if k > 0 else t[0] - (t[1] - t[0])
-    t_s = min(max(t_s, lo), t[a])
+    if opt.edge_model == "power":
+        a0 = a
+        while a0 - 1 >= 0 and r[a0 - 1] >= lo and (k == 0 or a0 - 1 > merged[k - 1][1]):
+            a0 -= 1
+        t_s = _edge_power(t, r, np.arange(a0, i + 1), t_s, 1.0)
+    lo_t = t[merged[k - 1][1]] if k > 0 else t[0] - (t[1] - t[0])
+    t_s = min(max(t_s, lo_t), t[a])
     j = b
     while j - 1 >= a and r[j - 1] <= lvl:
         j -= 1
     t_cross_e = t[b] if b == t.size - 1 else t[b] + (r[b] - thr) * (t[b + 1] - t[b]) / (r[b] - r[b + 1])
     t_e = _edge_zero(t, r, np.arange(j, b + 1), t_cross_e, -1.0)
+    if opt.edge_model == "power":
+        b0 = b
+        while b0 + 1 < t.size and r[b0 + 1] >= lo and (k + 1 == len(merged) or b0 + 1 < merged[k + 1][0]):
+            b0 += 1
+        t_e = _edge_power(t, r, np.arange(j, b0 + 1), t_e, -1.0)
     hi = t[merged[k + 1][0]] if k + 1 < len(merged) else t[-1] + (t[-1] - t[-2])
     t_e = max(min(t_e, hi), t[b])
     # impulse: samples strictly inside (t_s, t_e) plus the edge triangles (force 0 at the edges)
@@ -571,11 +695,12 @@ def _tip_positions(robot, Q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: IdentifyOptions):
+def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: IdentifyOptions, fit: bool = True):
     """Velocities along n at the contact edges from a position series ``s(t)`` [m].
 
     Returns ``(v_a, v'_a, n_pre, n_contact, n_post, reason)``; ``reason`` is non-empty
-    (and the velocities nan) when a window has too few samples.
+    (and the velocities nan) when a window has too few samples. With ``fit=False`` only the
+    windows are checked (velocities nan).
     """
     pre = (t < t_s) & (t >= t_s - opt.joint_pre_window)
     contact = (t >= t_s) & (t <= t_e)
@@ -592,6 +717,8 @@ def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: Identi
                        f"(need {need_post})")
     if reasons:
         return float("nan"), float("nan"), n_pre, n_con, n_post, "; ".join(reasons)
+    if not fit:
+        return float("nan"), float("nan"), n_pre, n_con, n_post, ""
     T = t_e - t_s
     sel = pre | contact | post
     if opt.arm_model == "lti":
@@ -707,6 +834,154 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True):
     p, _, resp = solve(best.x)
     v_post = p[1] + sum(p[2 + i] * np.interp(t_e, cin.grid, vel) for i, (_, vel) in enumerate(resp))
     return float(p[1]), float(v_post)
+
+
+def _momentum_map(model, data, q, frame_id: int):
+    """The arm's spatial-momentum map about the base origin and the impact point's kinematics.
+
+    Returns ``(A, p, Jt, com)``: ``A`` (6 x nv) with ``h = A v`` = (linear momentum [N s],
+    angular momentum about the base origin [N m s]), base axes; the impact point ``p`` [m];
+    its translational Jacobian ``Jt`` (3 x nv, base axes); the arm's centre of mass [m].
+    Pinocchio's centroidal map (about the centre of mass) shifted to the base origin. Link
+    inertias only: the armature (reflected rotor inertia) is a joint-space term, and the
+    mounting's F/T sensor does not see it either (:func:`campaign.rig.sensors.base_wrench`).
+    """
+    Ag = np.array(pin.computeCentroidalMap(model, data, q))
+    com = np.array(data.com[0])
+    A = Ag.copy()
+    A[3:] += np.cross(com[:, None], Ag[:3], axis=0)   # L_O = L_G + c x P
+    pin.updateFramePlacements(model, data)
+    p = np.array(data.oMf[frame_id].translation)
+    Jt = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+    return A, p, Jt, com
+
+
+def _zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Integral from ``ts[0]`` to each ``t`` of the zero-order-hold signal ``tau`` (value
+    ``tau[j]`` held on ``[ts[j], ts[j+1])``), shape (len(t), ncols)."""
+    cum = np.vstack([np.zeros((1, tau.shape[1])), np.cumsum(tau[:-1] * np.diff(ts)[:, None], axis=0)])
+    j = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, ts.size - 1)
+    return cum[j] + tau[j] * (t - ts[j])[:, None]
+
+
+def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: np.ndarray, Q: np.ndarray,
+                     opt: IdentifyOptions, where: str):
+    """Tip velocities along n at the contact edges from the arm's momentum balance.
+
+    ``dh/dt = (contact wrench) + (gravity wrench change) - (F/T reading change)`` on the
+    F/T clock (module docstring, step 3). Returns ``(v_a, v'_a, "")``, or
+    ``(nan, nan, why)`` when the F/T channels cannot be used (the caller falls back to
+    the encoders and records why).
+    """
+    nan = float("nan")
+    if not all(name in measured.variables for name in FT_CHANNELS):
+        return nan, nan, "no F/T channels (ft_force, ft_torque)"
+    _check_channels(measured, FT_CHANNELS, where)
+    tft = _time(measured, "t_ft", where)
+    W = np.hstack([np.asarray(measured["ft_force"].values, float), np.asarray(measured["ft_torque"].values, float)])
+    if not np.all(np.isfinite(W)):
+        raise InputError(f"{where}: F/T channels have non-finite samples")
+    rest = (tft <= c.start - opt.ft_guard) & (tft >= c.start - opt.ft_guard - opt.ft_rest_window)
+    if rest.sum() < 5:
+        return nan, nan, f"only {int(rest.sum())} F/T samples in the {opt.ft_rest_window:g} s before the contact"
+    if not (tft[0] < c.start and tft[-1] >= c.end):
+        return nan, nan, "the F/T record does not cover the contact"
+    n_in = int(((tft >= c.start) & (tft <= c.end)).sum())
+    if n_in < opt.ft_min_samples:
+        # a contact of a few F/T samples is not resolved by trapezoids (ideal scene: 1 ms)
+        return nan, nan, f"the contact spans only {n_in} F/T samples (need {opt.ft_min_samples})"
+    pre = (tj < c.start) & (tj >= c.start - opt.joint_pre_window)
+    if pre.sum() < 2:
+        return nan, nan, "fewer than 2 joint samples before the contact"
+    W_rest = W[rest].mean(axis=0)
+    sig = W[rest].std(axis=0)
+    during = (tft >= c.start) & (tft <= c.end)
+    dF = np.abs(W[during, :3] - W_rest[:3]).max() if during.any() else 0.0
+    # on a fixed base the mounting carries the joint-1 reaction: tens of per cent of the
+    # contact force; a channel that does not move is not a sensor reading (e.g. zeros)
+    if not dF > max(5.0 * sig[:3].max(), 0.01 * c.peak):
+        return nan, nan, (f"the F/T force does not respond to the contact (change {dF:.3g} N, "
+                          f"noise {sig[:3].max():.3g} N, contact peak {c.peak:.3g} N)")
+
+    model = robot.model
+    data = model.createData()
+    # pre-contact state from the encoders: a line per joint over the pre window
+    x = tj[pre] - c.start
+    qs, qd = np.empty(model.nv), np.empty(model.nv)
+    for i in range(model.nv):
+        qs[i], qd[i] = np.polynomial.polynomial.polyfit(x, Q[pre, i], 1)
+    A, p, Jt, com0 = _momentum_map(model, data, qs, robot.impact_frame_id)
+    v_a = float(n @ Jt @ qd)
+
+    # contact impulse along n from the piezo (baseline-corrected, clipped at 0), cumulative
+    tf = _time(measured, "t_force", where)
+    r = np.asarray(measured["f_piezo"].values, float) - c.baseline
+    inside = (tf > c.start) & (tf < c.end)
+    tt = np.concatenate([[c.start], tf[inside], [c.end]])
+    rr = np.concatenate([[0.0], np.clip(r[inside], 0.0, None), [0.0]])
+    I = np.concatenate([[0.0], np.cumsum(0.5 * (rr[1:] + rr[:-1]) * np.diff(tt))])
+
+    k0 = int(np.searchsorted(tft, c.start)) - 1          # last F/T sample before the start
+    k1 = int(np.searchsorted(tft, c.end))                # first F/T sample at/after the end
+    grid = tft[k0:k1 + 1]
+    dW = W[k0:k1 + 1] - W_rest
+    Ig = np.interp(grid, tt, I, left=0.0, right=I[-1])
+    mg = W_rest[:3]        # the arm's weight as the sensor reads it at rest (gravity's size and sign)
+    # servo torques are held between ticks, and each tick steps the reading by -A H^-1 dtau;
+    # a trapezoid across those steps is off by half a tick per step (1-3 % of h at High
+    # gains), so the held part is integrated exactly and only the rest by trapezoids
+    servo = "tau_cmd" in measured.variables and tuple(measured["tau_cmd"].dims) == ("t_servo", "joint")
+    if servo:
+        ts = _time(measured, "t_servo", where)
+        tau = np.asarray(measured["tau_cmd"].values, float)
+        servo = bool(np.all(np.isfinite(tau)) and ts[0] <= grid[0])
+    if servo:
+        tau0 = tau[int(np.searchsorted(ts, grid[0], side="right")) - 1]
+        Tcum = _zoh_integral(ts, tau - tau0, grid)
+        # a sample on a tick reads the new torque (the command written at the tick)
+        tau_at = tau[np.clip(np.searchsorted(ts, grid + 1e-9 * (grid[1] - grid[0]), side="right") - 1, 0, None)] - tau0
+    rows = {"all": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}[opt.ft_rows]
+    wrow = 1.0 / np.maximum(sig, np.array([1e-3] * 3 + [1e-4] * 3))[rows]
+
+    def wtau(Ak, Hk, dtau):
+        return -Ak @ np.linalg.solve(Hk, dtau)
+
+    q = qs + qd * (grid[0] - c.start)
+    v = qd.copy()
+    A, p, Jt, com = _momentum_map(model, data, q, robot.impact_frame_id)
+    h = A @ v
+    H = pin.crba(model, data, q)
+    u = np.empty(grid.size)
+    u[0] = n @ Jt @ v
+    prev_smooth = dW[0] - (wtau(A, H, tau_at[0]) if servo else 0.0)
+    v_prev = v
+    for k in range(1, grid.size):
+        dt = grid[k] - grid[k - 1]
+        dI = Ig[k] - Ig[k - 1]
+        # the joints barely move: second-order Adams-Bashforth for q is ample; the moments
+        # of the contact force and of gravity take the mean of the step's end points (the
+        # gravity term is 10-20 % of the angular momentum at the contact end, so a step of lag
+        # in the centre of mass would cost 1-2 %)
+        p0, com_prev = p, com
+        q = q + (1.5 * v - 0.5 * v_prev) * dt
+        A_prev, H_prev = A, H
+        A, p, Jt, com = _momentum_map(model, data, q, robot.impact_frame_id)
+        dh = np.concatenate([n * dI, np.cross(0.5 * (p0 + p), n) * dI])
+        dh[3:] += np.cross(0.5 * (com_prev + com) - com0, mg) * dt
+        if servo:
+            H = pin.crba(model, data, q)
+            smooth = dW[k] - wtau(A, H, tau_at[k])
+            dh -= 0.5 * (smooth + prev_smooth) * dt + wtau(0.5 * (A_prev + A), 0.5 * (H_prev + H), Tcum[k] - Tcum[k - 1])
+            prev_smooth = smooth
+        else:
+            dh -= 0.5 * (dW[k] + dW[k - 1]) * dt
+        h = h + dh
+        v_prev = v
+        Aw = A[rows] * wrow[:, None]
+        v = np.linalg.lstsq(Aw, h[rows] * wrow, rcond=None)[0]
+        u[k] = n @ Jt @ v
+    v_post = float(np.interp(c.end, grid, u))
+    return v_a, v_post, ""
 
 
 def _tip_displacement(robot, q_cmd, n, t, s, t_s, t_e, post_window, opt):
@@ -910,7 +1185,20 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
     else:
         s_arm = P @ n
         vbase_pre = vbase_post = 0.0
-    va_rel, va_post_rel, n_pre, n_con, n_post, why = _arm_fit(tw, s_arm, c.start, c.end, cin, post_window, opt)
+    method, method_note = "encoders", ""
+    use_ft = opt.arm_velocity == "ft" or (
+        opt.arm_velocity == "auto" and float(np.median(np.diff(tj))) > opt.auto_joint_interval)
+    if use_ft:
+        if flexible:
+            method_note = "flexible base: the F/T sensor rides on the moving platform (encoders used)"
+        else:
+            v_ft, v_ft_post, method_note = _ft_tip_velocity(measured, robot, n, c, tj, Q, opt, where)
+            if not method_note:
+                method = "ft"
+    va_rel, va_post_rel, n_pre, n_con, n_post, why = _arm_fit(tw, s_arm, c.start, c.end, cin, post_window, opt,
+                                                             fit=method == "encoders")
+    if method == "ft" and not why:
+        va_rel, va_post_rel = v_ft, v_ft_post
     if why:
         reasons.append(why)
     else:
@@ -936,7 +1224,8 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
         v_b_post=float(v_b_post), impulse=c.impulse, impulse_momentum=float(imp_mom),
         contact_start=c.start, contact_end=c.end, peak_force=c.peak,
         excluded=bool(reasons), reason="; ".join(reasons), theta_contact=th_s,
-        n_joint_pre=n_pre, n_joint_contact=n_con, n_joint_post=n_post, **ident,
+        n_joint_pre=n_pre, n_joint_contact=n_con, n_joint_post=n_post, arm_velocity=method,
+        arm_velocity_note=method_note, **ident,
     )
 
 
