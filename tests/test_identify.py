@@ -220,3 +220,122 @@ def test_synthetic_generator_is_consistent_with_eq_11(puma):
     assert tr.truth["m_eff_eq11"] == pytest.approx(m11, rel=1e-9)
     assert tr.truth["m_eff"] == pytest.approx(m11, rel=0.02)
     assert tr.truth["e"] == pytest.approx(0.55, rel=0.02)
+
+
+# -- F/T momentum method (issue 6) -----------------------------------------------------
+def _truth_m_e(measured, truth):
+    va, vap = float(truth["v_a_pre"]), float(truth["v_a_post"])
+    vb, vbp = float(truth["v_b_pre"]), float(truth["v_b_post"])
+    return float(measured["hammer_mass_eff"]) * (vb - vbp) / (vap - va), (vap - vbp) / (vb - va)
+
+
+@pytest.fixture(scope="module")
+def high_gain_trials():
+    """Rig trials at High gains with the paper's 50 Hz encoders: the case the encoder
+    model cannot resolve (the servo reverses the tip between two samples)."""
+    from campaign.rig.simulate import simulate
+    from campaign.scene import make_scene
+    out = []
+    for config in (1, 2, 3):
+        for speed in (1.0, 2.5):
+            tree = simulate(make_scene(base="fixed", config=config, gain="high", speed=speed, repeat=0))
+            out.append((tree["measured"].to_dataset(), tree["truth"].to_dataset(), dict(tree.attrs)))
+    return out
+
+
+def test_ft_momentum_on_high_gain_rig_trials_at_50hz(puma, high_gain_trials):
+    """Issue 6 target: m* and e within 3 % of the truth at 50 Hz joint sampling, High gains,
+    by the default (which picks the F/T method at 20 ms encoders)."""
+    for measured, truth, attrs in high_gain_trials:
+        r = identify_trial(measured, robot=puma, meta=attrs)
+        assert not r.excluded, r.reason
+        assert r.arm_velocity == "ft", r.arm_velocity_note
+        m_true, e_true = _truth_m_e(measured, truth)
+        assert abs(r.m_eff / m_true - 1) < 0.03, (attrs["config"], attrs["speed"], r.m_eff, m_true)
+        assert abs(r.e / e_true - 1) < 0.03
+
+
+def test_power_law_contact_edges_on_rig_trials(high_gain_trials):
+    """Both contact edges within 0.2 ms of the truth (a straight line lands ~0.6 ms late)."""
+    for measured, truth, _ in high_gain_trials:
+        c = detect_contact(measured.t_force.values, measured.f_piezo.values, float(measured.piezo_full_scale))
+        assert abs(c.start - float(truth["contact_start"])) < 2e-4
+        assert abs(c.end - float(truth["contact_end"])) < 2e-4
+
+
+def test_ft_momentum_integral_on_a_synthetic_motion(puma):
+    """The momentum integral alone: an arm motion chosen freely (joint velocities rising
+    from rest), the F/T reading made by Newton-Euler with the contact force as an external
+    force (the sensor's physics, independent of the identification's momentum map), no
+    noise: the tip velocity at the contact end is recovered within 0.5 %."""
+    import pinocchio as pin
+    import xarray as xr
+
+    from campaign.identify import Contact, IdentifyOptions, _ft_tip_velocity
+
+    model = puma.model.copy()
+    model.gravity.linear = np.array([0.0, 0.0, -9.81])
+    data = model.createData()
+    fid = puma.impact_frame_id
+    jid = model.frames[fid].parentJoint
+    n = np.array([-1.0, 0.0, 0.0])
+    q_s = np.array([0.1, 2.6, 0.2])
+    V = np.array([0.05, -0.12, 0.3])            # final joint velocities [rad/s]
+    t_s, T = 0.2033, 0.07
+    t_e = t_s + T
+
+    def motion(t):
+        x = np.clip((t - t_s) / T, 0.0, None)
+        ramp = np.where(x < 1, 0.5 * (1 - np.cos(np.pi * np.minimum(x, 1))), 1.0)
+        vel = np.outer(ramp, V)
+        acc = np.outer(np.where((x > 0) & (x < 1), 0.5 * np.pi / T * np.sin(np.pi * np.minimum(x, 1)), 0.0), V)
+        pos = np.where(x[:, None] < 1, np.outer(T * (0.5 * x - np.sin(np.pi * np.minimum(x, 1)) / (2 * np.pi)), V),
+                       np.outer(T * 0.5 + (t - t_e), V))
+        return q_s + pos, vel, acc
+
+    def force(t):
+        x = (t - t_s) / T
+        return np.where((x > 0) & (x < 1), 60.0 * np.sin(np.pi * np.clip(x, 0, 1)), 0.0)
+
+    tft = np.arange(0.0, 0.4, 1e-3)
+    Q, Vv, Aa = motion(tft)
+    W = np.empty((tft.size, 6))
+    for k, t in enumerate(tft):
+        pin.forwardKinematics(model, data, Q[k])
+        f_local = data.oMi[jid].rotation.T @ (n * force(t))
+        r = model.frames[fid].placement.translation
+        fext = [pin.Force.Zero() for _ in range(model.njoints)]
+        fext[jid] = pin.Force(f_local, np.cross(r, f_local))
+        pin.rnea(model, data, Q[k], Vv[k], Aa[k], fext)
+        w = data.oMi[1].act(data.f[1])
+        W[k] = -np.concatenate([w.linear, w.angular])
+    tf = np.arange(0.0, 0.4, 1e-4)
+    tj = np.arange(0.0, 0.4, 2e-2)
+    ds = xr.Dataset(
+        {"ft_force": (("t_ft", "axis"), W[:, :3]), "ft_torque": (("t_ft", "axis"), W[:, 3:]),
+         "f_piezo": (("t_force",), force(tf))},
+        coords={"t_ft": tft, "t_force": tf, "t_joint": tj})
+    c = Contact(t_s, t_e, 60.0, 60.0 * 2 * T / np.pi, 0.0, 0.0, 0.5, 1, ((t_s, t_e),), False, True)
+    v_a, v_post, why = _ft_tip_velocity(ds, puma, n, c, tj, motion(tj)[0], IdentifyOptions(), "synthetic")
+    assert why == ""
+    pin.computeJointJacobians(model, data, motion(np.array([t_e]))[0][0])
+    J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
+    want = float(n @ J @ V)
+    assert abs(v_a) < 1e-9
+    assert abs(v_post / want - 1) < 5e-3, (v_post, want)
+
+
+def test_ft_falls_back_to_the_encoders_with_a_reason(puma, high_gain_trials):
+    measured, _, attrs = high_gain_trials[0]
+    r = identify_trial(measured.drop_vars(["ft_force", "ft_torque"]), robot=puma, meta=attrs)
+    assert r.arm_velocity == "encoders" and "no F/T channels" in r.arm_velocity_note
+    assert not r.excluded
+    # the synthetic trials carry F/T channels of zeros: not a reading
+    tr = cached_trial(config=1, speed=2.0, decay="none", lam=LAM, seed=5)
+    r = identify_trial(tr.measured, robot=puma, options=IdentifyOptions(arm_velocity="ft"))
+    assert r.arm_velocity == "encoders" and "does not respond" in r.arm_velocity_note
+    # 1 kHz-class encoders: auto keeps the encoders, no note
+    r = identify_trial(measured, robot=puma, meta=attrs, options=IdentifyOptions(arm_velocity="encoders"))
+    assert r.arm_velocity == "encoders" and r.arm_velocity_note == ""
+    with pytest.raises(InputError, match="arm_velocity"):
+        IdentifyOptions(arm_velocity="gyro")
