@@ -262,16 +262,19 @@ def _kinematic_terms(model, data, fid: int, Q, V, *, need_J: bool, symmetrize: b
     J = np.empty((N, 3, nv)) if need_J else None
     crba, jac, pot = pin.crba, pin.computeJointJacobians, pin.computePotentialEnergy
     place, fjac, lwa = pin.updateFramePlacement, pin.getFrameJacobian, pin.LOCAL_WORLD_ALIGNED
+    M_tip = data.oMf[fid]                         # live reference, updated by place()
     for k in range(N):
         q = Q[k]
         H[k] = crba(model, data, q)
         jac(model, data, q)
         pe[k] = pot(model, data)                  # on the placements jac just computed
-        P[k] = place(model, data, fid).translation
+        place(model, data, fid)
+        P[k] = M_tip.translation
         if need_J:
             J[k] = fjac(model, data, fid, lwa)[:3]
-    if symmetrize:
-        H = np.triu(H) + np.swapaxes(np.triu(H, 1), 1, 2)
+    if symmetrize:                                # lower triangle from the upper one (what
+        iu, ju = np.triu_indices(nv, 1)           # np.triu(H) + np.triu(H, 1).T gives, exactly)
+        H[:, ju, iu] = H[:, iu, ju]
     return H, pe, P, J
 
 

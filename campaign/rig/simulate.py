@@ -300,7 +300,8 @@ def record(rig: Rig, traj) -> xr.DataTree:
     wrench[pre] = rest
     if loop:
         # the emulator sampled the sensor at its ticks; between ticks the reading is interpolated
-        tk, wk, _ = plant.ticks()
+        ticks = plant.ticks()          # (times, wrenches, records): built from its history once here
+        tk, wk, _ = ticks
         tk = np.concatenate([[traj.t_contact], tk])
         wk = np.vstack([rest, wk])
         for i in range(6):
@@ -374,7 +375,7 @@ def record(rig: Rig, traj) -> xr.DataTree:
         tb = sample_grid(float(p("ves.rate")), t_end)
         body = plant.beam.base_body()
         if loop:
-            tk, _, rec = plant.ticks()
+            tk, _, rec = ticks
             tk = np.concatenate([[plant.t_first], tk + plant.emulator_period])
             rec = np.vstack([np.zeros(24), rec])
             chan = np.column_stack([np.interp(tb, tk, rec[:, i]) for i in range(18)])
