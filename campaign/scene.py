@@ -12,6 +12,7 @@ Parameters are addressed by dotted keys, ``scene.p("contact.stiffness")``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -117,10 +118,15 @@ class Scene:
     # -- access ---------------------------------------------------------------------
     def p(self, key: str) -> Any:
         """Value of a rig parameter by dotted key (``"contact.stiffness"``)."""
-        for k, v in self.params:
-            if k == key:
-                return v
-        raise KeyError(f"scene has no parameter {key!r}")
+        try:
+            return self._lookup[key]
+        except KeyError:
+            raise KeyError(f"scene has no parameter {key!r}") from None
+
+    @functools.cached_property
+    def _lookup(self) -> dict[str, Any]:
+        # params is immutable: its dict is built once per scene (a trial reads ~60 keys)
+        return dict(self.params)
 
     @property
     def param_dict(self) -> dict[str, Any]:
