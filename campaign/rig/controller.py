@@ -120,6 +120,12 @@ class PID:
         self.e_prev = np.zeros_like(self.q_ref)
         self.e_sum = np.zeros_like(self.q_ref)
         self.active = bool(self.P or self.D or self.I)
+        # per-tick constants: torque per count, per count/s of rate, per count-second
+        self._kP = self.scale * self.P
+        self._kD = self.scale * self.D / self.period
+        self._kI = self.scale * self.I * self.period
+        self._ref = np.rint(self._ref_counts) if self.quantize else self._ref_counts
+        self._lo = -np.asarray(self.tau_max, dtype=float)
 
     def hold_static(self, tau_needed: np.ndarray) -> None:
         """Start at rest on the reference with the integrator wound up to ``tau_needed``
@@ -137,10 +143,10 @@ class PID:
         Called at every servo tick of every trial: NumPy's ``clip`` and ``round`` wrappers
         cost more than the arithmetic here, so their ufuncs are called directly."""
         if not self.active:
-            return np.minimum(np.maximum(self.tau_gc, -self.tau_max), self.tau_max)
+            return np.minimum(np.maximum(self.tau_gc, self._lo), self.tau_max)
         c = q / self.resolution
-        e = (np.rint(self._ref_counts) - np.rint(c)) if self.quantize else (self._ref_counts - c)
+        e = self._ref - (np.rint(c) if self.quantize else c)
         self.e_sum = self.e_sum + e
-        u = self.P * e + self.D * (e - self.e_prev) / self.period + self.I * self.period * self.e_sum
+        u = self._kP * e + self._kD * (e - self.e_prev) + self._kI * self.e_sum + self.tau_gc
         self.e_prev = e
-        return np.minimum(np.maximum(self.scale * u + self.tau_gc, -self.tau_max), self.tau_max)
+        return np.minimum(np.maximum(u, self._lo), self.tau_max)
