@@ -105,11 +105,13 @@ class _FloatingMixin:
         """Wrench of the arm on the platform at the mount, platform axes, about the mount
         origin (what the F/T sensor reads): (force [N], moment [N m])."""
         model, data = self.fmodel, self.fdata
+        # RNEA leaves data.oMi as it found it (Pinocchio 4.1): the placements that turn the
+        # wrench into the mount's axes come from this configuration's forward kinematics
+        pin.forwardKinematics(model, data, q7full)
         if F > 0.0:
             fext = self._fext
             for i in range(len(fext)):
                 fext[i] = pin.Force.Zero()
-            pin.forwardKinematics(model, data, q7full)
             jid = model.frames[self.ffid].parentJoint
             R = data.oMi[jid].rotation
             f_local = R.T @ (self.n * F)
