@@ -406,23 +406,12 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         _, Jn = self.tip(x[:self.na])
         return float(Jn @ x[self.i_v]) + self._tip_base_speed
 
-    def _dyn(self, q, v, tau):
-        """Arm inertia ``H_mm`` and ``tau - bias`` on the prescribed platform, where the bias
-        ``rnea(q, v, [a_b, 0])_m`` holds gravity, Coriolis and the base acceleration."""
-        model, data = self.fmodel, self.fdata
-        qf, vb, ab = self._qfull(q, self._t)
-        vf = self._vf
-        vf[:6] = vb
-        vf[6:] = v
-        af = self._af
-        af[:6] = ab
-        H = pin.crba(model, data, qf)
-        Hm = H[6:, 6:] if self._fcrba_full else (np.triu(H) + np.triu(H, 1).T)[6:, 6:]
-        b = tau - pin.rnea(model, data, qf, vf, af)[6:]
-        return Hm, b
-
     def holding_torque(self, q, v, tau, stuck):
-        Hm, b = self._dyn(q, v, tau)
+        """The reference solve of :meth:`constrained` (kept for the tests): the free-flyer's
+        CRBA block ``H_mm`` and an explicit small solve."""
+        b = tau - self._bias(q, v)
+        H = pin.crba(self.fmodel, self.fdata, self._qfull(q, self._t)[0])
+        Hm = H[6:, 6:] if self._fcrba_full else (np.triu(H) + np.triu(H, 1).T)[6:, 6:]
         return self._constrained(Hm, b, stuck)
 
     def _bias(self, q, v):
