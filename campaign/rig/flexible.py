@@ -382,7 +382,10 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         state = self.loop.step(w)
         self.history.append((t, w, np.concatenate([state.structure_pose, state.pose, state.command, state.twist])))
         self.t_last = t
-        self._cache = {}
+        # the platform at this tick is the end of the tick just stepped and the start of the
+        # next one (continuous to rounding): keep it, drop the rest
+        kept = self._cache.get(t)
+        self._cache = {} if kept is None else {t: kept}
 
     # -- dynamics ----------------------------------------------------------------------
     def tip(self, q, t=None):

@@ -157,15 +157,16 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
         last = (xx, tau, f, contact_v0, caught, tt, out)
         return out
 
-    def rk4(xx, h, k1=None):
-        """One RK4 step from (t, xx); returns the new state and the derivative at xx."""
+    def rk4(xx, h, k1=None, t_end=None):
+        """One RK4 step from (t, xx) to ``t_end`` (``t + h`` unless given: a step ending on a
+        tick ends at the tick's own time); returns the new state and the derivative at xx."""
         nonlocal n_rhs
         if k1 is None:
             k1 = ev(xx, t)[0]
         th = t + 0.5 * h
         k2 = rhs(xx + (0.5 * h) * k1, tau, fs, contact_v0, caught, th)
         k3 = rhs(xx + (0.5 * h) * k2, tau, fs, contact_v0, caught, th)
-        k4 = rhs(xx + h * k3, tau, fs, contact_v0, caught, t + h)
+        k4 = rhs(xx + h * k3, tau, fs, contact_v0, caught, t + h if t_end is None else t_end)
         n_rhs += 3
         return xx + (h / 6.0) * (k1 + k4 + 2.0 * (k2 + k3)), k1
 
@@ -294,13 +295,13 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                 settle_modes(x)
                 continue
         elif h > 1e-15:
-            x_new, k1 = rk4(x, h)
-            n_steps += 1
-            if not math.isfinite(x_new.sum()):
-                raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
             t_new = t + h
             if abs(t_new - t_tick) <= 1e-12:
                 t_new = t_tick     # the tick's own time, so its evaluations are shared
+            x_new, k1 = rk4(x, h, t_end=t_new)
+            n_steps += 1
+            if not math.isfinite(x_new.sum()):
+                raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
             g1 = event_values(x_new, t_new)
             candidates = [k for k, v1 in g1.items() if v1 > 0]
             fired = []
