@@ -173,7 +173,16 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     def event_values(xx, tt):
         """Event functions at state xx and time tt; each fires where its value crosses 0 upward."""
         vals = {}
-        _, lam, gap = ev(xx, tt)
+        # the holding torques need the dynamics; the contact gap only the kinematics
+        need_lam = friction_events and not fs.none_stuck and not (
+            # with every joint stuck, no contact and a constant servo torque on a fixed base
+            # the holding torques cannot change
+            fs.all_stuck and contact_v0 is None and not pid.active and T_emu is None)
+        if need_lam:
+            _, lam, gap = ev(xx, tt)
+        elif contact_v0 is not None or not caught:
+            plant._t = tt
+            gap = plant.gap(xx)[:2]
         if contact_v0 is not None:
             # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
             # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
@@ -184,12 +193,9 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             if rebound_seen or contacts[-1][1] is not None:
                 vals["catch"] = xx[ithd]          # rebounding hammer (thd < 0) reaches its top
         if friction_events:
-            if not fs.none_stuck:
-                # with every joint stuck, no contact and a constant servo torque on a fixed
-                # base the holding torques cannot change
-                if not (fs.all_stuck and contact_v0 is None and not pid.active and T_emu is None):
-                    for jj, val in zip(fs.stuck.tolist(), fs.violations(lam)):
-                        vals[f"break{jj}"] = val
+            if need_lam:
+                for jj, val in zip(fs.stuck.tolist(), fs.violations(lam)):
+                    vals[f"break{jj}"] = val
             for j, m, ij in fs.slipping:
                 vals[f"stop{j}"] = -m * float(xx[ij])
         return vals
