@@ -153,6 +153,7 @@ BASE_POSE_CHANNELS = (("platform_position", "platform_rotation"), ("base_positio
 
 ARM_MODELS = ("lti", "poly", "onesided")
 EDGE_MODELS = ("power", "line")
+PENDULUM_MODELS = ("ode", "poly")
 ARM_VELOCITIES = ("auto", "ft", "encoders")
 FT_ROWS = ("all", "linear", "angular")
 #: channels the F/T momentum method reads (``tau_cmd`` optional: the servo-step split)
@@ -253,6 +254,10 @@ class IdentifyOptions:
     pendulum_window: float = 0.05
     pendulum_guard: float = 1e-3
     pendulum_degree: int = 3
+    pendulum_model: str = "ode"
+    pendulum_pre_window: float = 0.15
+    pendulum_post_window: float = 0.09
+    pendulum_stop_time: float = 5e-3
     joint_pre_window: float = 0.2
     joint_post_samples: int = 5
     joint_post_window_min: float = 0.02
@@ -276,12 +281,14 @@ class IdentifyOptions:
 
     def __post_init__(self):
         for name in ("k_sigma", "merge_gap", "edge_fit_level", "pendulum_window", "joint_pre_window",
+                     "pendulum_pre_window", "pendulum_post_window",
                      "joint_post_window_min", "base_window", "edge_low_sigma", "ft_rest_window",
                      "auto_joint_interval"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"identification option {name} must be > 0, got {v!r}")
-        for name in ("force_floor", "force_floor_rel", "pendulum_guard", "min_tip_counts", "ft_guard"):
+        for name in ("force_floor", "force_floor_rel", "pendulum_guard", "min_tip_counts", "ft_guard",
+                     "pendulum_stop_time"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"identification option {name} must be >= 0, got {v!r}")
@@ -294,7 +301,8 @@ class IdentifyOptions:
             raise InputError(f"pendulum_degree must be >= 1, got {self.pendulum_degree}")
         if self.arm_model not in ARM_MODELS:
             raise InputError(f"arm_model must be one of {ARM_MODELS}, got {self.arm_model!r}")
-        for name, allowed in (("edge_model", EDGE_MODELS), ("arm_velocity", ARM_VELOCITIES), ("ft_rows", FT_ROWS)):
+        for name, allowed in (("edge_model", EDGE_MODELS), ("arm_velocity", ARM_VELOCITIES), ("ft_rows", FT_ROWS),
+                              ("pendulum_model", PENDULUM_MODELS)):
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
 
@@ -633,14 +641,48 @@ class _ContactInput:
 # ----------------------------------------------------------------------------------------
 # hammer
 # ----------------------------------------------------------------------------------------
+def _pendulum_window(t: np.ndarray, th: np.ndarray, t_edge: float, side: str, length: float, guard: float,
+                     stop_time: float) -> np.ndarray:
+    """Indices of the one-sided pendulum window; a run of one encoder count lasting
+    ``stop_time`` or longer (the device's brake holding the hammer, or the hammer at rest)
+    ends the window on the far side (post: the window stops before the run; pre: it starts
+    after it)."""
+    if side == "pre":
+        sel = (t <= t_edge - guard) & (t >= t_edge - guard - length)
+    elif side == "post":
+        sel = (t >= t_edge + guard) & (t <= t_edge + guard + length)
+    else:
+        raise ValueError(f"side must be 'pre' or 'post', got {side!r}")
+    idx = np.flatnonzero(sel)
+    if idx.size < 2 or not stop_time > 0:
+        return idx
+    y, x = th[idx], t[idx]
+    change = np.flatnonzero(np.diff(y) != 0)          # the count changes between k and k+1
+    bounds = np.concatenate([[-1], change, [y.size - 1]])
+    # runs of equal counts: samples bounds[i]+1 .. bounds[i+1]
+    for i in (range(bounds.size - 1) if side == "post" else range(bounds.size - 2, -1, -1)):
+        a, b = bounds[i] + 1, bounds[i + 1]
+        if x[b] - x[a] >= stop_time:
+            return idx[:a] if side == "post" else idx[b + 1:]
+    return idx
+
+
 def hammer_velocity(t, theta, t_edge: float, side: str, radius: float,
                     options: IdentifyOptions | None = None) -> tuple[float, float, int]:
     """Hammer velocity along n at a contact edge from the pendulum encoder.
 
-    A polynomial of degree ``pendulum_degree`` in time is fitted to ``theta`` on the
-    one-sided window of ``pendulum_window`` ending (``side="pre"``) or starting
-    (``side="post"``) ``pendulum_guard`` away from ``t_edge``, and evaluated at ``t_edge``:
-    ``v = r theta' cos(theta)`` [m/s].
+    ``pendulum_model="ode"`` (default): the free pendulum's equation of motion
+    ``theta'' = -w^2 sin(theta)`` written as the linear model
+    ``theta(t) = a + b (t - t_edge) - w^2 S2(t)``, ``S2`` the double time integral of
+    ``sin(theta)`` of the measured samples (trapezoids), fitted by linear least squares
+    (``a``, ``b``, ``w^2``) on the one-sided window of ``pendulum_pre_window``
+    (``pendulum_post_window``) ending (starting) ``pendulum_guard`` away from ``t_edge``;
+    ``theta'(t_edge) = b - w^2 S1(t_edge)``. The model holds over the whole free swing (no
+    truncation), so the windows can be long enough to average the encoder's quantisation.
+    ``pendulum_model="poly"``: a polynomial of degree ``pendulum_degree`` on a window of
+    ``pendulum_window``, evaluated at ``t_edge`` (the previous method, for comparison).
+    Either way ``v = r theta' cos(theta)`` [m/s]. A run of one count lasting
+    ``pendulum_stop_time`` (the brake holding the hammer) ends the window.
 
     Returns
     -------
@@ -654,20 +696,40 @@ def hammer_velocity(t, theta, t_edge: float, side: str, radius: float,
     opt = options or IdentifyOptions()
     t = np.asarray(t, float)
     th = np.asarray(theta, float)
-    if side == "pre":
-        sel = (t <= t_edge - opt.pendulum_guard) & (t >= t_edge - opt.pendulum_guard - opt.pendulum_window)
-    elif side == "post":
-        sel = (t >= t_edge + opt.pendulum_guard) & (t <= t_edge + opt.pendulum_guard + opt.pendulum_window)
+    if opt.pendulum_model == "poly":
+        length = opt.pendulum_window
     else:
-        raise ValueError(f"side must be 'pre' or 'post', got {side!r}")
-    nsel = int(sel.sum())
-    if nsel < opt.pendulum_degree + 3:
+        length = opt.pendulum_pre_window if side == "pre" else opt.pendulum_post_window
+    idx = _pendulum_window(t, th, t_edge, side, length, opt.pendulum_guard, opt.pendulum_stop_time)
+    nsel = int(idx.size)
+    need = opt.pendulum_degree + 3 if opt.pendulum_model == "poly" else 6
+    if nsel < need:
         return float("nan"), float("nan"), nsel
-    x = t[sel] - t_edge
-    scale = opt.pendulum_window
-    c = np.polynomial.polynomial.polyfit(x / scale, th[sel], opt.pendulum_degree)
-    th_e = float(c[0])
-    thd_e = float(c[1]) / scale
+    x, y = t[idx], th[idx]
+    if opt.pendulum_model == "poly":
+        scale = length
+        c = np.polynomial.polynomial.polyfit((x - t_edge) / scale, y, opt.pendulum_degree)
+        th_e = float(c[0])
+        thd_e = float(c[1]) / scale
+        return float(radius * thd_e * math.cos(th_e)), th_e, nsel
+    s = np.sin(y)
+    S1 = np.concatenate([[0.0], np.cumsum(0.5 * (s[1:] + s[:-1]) * np.diff(x))])
+    S2 = np.concatenate([[0.0], np.cumsum(0.5 * (S1[1:] + S1[:-1]) * np.diff(x))])
+    # the integrals from the window's first sample to the edge (the last stretch, at most
+    # the guard plus a sample, with the nearest sample's sin)
+    if side == "pre":
+        d = t_edge - x[-1]
+        s1e, s2e = S1[-1] + s[-1] * d, S2[-1] + S1[-1] * d + 0.5 * s[-1] * d * d
+    else:
+        d = x[0] - t_edge
+        s1e, s2e = -s[0] * d, 0.5 * s[0] * d * d
+    scale = max(float(x[-1] - x[0]), 1e-12)
+    A = np.column_stack([np.ones_like(x), (x - t_edge) / scale, S2 - s2e])
+    colscale = np.abs(A).max(axis=0)
+    colscale[colscale == 0] = 1.0
+    p = np.linalg.lstsq(A / colscale, y, rcond=None)[0] / colscale
+    th_e = float(p[0])
+    thd_e = float(p[1]) / scale + float(p[2]) * s1e
     return float(radius * thd_e * math.cos(th_e)), th_e, nsel
 
 
@@ -1156,10 +1218,13 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
     # 2. hammer
     v_b, th_s, nb_pre = hammer_velocity(tp, theta, c.start, "pre", radius, opt)
     v_b_post, _, nb_post = hammer_velocity(tp, theta, c.end, "post", radius, opt)
+    ode = opt.pendulum_model == "ode"
     if not math.isfinite(v_b):
-        reasons.append(f"only {nb_pre} pendulum samples in the {opt.pendulum_window:g} s before the contact")
+        w = opt.pendulum_pre_window if ode else opt.pendulum_window
+        reasons.append(f"only {nb_pre} pendulum samples in the {w:g} s before the contact")
     if not math.isfinite(v_b_post):
-        reasons.append(f"only {nb_post} pendulum samples in the {opt.pendulum_window:g} s after the contact")
+        w = opt.pendulum_post_window if ode else opt.pendulum_window
+        reasons.append(f"only {nb_post} pendulum samples in the {w:g} s after the contact (or before the brake)")
 
     # 3. arm tip along n
     post_window = opt.post_window(1.0 / float(np.median(np.diff(tj))))
