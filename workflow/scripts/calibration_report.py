@@ -2,7 +2,7 @@
 
 from campaign import runner
 
-with runner.job_log(snakemake.log[0], job="calibration_report") as timer:  # noqa: F821
+with runner.job_log(snakemake.log[0], job="calibration_report", exit_process=True) as timer:  # noqa: F821
     with timer("imports"):
         import csv
 

@@ -2,7 +2,7 @@
 
 from campaign import runner
 
-with runner.job_log(snakemake.log[0], job="fig4") as timer:  # noqa: F821
+with runner.job_log(snakemake.log[0], job="fig4", exit_process=True) as timer:  # noqa: F821
     with timer("imports"):
         from campaign.figures import fig4
     with timer("figure"):

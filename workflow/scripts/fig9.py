@@ -2,7 +2,7 @@
 
 from campaign import runner
 
-with runner.job_log(snakemake.log[0], job="fig9") as timer:  # noqa: F821
+with runner.job_log(snakemake.log[0], job="fig9", exit_process=True) as timer:  # noqa: F821
     with timer("imports"):
         from campaign.figures import fig9
     with timer("figure"):

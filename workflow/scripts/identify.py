@@ -2,6 +2,7 @@
 
 from campaign import runner
 
-with runner.job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}") as timer:  # noqa: F821
+with runner.job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}",  # noqa: F821
+                    exit_process=True) as timer:
     runner.identify_trials(list(snakemake.input.trials), snakemake.output[0],  # noqa: F821
                            options=snakemake.params.options, timer=timer)  # noqa: F821

@@ -3,7 +3,8 @@
 from campaign import runner
 
 p = snakemake.params  # noqa: F821 - provided by Snakemake
-with runner.job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}") as timer:  # noqa: F821
+with runner.job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}",  # noqa: F821
+                    exit_process=True) as timer:
     runner.run_cells(
         [tuple(c) for c in p.cells],
         archive_dir=p.archive,

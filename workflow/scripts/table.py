@@ -8,7 +8,7 @@ in ``input.tables``.
 from campaign import runner
 
 name = snakemake.rule.split("_")[0]  # noqa: F821
-with runner.job_log(snakemake.log[0], job=name) as timer:  # noqa: F821
+with runner.job_log(snakemake.log[0], job=name, exit_process=True) as timer:  # noqa: F821
     classes = getattr(snakemake.params, "classes", [])  # noqa: F821
     runner.make_table(
         name, snakemake.output.csv, snakemake.output.md,  # noqa: F821
