@@ -9,9 +9,13 @@ Also checks the ideal scene (configurations 1-3 x 1.0/2.5 m/s).
 
 Variants:
 
-* ``old``: joint encoders (``lti``) with straight-line contact edges (the previous default);
+* ``old``: joint encoders (``lti``) with straight-line contact edges and the cubic pendulum
+  fit (the default before the F/T method);
+* ``previous``: joint encoders, power-law edges, cubic pendulum fit on 50 ms, 20 ms post-contact
+  joint window at 1 kHz (the 1 kHz default before the pendulum ODE fit);
 * ``encoders``: joint encoders with power-law contact edges;
 * ``ft``: the arm's momentum from the base F/T sensor and the piezo force;
+* ``combined``: v'_a - v_a from the encoders and the F/T weighted by their estimated variances;
 * ``default``: ``arm_velocity="auto"`` (F/T when the joint samples are coarser than 5 ms).
 
 Usage::
@@ -36,7 +40,10 @@ from campaign.scene import make_scene
 GAINS = ("zero", "low", "high")
 SPEEDS = (1.0, 1.5, 2.0, 2.5)
 VARIANTS = {
-    "old": {"arm_velocity": "encoders", "edge_model": "line"},
+    "combined": {"arm_velocity": "combined"},
+    "old": {"arm_velocity": "encoders", "edge_model": "line", "pendulum_model": "poly",
+            "joint_post_window_min": 0.02},
+    "previous": {"arm_velocity": "encoders", "pendulum_model": "poly", "joint_post_window_min": 0.02},
     "encoders": {"arm_velocity": "encoders"},
     "ft": {"arm_velocity": "ft"},
     "default": {},
