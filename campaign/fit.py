@@ -36,9 +36,11 @@ import math
 import warnings
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .errors import InputError
+
+# scipy.optimize (about 0.4 s of imports) is imported by the fit itself, not with the module:
+# Tables 3-4 and the calibration report only unpickle fitted estimators and read them.
 
 __all__ = ["IdentifiabilityWarning", "LambdaFit", "design_arrays", "sensitivity_matrix"]
 
@@ -221,6 +223,8 @@ class LambdaFit:
 
     def _fit_once(self, H, Jn, y, w, theta0):
         """Least squares on log m*; returns the optimizer result."""
+        from scipy.optimize import least_squares
+
         nv = Jn.shape[1]
         sw = np.sqrt(w)
         tril = np.tril_indices(nv)
