@@ -5,6 +5,7 @@
 # are imported here: Snakemake evaluates this file every time it starts, including for a
 # dry run, so the heavy stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
 
+import hashlib
 import os
 import sys
 from pathlib import Path
@@ -51,29 +52,43 @@ PAPER_FILE = str(runner.package_file("paper.yaml"))
 
 
 def source_files(*patterns):
-    """Files of the campaign package a rule's jobs run (glob patterns relative to the package).
-
-    They are inputs of the rules, so editing the code of a stage reruns that stage and what
-    depends on it (Snakemake's own code trigger covers only the rule's script).
-    """
+    """Files of the campaign package a rule's jobs run (glob patterns relative to the package)."""
     package = Path(runner.__file__).resolve().parent
-    files = sorted({str(f) for pattern in patterns for f in package.glob(pattern) if f.is_file()})
+    files = sorted({f for pattern in patterns for f in package.glob(pattern) if f.is_file()})
     if not files:
         raise WorkflowError(f"no package source matches {patterns} under {package}")
     return files
 
 
-# the code behind each stage (see source_files)
-CODE_SIMULATE = source_files("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py",
-                             "archive.py")
-CODE_IDENTIFY = source_files("identify.py", "robot/*.py", "robot/*/*", "archive.py", "runner.py")
-CODE_FIT = source_files("fit.py", "exiit.py")
-CODE_TABLES = source_files("tables.py", "exiit.py", "fit.py", "robot/floating.py")
+def code_digest(*patterns):
+    """sha256 over the names and contents of the package files a rule's jobs run.
+
+    Each rule takes the digest of its stage's code as the param ``code``, so editing that
+    code reruns the stage and what depends on it (the params rerun trigger; Snakemake's own
+    code trigger covers only the rule's script). A digest rather than the files as inputs:
+    listed as inputs, the 5-24 sources of every job were stat'ed, sized and checksummed by
+    Snakemake each time it scheduled or finished a job, about 300 extra input files in the
+    reduced campaign.
+    """
+    package = Path(runner.__file__).resolve().parent
+    digest = hashlib.sha256()
+    for f in source_files(*patterns):
+        data = f.read_bytes()
+        digest.update(f"{f.relative_to(package).as_posix()}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()
+
+
+# the code behind each stage (see code_digest)
+CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive.py")
+CODE_IDENTIFY = code_digest("identify.py", "robot/*.py", "robot/*/*", "archive.py", "runner.py")
+CODE_FIT = code_digest("fit.py", "exiit.py")
+CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py")
 
 
 def figure_code(name, *more):
-    """The figure's module, the shared style and the other package files it reads with."""
-    return source_files(f"figures/{name}.py", "figures/style.py", *more)
+    """Digest of the figure's module, the shared style and the other package files it reads with."""
+    return code_digest(f"figures/{name}.py", "figures/style.py", *more)
 
 
 def _gain_classes():

@@ -5,10 +5,11 @@
 rule fig4_arm_configurations:
     input:
         paper=PAPER_FILE,
-        code=figure_code("fig4", "robot/*.py", "robot/*/*"),
     output:
         png=report(f"{RESULTS}/figures/fig4.png", caption="../report/fig4.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig4.pdf",
+    params:
+        code=figure_code("fig4", "robot/*.py", "robot/*/*"),
     log:
         log_file("fig4"),
     resources:
@@ -24,11 +25,11 @@ rule fig5_joint3_motion:
     input:
         trial=lambda wc: trial_file("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5"),
         paper=PAPER_FILE,
-        code=figure_code("fig5", "archive.py", "identify.py"),
     output:
         png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig5.pdf",
     params:
+        code=figure_code("fig5", "archive.py", "identify.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
     log:
         log_file("fig5"),
@@ -45,10 +46,11 @@ rule fig6_effective_mass:
     input:
         tables=lambda wc: ident_tables("fixed"),
         paper=PAPER_FILE,
-        code=figure_code("fig6", "runner.py"),
     output:
         png=report(f"{RESULTS}/figures/fig6.png", caption="../report/fig6.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig6.pdf",
+    params:
+        code=figure_code("fig6", "runner.py"),
     log:
         log_file("fig6"),
     resources:
@@ -64,10 +66,11 @@ rule fig7_restitution:
     input:
         tables=lambda wc: ident_tables("fixed"),
         paper=PAPER_FILE,
-        code=figure_code("fig7", "runner.py"),
     output:
         png=report(f"{RESULTS}/figures/fig7.png", caption="../report/fig7.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig7.pdf",
+    params:
+        code=figure_code("fig7", "runner.py"),
     log:
         log_file("fig7"),
     resources:
@@ -83,11 +86,11 @@ rule fig8_flexible_setup:
     input:
         rig=RIG_FILE,
         paper=PAPER_FILE,
-        code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
     output:
         png=report(f"{RESULTS}/figures/fig8.png", caption="../report/fig8.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig8.pdf",
     params:
+        code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
         rig=config["rig"],
         rig_params=config["rig_params"],
     log:
@@ -106,11 +109,11 @@ rule fig9_base_motion:
         unpack(lambda wc: {f"c{c}_{g}": trial_file("flexible", c, g, *figure_pick("fig9"), key="figures.fig9")
                            for c in (1, 2) for g in ("low", "high")}),
         paper=PAPER_FILE,
-        code=figure_code("fig9", "archive.py", "identify.py"),
     output:
         png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig9.pdf",
     params:
+        code=figure_code("fig9", "archive.py", "identify.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     log:
         log_file("fig9"),

@@ -6,11 +6,11 @@
 rule fit_lambda:
     input:
         tables=lambda wc: ident_tables("fixed", gains=fit_classes()[wc.gain_class]),
-        code=CODE_FIT,
     output:
         json=f"{RESULTS}/fit/lambda_{{gain_class}}.json",
         pickle=f"{RESULTS}/fit/lambda_{{gain_class}}.pkl",
     params:
+        code=CODE_FIT,
         gains=lambda wc: fit_classes()[wc.gain_class],
         options=config["fit"],
         seed=config["campaign_seed"],

@@ -9,10 +9,10 @@ for _base in SWEEPS:
             f"identify_{_base}"
         input:
             trials=lambda wc, base=_base: unit_trials(base, wc),
-            code=CODE_IDENTIFY,
         output:
             f"{RESULTS}/identify/{unit_name(_base)}.csv",
         params:
+            code=CODE_IDENTIFY,
             options=config["identify"],
         log:
             log_file(f"identify_{_base}", unit_name(_base)),

@@ -16,10 +16,10 @@ if SIMULATE:
             input:
                 rig=RIG_FILE,
                 paper=PAPER_FILE,
-                code=CODE_SIMULATE,
             output:
                 simulate_outputs(_base),
             params:
+                code=CODE_SIMULATE,
                 cells=lambda wc, base=_base: [list(c) for c in unit_cells(base, wc)],
                 speeds=SWEEPS[_base]["speeds"],
                 repeats=SWEEPS[_base]["repeats"],

@@ -8,10 +8,11 @@ rule table2_effective_mass:
     input:
         tables=lambda wc: ident_tables("fixed"),
         paper=PAPER_FILE,
-        code=CODE_TABLES,
     output:
         csv=report(f"{RESULTS}/tables/table2.csv", caption="../report/table2.rst", category="Tables"),
         md=f"{RESULTS}/tables/table2.md",
+    params:
+        code=CODE_TABLES,
     log:
         log_file("table2"),
     resources:
@@ -27,11 +28,11 @@ rule table3_virtual_rotor_inertia:
     input:
         unpack(lambda wc: fit_pickles()),
         paper=PAPER_FILE,
-        code=CODE_TABLES,
     output:
         csv=report(f"{RESULTS}/tables/table3.csv", caption="../report/table3.rst", category="Tables"),
         md=f"{RESULTS}/tables/table3.md",
     params:
+        code=CODE_TABLES,
         classes=lambda wc: list(fit_pickles()),
     log:
         log_file("table3"),
@@ -49,11 +50,11 @@ rule table4_flexible_effective_mass:
         unpack(lambda wc: fit_pickles()),
         tables=lambda wc: ident_tables("flexible"),
         paper=PAPER_FILE,
-        code=CODE_TABLES,
     output:
         csv=report(f"{RESULTS}/tables/table4.csv", caption="../report/table4.rst", category="Tables"),
         md=f"{RESULTS}/tables/table4.md",
     params:
+        code=CODE_TABLES,
         classes=lambda wc: list(fit_pickles()),
     log:
         log_file("table4"),
