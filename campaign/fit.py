@@ -354,12 +354,19 @@ class LambdaFit:
                 else np.random.default_rng(self.random_state)
             members = [np.flatnonzero(groups == g) for g in range(configs.shape[0])]
             boot = np.empty((B,) + shape)
+            # a resample drawn again (same trials in the same order) has the same fit: with few
+            # trials per configuration (2 in the reduced campaign: 64 orderings for 3 poses)
+            # many of the B draws repeat one already fitted
+            fitted: dict[bytes, np.ndarray] = {}
             for b in range(B):
                 idx = np.concatenate([rng.choice(mb, size=mb.size, replace=True) for mb in members])
-                rb = self._fit_once(H[idx], Jn[idx], y[idx], w[idx], [theta])
-                Lb = self._unpack(rb.x, nv)
-                Lb = 0.5 * (Lb + Lb.T)
-                boot[b] = np.diag(Lb) if self.structure == "diagonal" else Lb
+                key = idx.tobytes()
+                if key not in fitted:
+                    rb = self._fit_once(H[idx], Jn[idx], y[idx], w[idx], [theta])
+                    Lb = self._unpack(rb.x, nv)
+                    Lb = 0.5 * (Lb + Lb.T)
+                    fitted[key] = np.diag(Lb) if self.structure == "diagonal" else Lb
+                boot[b] = fitted[key]
             alpha = (1 - self.ci) / 2
             self.lambda_ci_ = np.quantile(boot, [alpha, 1 - alpha], axis=0)
             self.lambda_boot_ = boot
