@@ -13,6 +13,8 @@ if SIMULATE:
             manifest=f"{ARCHIVE}/MANIFEST.sha256",
         params:
             archive=lambda wc: ARCHIVE,
+        # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+        priority: 1
         log:
             log_file("finalize_archive"),
         resources:

@@ -31,6 +31,8 @@ rule fig5_joint3_motion:
     params:
         code=figure_code("fig5", "archive.py", "identify.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
+    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+    priority: 1
     log:
         log_file("fig5"),
     resources:
@@ -93,6 +95,8 @@ rule fig8_flexible_setup:
         code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
         rig=config["rig"],
         rig_params=config["rig_params"],
+    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+    priority: 1
     log:
         log_file("fig8"),
     resources:
@@ -115,6 +119,8 @@ rule fig9_base_motion:
     params:
         code=figure_code("fig9", "archive.py", "identify.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
+    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+    priority: 1
     log:
         log_file("fig9"),
     resources:

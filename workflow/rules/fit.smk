@@ -16,6 +16,8 @@ rule fit_lambda:
         seed=config["campaign_seed"],
     wildcard_constraints:
         gain_class="|".join(GAIN_CLASSES),
+    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+    priority: 1
     log:
         log_file("fit_lambda", "{gain_class}"),
     benchmark:

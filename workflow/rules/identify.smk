@@ -14,6 +14,8 @@ for _base in SWEEPS:
         params:
             code=CODE_IDENTIFY,
             options=config["identify"],
+        # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+        priority: 1
         log:
             log_file(f"identify_{_base}", unit_name(_base)),
         benchmark:

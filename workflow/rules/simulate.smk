@@ -28,6 +28,8 @@ if SIMULATE:
                 rig=config["rig"],
                 rig_params=config["rig_params"],
                 archive=lambda wc: ARCHIVE,
+            # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
+            priority: 2
             log:
                 log_file(f"simulate_{_base}", unit_name(_base)),
             benchmark:
