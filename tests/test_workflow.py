@@ -325,3 +325,39 @@ def test_conda_env_pins_match_the_lock():
     for spec in pip:
         name, version = spec.split("==")
         assert lock.get(name.lower().replace("_", "-")) == version, f"{spec} differs from constraints.txt"
+
+
+def _pdf_objects(path: Path) -> dict[int, tuple[bytes, bytes]]:
+    """{object number: (dictionary, decoded stream)} of a PDF matplotlib wrote (no object streams)."""
+    import zlib
+
+    out = {}
+    for m in re.finditer(rb"(\d+) 0 obj\n(.*?)endobj", path.read_bytes(), re.S):
+        body = m.group(2)
+        stream = re.search(rb"stream\n(.*)\nendstream", body, re.S)
+        head = body[:stream.start()] if stream else body
+        data = stream.group(1) if stream else b""
+        out[int(m.group(1))] = (head, zlib.decompress(data) if b"/FlateDecode" in head and data else data)
+    return out
+
+
+def test_lean_pdf_fonts_change_only_the_embedded_font_files(tmp_path):
+    """The figures' PDFs embed fonts without GSUB/GPOS/GDEF/kern (campaign.figures.style):
+    every page object is the same as with matplotlib's own subsetting, the font files only shrink."""
+    from campaign.figures import fig4, style
+
+    fig = fig4.draw()
+    lean = style.save(fig, tmp_path / "lean.png", tmp_path / "lean.pdf")[1]
+    plain = tmp_path / "plain.pdf"
+    fig.savefig(plain, format="pdf", metadata={"Creator": "campaign", "CreationDate": None})
+    a, b = _pdf_objects(lean), _pdf_objects(plain)
+    fonts = {int(x) for head, _ in b.values() for x in re.findall(rb"/FontFile2 (\d+) 0 R", head)}
+    assert fonts and a.keys() == b.keys()
+    for number, (head, data) in b.items():
+        if number in fonts:
+            assert len(a[number][1]) < len(data)
+            continue
+        lengths = re.compile(rb"/Length1? \d+( 0 R)?")
+        if re.fullmatch(rb"\s*\d+\s*", head) and number - 1 in fonts:  # the font file's length
+            continue
+        assert (lengths.sub(b"", a[number][0]), a[number][1]) == (lengths.sub(b"", head), data), f"object {number}"

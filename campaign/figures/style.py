@@ -7,6 +7,7 @@ selects the non-interactive Agg backend, so figures render on machines without a
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -58,6 +59,47 @@ def paper_label(text: str) -> str:
     return f"paper: {text}"
 
 
+#: OpenType tables left out of the fonts embedded in PDFs (see :func:`_lean_pdf_fonts`)
+PDF_DROPPED_FONT_TABLES = ("GSUB", "GPOS", "GDEF", "kern")
+
+
+@contextlib.contextmanager
+def _lean_pdf_fonts():
+    """Embed PDF fonts without their glyph substitution, positioning and kerning tables.
+
+    With ``pdf.fonttype`` 42 matplotlib embeds a subset of each TrueType font, made by
+    fontTools with its default options, which decode and prune the font's GSUB/GPOS
+    lookups: 0.15-0.2 s of CPU per figure, a third of writing the PDF. A PDF never uses
+    these tables: matplotlib lays the text out itself (from the full font) and writes
+    every glyph's position into the page, and viewers draw the glyphs where the page puts
+    them. So the pages stay the same (the tests compare every content stream) and only the
+    embedded font files shrink. Done by extending the options matplotlib asks fontTools
+    for, for the duration of one ``savefig``; if matplotlib stops subsetting this way the
+    fonts are simply embedded as before.
+    """
+    try:
+        from fontTools import subset as ft_subset
+        from matplotlib.backends import _backend_pdf_ps
+    except ImportError:  # pragma: no cover - fontTools is a matplotlib dependency
+        yield
+        return
+    if getattr(_backend_pdf_ps, "subset", None) is not ft_subset:
+        yield
+        return
+    base = ft_subset.Options
+
+    class Options(base):
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+            self.drop_tables = [*self.drop_tables, *PDF_DROPPED_FONT_TABLES]
+
+    ft_subset.Options = Options
+    try:
+        yield
+    finally:
+        ft_subset.Options = base
+
+
 def save(fig, png: str | os.PathLike, pdf: str | os.PathLike | None = None) -> list[Path]:
     """Save ``fig`` as PNG (and PDF), each to a temporary file renamed into place, then close it.
 
@@ -77,7 +119,8 @@ def save(fig, png: str | os.PathLike, pdf: str | os.PathLike | None = None) -> l
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
         metadata = {"Creator": "campaign"} if fmt == "png" else {"Creator": "campaign", "CreationDate": None}
         try:
-            fig.savefig(tmp, format=fmt, metadata=metadata)
+            with _lean_pdf_fonts() if fmt == "pdf" else contextlib.nullcontext():
+                fig.savefig(tmp, format=fmt, metadata=metadata)
             os.replace(tmp, path)
         finally:
             tmp.unlink(missing_ok=True)
