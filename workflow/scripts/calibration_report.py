@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="calibration_report", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         import csv
 
         from campaign.calibrate import campaign_report

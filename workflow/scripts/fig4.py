@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="fig4", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.figures import fig4
     with timer("figure"):
         print(fig4.make(snakemake.output.png, snakemake.output.pdf))  # noqa: F821

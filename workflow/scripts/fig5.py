@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="fig5", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.figures import fig5
     with timer("figure"):
         print(fig5.make(snakemake.input.trial, snakemake.output.png, snakemake.output.pdf))  # noqa: F821

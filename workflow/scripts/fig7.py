@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="fig7", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.figures import fig7
     with timer("figure"):
         print(fig7.make(list(snakemake.input.tables), snakemake.output.png, snakemake.output.pdf))  # noqa: F821

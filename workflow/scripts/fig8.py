@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="fig8", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.figures import fig8
     with timer("figure"):
         print(fig8.make(snakemake.output.png, snakemake.output.pdf, rig=snakemake.params.rig,  # noqa: F821

@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="fig9", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.figures import fig9
     with timer("figure"):
         trials = {f"{c}-{g}": snakemake.input[f"c{c}_{g}"] for c in (1, 2) for g in ("low", "high")}  # noqa: F821

@@ -3,7 +3,7 @@
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="finalize_archive", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.archive import finalize_campaign
     with timer("finalize"):
         written = finalize_campaign(snakemake.params.archive)  # noqa: F821

@@ -8,7 +8,7 @@ in the log; an archive that was never finalized (no ``MANIFEST.sha256``) passes 
 from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer:  # noqa: F821
-    with timer("imports"):
+    with timer.imports():
         from campaign.archive import MANIFEST, verify
     archive = snakemake.params.archive  # noqa: F821
     with timer("verify"):
