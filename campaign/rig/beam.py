@@ -78,7 +78,6 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
-from scipy.optimize import brentq
 
 from ..errors import InputError
 from ..robot.floating import BaseBody
@@ -225,6 +224,7 @@ def exact_first_frequency(EI: float, length: float, beam_mass: float, tip_mass: 
         raise InputError("no first bending root found: the tip body is out of range")
     # the second root of any tip body lies above the bare beam's first (clamped-pinned 3.93,
     # clamped-sliding 2.37 in the limits), so [lo, hi] brackets the first root only
+    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
     lam = brentq(_frequency_determinant, lo, hi, args=args, xtol=1e-15, rtol=1e-14)
     return lam**2 / (2.0 * math.pi * L**2) * math.sqrt(EI * L / m)
 

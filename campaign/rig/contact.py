@@ -22,7 +22,6 @@ import functools
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..errors import InputError
 
@@ -88,6 +87,7 @@ def damping_for_restitution(e: float, p: float = 1.0) -> float:
     if g(hi) <= 0.0:
         # for e below ~0.04 the root needs 1 - d e below 1e-12: not representable
         raise InputError(f"restitution {e} is too low for the contact model (use e >= 0.05)")
+    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
     return float(brentq(g, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps))
 
 

@@ -23,7 +23,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..errors import SimulationError
 from .controller import PID
@@ -283,6 +282,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     def gfun(s):
                         return max(fs.violations(plant.holding(x, tau, fs, None, t + s * h)[0]))
                     g0 = gfun(0.0)
+                    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
                     fired_at = brentq(gfun, 0.0, 1.0, xtol=1e-14) if g0 < 0 else 0.0
             if fired_at is None:
                 xds.append(zero_xd)
@@ -346,6 +346,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                         if s >= 1.0:
                             return g1[key]
                         return event_values(_hermite(x, k1, x_new, f1, h, s), t + s * h).get(key, -1.0)
+                    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
                     s_k = brentq(gfun, 0.0, 1.0, xtol=1e-14) if gfun(0.0) <= 0 else 0.0
                     if s_k < best_s:
                         best_s, best_k = s_k, key
