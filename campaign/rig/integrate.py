@@ -32,6 +32,8 @@ __all__ = ["Trajectory", "integrate_trial"]
 
 #: more events than this inside one servo tick is chattering (Zeno), not physics
 _MAX_EVENTS_PER_TICK = 50
+#: RK4 substeps multiply by this at a contact's edges (see the step loop)
+EDGE_REFINEMENT = 4
 #: length scale [m] that puts the damping factor on the overlap's footing in the contact-end event
 _END_SCALE = 1e-3
 
@@ -139,6 +141,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     t_max_end = t_contact + max_post
 
     rhs = plant.rhs
+    gap_end = [0.0, 0.0, 0.0]   # overlap and its rate at the last step end in contact, peak overlap
     last = None     # the last plant.evaluate: its inputs (by identity) and outputs
 
     def ev(xx, tt, f=None):
@@ -186,6 +189,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
             # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
             d, dd = gap
+            gap_end[0], gap_end[1], gap_end[2] = d, dd, max(gap_end[2], d)
             vals["contact_end"] = -min(d, _END_SCALE * (1.0 + plant._d * dd / contact_v0))
         elif not caught:
             vals["contact_start"] = gap[0]
@@ -257,6 +261,13 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
 
         # -- one step to the next boundary (a servo tick or a substep) -------------------------
         sub = substeps_contact if contact_v0 is not None else substeps_free
+        if contact_v0 is not None and (t < contacts[-1][0] + T or (gap_end[1] < 0 and gap_end[0] < 0.25 * gap_end[2])):
+            # the contact's edges: the force rises from and falls to zero as delta^p (p < 1 for
+            # the soft wrap), so the state's derivatives are singular there and RK4 and the
+            # cubic Hermite between steps lose their order; finer steps over the first servo
+            # tick and over the last quarter of the overlap keep the recorded force (and the
+            # contact edges identified from it) independent of the step size
+            sub *= EDGE_REFINEMENT
         t_tick = k_tick * T
         if T_emu is not None:
             t_tick = min(t_tick, k_emu * T_emu)
@@ -373,6 +384,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     if t_catch is None:
                         t_catch = t + catch_delay
                 elif best_k == "contact_start":
+                    gap_end[:] = [0.0, 0.0, 0.0]
                     d, dd, Jn = plant.gap(x)
                     contact_v0 = max(dd, 1e-9)
                     contacts.append([t, None, contact_v0])
