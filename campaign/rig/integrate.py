@@ -32,8 +32,8 @@ __all__ = ["Trajectory", "integrate_trial"]
 
 #: more events than this inside one servo tick is chattering (Zeno), not physics
 _MAX_EVENTS_PER_TICK = 50
-#: RK4 substeps multiply by this at a contact's edges (see the step loop)
-EDGE_REFINEMENT = 4
+#: RK4 steps per servo tick at least, at a contact's edges (see the step loop)
+EDGE_SUBSTEPS = 4
 #: length scale [m] that puts the damping factor on the overlap's footing in the contact-end event
 _END_SCALE = 1e-3
 
@@ -266,8 +266,9 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             # the soft wrap), so the state's derivatives are singular there and RK4 and the
             # cubic Hermite between steps lose their order; finer steps over the first servo
             # tick and over the last quarter of the overlap keep the recorded force (and the
-            # contact edges identified from it) independent of the step size
-            sub *= EDGE_REFINEMENT
+            # contact edges identified from it) independent of the step size. A contact
+            # already resolved finer (the ideal scene's ~1 ms one) is left as it is.
+            sub = max(sub, EDGE_SUBSTEPS)
         t_tick = k_tick * T
         if T_emu is not None:
             t_tick = min(t_tick, k_emu * T_emu)
