@@ -178,15 +178,16 @@ campaign.rig of the working tree on 2026-11-21, fixed base, configurations 1-3 x
 quantisation), median / 90th percentile / worst (benchmarks/identification_accuracy.py):
 
   joint encoders at 50 Hz (the paper's 20 ms): F/T momentum method
-    Zero  m* 0.35 / 0.98 / 1.5 %   e 0.04 / 0.12 / 0.27 %
-    Low   m* 0.25 / 0.85 / 1.4 %   e 0.04 / 0.15 / 0.22 %
-    High  m* 0.82 / 2.2 / 2.8 %    e 0.05 / 0.13 / 0.25 %   (signed mean -0.43 %)
+    Zero  m* 0.34 / 0.98 / 1.5 %   e 0.05 / 0.12 / 0.27 %
+    Low   m* 0.27 / 0.82 / 1.4 %   e 0.04 / 0.15 / 0.21 %
+    High  m* 0.72 / 2.2 / 2.7 %    e 0.05 / 0.13 / 0.26 %   (signed mean -0.35 %)
     (encoders at 50 Hz: High m* 1.4 / 3.4 / 6.4 %, mean +1.4 %)
   joint encoders at 1 kHz: encoder method, 40 ms post-contact window
-    Zero  m* 0.10 / 0.27 / 0.39 %  Low m* 0.15 / 0.47 / 0.65 %  High m* 0.34 / 0.77 / 1.44 %
+    Zero  m* 0.10 / 0.27 / 0.39 %  Low m* 0.13 / 0.46 / 0.65 %  High m* 0.29 / 0.96 / 1.53 %
     e 0.02 % median, worst 0.11 %
-    misses of the 1 % target: config 2 High 1.0 m/s, m* +1.44 % (repeat 0) and -1.05 %
-    (repeat 1); every other trial within 0.78 %. There the tip gains only 14 mm/s, so 1 %
+    misses of the 1 % target: config 2 High 1.0 m/s, m* +1.53 % (repeat 0) and -1.02 %
+    (repeat 1); every other trial within 0.96 % (rerun after the rig's contact-edge
+    refinement; before it +1.44 / -1.05 %, others within 0.78 %). There the tip gains only 14 mm/s, so 1 %
     is 0.14 mm/s of v'_a - v_a, and the fit's error is the joint encoders' 0.3-count noise
     (the same two trials with noise-free encoders: v'_a - v_a within 0.85 %; with the 20 ms
     window and noise: 3.1 / 0.3 %). The F/T method is no better there (its noise, 0.2 N,
