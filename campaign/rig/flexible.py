@@ -437,40 +437,28 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         u = tau - self._bias(q, v)
         if fs.all_stuck:
             return -u, self._na0
-        m0, d0 = self._arm0
+        a = self._free_accel(q, u, fs)
         if fs.none_stuck:
-            return _EMPTY, pin.aba(m0, d0, q, self._na0, u)
+            return _EMPTY, a
+        m0, d0 = self._arm0
+        stuck = fs.stuck
+        return pin.rnea(m0, d0, q, self._na0, a)[stuck] - u[stuck], a
+
+    def _free_accel(self, q, u, fs):
+        """``a`` with ``a_S = 0`` and ``H_FF a_F = u_F`` (ABA at rest, no gravity)."""
+        if fs.none_stuck:
+            m0, d0 = self._arm0
+            return pin.aba(m0, d0, q, self._na0, u)
         a = np.zeros(self.na)
         rm, rd = fs.reduced
         free = fs.free
         a[free] = pin.aba(rm, rd, q[free], self._na0[:free.size], u[free])
-        stuck = fs.stuck
-        return pin.rnea(m0, d0, q, self._na0, a)[stuck] - u[stuck], a
+        return a
 
-    def rhs(self, x, tau_servo, fs, contact_v0, caught, t=0.0):
-        self._t = t
-        na = self.na
-        q = x[:na]
-        v = x[self.i_v]
-        th, thd = x[na], x[self.i_thd]
-        tau = tau_servo - self.viscous * v - fs.coulomb
-        F = 0.0
-        if contact_v0 is not None:
-            delta, ddelta, Jn = self.gap(x)
-            F = self.contact_force(delta, ddelta, contact_v0)
-            tau = tau + Jn * F
-        thdd = 0.0 if caught else (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
+    def _accel(self, q, v, tau, fs):
         if fs.all_stuck:
-            a = self._na0          # every arm joint held by friction
-        else:
-            _, a = self.constrained(q, v, tau, fs)
-        xd = np.empty(self.size)
-        xd[:na] = v
-        xd[na] = thd
-        xd[self.i_v] = a
-        xd[self.i_thd] = thdd
-        xd[self.i_P] = F
-        return xd
+            return self._na0          # every arm joint held by friction
+        return self._free_accel(q, tau - self._bias(q, v), fs)
 
     def ticks(self):
         """The emulator's record: tick times (n,), sampled wrenches (n, 6) and the states it

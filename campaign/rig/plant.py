@@ -117,7 +117,6 @@ class FixedBasePlant:
         self.viscous = viscous_scale * robot.viscous
         self.tc_pos = coulomb_scale * robot.coulomb_pos
         self.tc_neg = coulomb_scale * robot.coulomb_neg
-        self.has_friction = bool(np.any(self.viscous > 0) or np.any(self.tc_pos > 0) or np.any(self.tc_neg > 0))
         self.gravity = gravity
         pin.framesForwardKinematics(self.model, self.data, self.q0)
         self.p_tip0 = np.array(self.data.oMf[self.fid].translation)
@@ -231,17 +230,40 @@ class FixedBasePlant:
         stuck = fs.stuck
         return pin.rnea(model, data, q, v, a)[stuck] - tau[stuck], a
 
+    def _loads(self, x, tau_servo, fs: FrictionState, contact_v0, with_gap: bool):
+        """Generalised torque on the arm (held servo torque, friction of the slipping joints,
+        contact force through ``J_n``), the contact force ``F`` and, if asked or in contact,
+        the gap ``(delta, ddelta)`` (else None)."""
+        tau = tau_servo - self.viscous * x[self.i_v] - fs.coulomb
+        F = 0.0
+        gap = None
+        if contact_v0 is not None or with_gap:
+            delta, ddelta, Jn = self.gap(x)
+            gap = (delta, ddelta)
+            if contact_v0 is not None:
+                F = self.contact_force(delta, ddelta, contact_v0)
+                tau = tau + Jn * F
+        return tau, F, gap
+
+    def _derivative(self, x, a, F: float, caught: bool):
+        """State derivative from the arm's accelerations ``a`` and the contact force ``F``."""
+        nv = self.nv
+        xd = np.zeros(self.size)
+        xd[:nv] = x[nv + 1:2 * nv + 1]
+        xd[nv] = x[self.i_thd]
+        xd[nv + 1:2 * nv + 1] = a
+        if not caught:
+            th = x[nv]
+            xd[self.i_thd] = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
+        xd[self.i_P] = F
+        return xd
+
     def holding(self, x, tau_servo, fs: FrictionState, contact_v0, t=0.0):
         """``(lam, a)`` of :meth:`constrained` at state ``x`` with the held servo torque, the
         friction of the slipping joints and the contact force (for the stick-slip events)."""
         self._t = t
-        nv = self.nv
-        v = x[self.i_v]
-        tau = tau_servo - self.viscous * v - fs.coulomb
-        if contact_v0 is not None:
-            d, dd, Jn = self.gap(x)
-            tau = tau + Jn * self.contact_force(d, dd, contact_v0)
-        return self.constrained(x[:nv], v, tau, fs)
+        tau, _, _ = self._loads(x, tau_servo, fs, contact_v0, False)
+        return self.constrained(x[:self.nv], x[self.i_v], tau, fs)
 
     def evaluate(self, x, tau_servo, fs: FrictionState, contact_v0, caught, t=0.0):
         """Everything the integrator needs at one state, from one dynamics solve: the state
@@ -251,28 +273,42 @@ class FixedBasePlant:
         emulator's F/T sample and, when nothing changes at the tick, the next step's first
         RK4 stage."""
         self._t = t
-        nv = self.nv
-        q = x[:nv]
-        v = x[nv + 1:2 * nv + 1]
-        th = x[nv]
-        tau = tau_servo - self.viscous * v - fs.coulomb
-        F = 0.0
-        gap = None
-        if contact_v0 is not None or not caught:
-            delta, ddelta, Jn = self.gap(x)
-            gap = (delta, ddelta)
-            if contact_v0 is not None:
-                F = self.contact_force(delta, ddelta, contact_v0)
-                tau = tau + Jn * F
-        lam, a = self.constrained(q, v, tau, fs)
-        xd = np.zeros(self.size)
-        xd[:nv] = v
-        xd[nv] = x[self.i_thd]
-        xd[nv + 1:2 * nv + 1] = a
-        if not caught:
-            xd[self.i_thd] = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
-        xd[self.i_P] = F
-        return xd, lam, gap
+        tau, F, gap = self._loads(x, tau_servo, fs, contact_v0, not caught)
+        lam, a = self.constrained(x[:self.nv], x[self.i_v], tau, fs)
+        return self._derivative(x, a, F, caught), lam, gap
+
+    def rhs(self, x, tau_servo, fs: FrictionState, contact_v0, caught, t=0.0):
+        """State derivative (the RK4 stages: :meth:`evaluate` without the holding torques).
+
+        Parameters
+        ----------
+        x : ndarray
+        tau_servo : ndarray
+            Held servo torque incl. gravity compensation [N m].
+        fs : FrictionState
+            Current stick/slip modes (:meth:`friction_state`).
+        contact_v0 : float or None
+            Approach speed at first touch while in contact, else None.
+        caught : bool
+            The hammer has been caught after its rebound (held still).
+        t : float
+            Time [s] (a prescribed base motion needs it).
+        """
+        self._t = t
+        tau, F, _ = self._loads(x, tau_servo, fs, contact_v0, False)
+        return self._derivative(x, self._accel(x[:self.nv], x[self.i_v], tau, fs), F, caught)
+
+    def _accel(self, q, v, tau, fs: FrictionState):
+        """Accelerations of the constrained dynamics (:meth:`constrained` without ``lam``):
+        ABA on the full model, on the model with the stuck joints locked, or zero."""
+        if fs.none_stuck:
+            return pin.aba(self.model, self.data, q, v, tau)
+        a = np.zeros(self.nv)
+        if not fs.all_stuck:
+            rm, rd = fs.reduced
+            free = fs.free
+            a[free] = pin.aba(rm, rd, q[free], v[free], tau[free])
+        return a
 
     def holding_torque(self, q, v, tau, stuck):
         """Friction torque ``lam`` that keeps the ``stuck`` joints still, and the constrained
@@ -341,53 +377,6 @@ class FixedBasePlant:
     def servo(self, tau_arm):
         """Generalised servo torque from the arm's joint torques (identity for a fixed base)."""
         return tau_arm
-
-    def rhs(self, x, tau_servo, fs: FrictionState, contact_v0, caught, t=0.0):
-        """State derivative.
-
-        Parameters
-        ----------
-        x : ndarray
-        tau_servo : ndarray
-            Held servo torque incl. gravity compensation [N m].
-        fs : FrictionState
-            Current stick/slip modes (:meth:`friction_state`).
-        contact_v0 : float or None
-            Approach speed at first touch while in contact, else None.
-        caught : bool
-            The hammer has been caught after its rebound (held still).
-        t : float
-            Time [s] (unused on a fixed base; a prescribed base motion needs it).
-        """
-        nv = self.nv
-        q = x[:nv]
-        v = x[nv + 1:2 * nv + 1]
-        th = x[nv]
-        thd = x[self.i_thd]
-        F = 0.0
-        if fs.all_stuck:
-            if contact_v0 is not None:
-                delta, ddelta, Jn = self.gap(x)
-                F = self.contact_force(delta, ddelta, contact_v0)
-        else:
-            tau = tau_servo - self.viscous * v - fs.coulomb if self.has_friction else tau_servo
-            if contact_v0 is not None:
-                delta, ddelta, Jn = self.gap(x)
-                F = self.contact_force(delta, ddelta, contact_v0)
-                tau = tau + Jn * F
-        xd = np.zeros(self.size)
-        xd[:nv] = v
-        xd[nv] = thd
-        if fs.none_stuck:
-            xd[nv + 1:2 * nv + 1] = pin.aba(self.model, self.data, q, v, tau)
-        elif not fs.all_stuck:   # every joint held by friction: a = 0
-            rm, rd = fs.reduced
-            free = fs.free
-            xd[fs.iv_free] = pin.aba(rm, rd, q[free], v[free], tau[free])
-        if not caught:
-            xd[self.i_thd] = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
-        xd[self.i_P] = F
-        return xd
 
     # -- diagnostics --------------------------------------------------------------------
     def energy(self, x, contact_v0=None):
