@@ -141,7 +141,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     t_max_end = t_contact + max_post
 
     rhs = plant.rhs
-    gap_end = [0.0, 0.0, 0.0]   # overlap and its rate at the last step end in contact, peak overlap
+    gap_end = [0.0, 0.0, 0.0]   # overlap and its rate at the last accepted step in contact, peak overlap
     last = None     # the last plant.evaluate: its inputs (by identity) and outputs
 
     def ev(xx, tt, f=None):
@@ -173,8 +173,10 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
         return xx + (h / 6.0) * (k1 + k4 + 2.0 * (k2 + k3)), k1
 
     def event_values(xx, tt):
-        """Event functions at state xx and time tt; each fires where its value crosses 0 upward."""
+        """Event functions at state xx and time tt (each fires where its value crosses 0
+        upward), and the contact gap ``(delta, ddelta)`` there when it was needed."""
         vals = {}
+        gap = None
         # the holding torques need the dynamics; the contact gap only the kinematics
         need_lam = friction_events and not fs.none_stuck and not (
             # with every joint stuck, no contact and a constant servo torque on a fixed base
@@ -189,7 +191,6 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
             # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
             d, dd = gap
-            gap_end[0], gap_end[1], gap_end[2] = d, dd, max(gap_end[2], d)
             vals["contact_end"] = -min(d, _END_SCALE * (1.0 + plant._d * dd / contact_v0))
         elif not caught:
             vals["contact_start"] = gap[0]
@@ -201,7 +202,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                     vals[f"break{jj}"] = val
             for j, m, ij in fs.slipping:
                 vals[f"stop{j}"] = -m * float(xx[ij])
-        return vals
+        return vals, gap
 
     def consistent(xx, m):
         """Is friction mode assignment ``m`` consistent at state ``xx``? Stuck joints need a
@@ -320,11 +321,11 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             n_steps += 1
             if not math.isfinite(x_new.sum()):
                 raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
-            g1 = event_values(x_new, t_new)
+            g1, gap1 = event_values(x_new, t_new)
             candidates = [k for k, v1 in g1.items() if v1 > 0]
             fired = []
             if candidates:
-                g0 = event_values(x, t)
+                g0 = event_values(x, t)[0]
                 # a stop needs a strict crossing: a joint released at rest (v = 0) whose
                 # acceleration was marginal may start the wrong way; that is fixed below,
                 # locating it would refire at the same instant (Zeno)
@@ -335,6 +336,8 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                 x, t = x_new, t_new
                 ts.append(t)
                 xs.append(x)
+                if contact_v0 is not None:     # for the contact-edge refinement
+                    gap_end[0], gap_end[1], gap_end[2] = gap1[0], gap1[1], max(gap_end[2], gap1[0])
                 # a joint released at rest that started against its slip direction slips the
                 # way it moves
                 wrong = [j for j, mj, ij in fs.slipping if mj * x[ij] < 0]
@@ -357,7 +360,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
                             return g0.get(key, -1.0)
                         if s >= 1.0:
                             return g1[key]
-                        return event_values(_hermite(x, k1, x_new, f1, h, s), t + s * h).get(key, -1.0)
+                        return event_values(_hermite(x, k1, x_new, f1, h, s), t + s * h)[0].get(key, -1.0)
                     from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
                     s_k = brentq(gfun, 0.0, 1.0, xtol=1e-14) if gfun(0.0) <= 0 else 0.0
                     if s_k < best_s:
