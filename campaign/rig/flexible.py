@@ -480,7 +480,9 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         return P, V
 
     def arm_at(self, q_arm, v_arm, pose, twist):
-        """Tip speed along n [m/s] with the platform at ``pose``/``twist`` (6 each)."""
+        """Tip speed along n [m/s] with the platform at ``pose``/``twist`` (6 each). One state
+        at a time: the recording uses the batched :func:`.sensors.truth_terms`, and this is
+        its per-sample reference in the tests."""
         qb, vb, _ = _platform_free_flyer(pose, twist, self._z6)
         qf = np.concatenate([qb, q_arm])
         vf = np.concatenate([vb, v_arm])
@@ -496,7 +498,8 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
 
     def energy_at(self, x, pose, twist):
         """Arm + pendulum + contact energy in the world with the platform at ``pose``/``twist``
-        (the platform is driven by the emulator: this energy is not conserved)."""
+        (the platform is driven by the emulator: this energy is not conserved). Per-sample
+        reference of the batched :func:`.sensors.truth_terms` (tests)."""
         na = self.na
         qb, vb, _ = _platform_free_flyer(pose, twist, self._z6)
         qf = np.concatenate([qb, x[:na]])
