@@ -315,7 +315,7 @@ class FixedBasePlant:
         accelerations: ``H a + c + g = tau + S^T lam`` with ``a_S = 0``, so
         ``a_F = H_FF^-1 (tau - c - g)_F`` and ``lam = H_SF a_F - (tau - c - g)_S``.
         The integrator uses :meth:`constrained` (reduced-model ABA); this CRBA block solve is
-        its independent reference in the tests (and the ideal coupling's solve)."""
+        its independent reference in the tests."""
         model, data = self.model, self.data
         if not len(stuck):
             return np.zeros(0), pin.aba(model, data, q, v, tau)
