@@ -161,6 +161,7 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
         # the tip's rest position in the world, on the full model
         pin.framesForwardKinematics(self.fmodel, self.fdata, self.q7(self.q0))
         self.p_tip0 = np.array(self.fdata.oMf[self.ffid].translation)
+        self._s0 = float(self.n @ self.p_tip0)
         self._free_cache = {}
         self._znv = np.zeros(nv)
         H = pin.crba(self.fmodel, self.fdata, self.q7(self.q0))
@@ -336,6 +337,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self.reset_loop(0.0)
         pin.framesForwardKinematics(self.fmodel, self.fdata, self._qfull(self.q0_arm, 0.0)[0])
         self.p_tip0 = np.array(self.fdata.oMf[self.ffid].translation)
+        self._s0 = float(self.n @ self.p_tip0)
 
     # -- the emulator ------------------------------------------------------------------
     def reset_loop(self, t_last: float):
@@ -391,11 +393,11 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     def tip(self, q, t=None):
         model, data = self.fmodel, self.fdata
         qf, vb, _ = self._qfull(q, self._t if t is None else t)
-        pin.computeJointJacobians(model, data, qf)
-        p = pin.updateFramePlacement(model, data, self.ffid).translation
-        J = pin.getFrameJacobian(model, data, self.ffid, pin.LOCAL_WORLD_ALIGNED)[:3].T @ self.n
+        n = self.n
+        # one call gives the frame's world-aligned Jacobian and updates its placement
+        J = n @ pin.computeFrameJacobian(model, data, qf, self.ffid, pin.LOCAL_WORLD_ALIGNED)[:3]
         self._tip_base_speed = float(J[:6] @ vb)
-        return float(self.n @ (p - self.p_tip0)), J[6:]
+        return float(n @ data.oMf[self.ffid].translation) - self._s0, J[6:]
 
     def gap(self, x):
         na = self.na

@@ -35,6 +35,7 @@ from .pendulum import Pendulum
 __all__ = ["FixedBasePlant", "FrictionState"]
 
 _EMPTY = np.zeros(0)
+_LWA = pin.LOCAL_WORLD_ALIGNED
 
 
 class FrictionState:
@@ -120,6 +121,10 @@ class FixedBasePlant:
         self.gravity = gravity
         pin.framesForwardKinematics(self.model, self.data, self.q0)
         self.p_tip0 = np.array(self.data.oMf[self.fid].translation)
+        self._s0 = float(self.n @ self.p_tip0)
+        # (tau_servo, friction state, tau_servo - Coulomb): the part of the joint torque that
+        # is constant between servo ticks and mode changes, kept for the RK4 stages
+        self._tau0 = (None, None, None)
         # pendulum constants as plain floats (hot path)
         self._r = pendulum.radius
         self._Ip = pendulum.inertia
@@ -154,20 +159,17 @@ class FixedBasePlant:
     def tip(self, q):
         """(s, J_n): tip displacement along n from the first-touch pose [m] and ``n^T J_lin``."""
         model, data = self.model, self.data
-        pin.computeJointJacobians(model, data, q)
-        p = pin.updateFramePlacement(model, data, self.fid).translation
-        Jn = pin.getFrameJacobian(model, data, self.fid, pin.LOCAL_WORLD_ALIGNED)[:3].T @ self.n
-        s = float(self.n @ (p - self.p_tip0))
-        return s, Jn
+        n = self.n
+        # one call gives the frame's world-aligned Jacobian and updates its placement
+        Jn = n @ pin.computeFrameJacobian(model, data, q, self.fid, _LWA)[:3]
+        return float(n @ data.oMf[self.fid].translation) - self._s0, Jn
 
     def gap(self, x):
-        """Penetration ``delta`` [m] (> 0 in contact) and its rate [m/s]."""
+        """Penetration ``delta`` [m] (> 0 in contact), its rate [m/s] and ``J_n``."""
         nv = self.nv
         s, Jn = self.tip(x[:nv])
         th, thd = x[nv], x[self.i_thd]
-        delta = self._r * math.sin(th) - s
-        ddelta = self._r * math.cos(th) * thd - float(Jn @ x[self.i_v])
-        return delta, ddelta, Jn
+        return (self._r * math.sin(th) - s, self._r * math.cos(th) * thd - float(Jn @ x[self.i_v]), Jn)
 
     def contact_force(self, delta, ddelta, v0):
         if delta <= 0.0:
@@ -234,25 +236,30 @@ class FixedBasePlant:
         """Generalised torque on the arm (held servo torque, friction of the slipping joints,
         contact force through ``J_n``), the contact force ``F`` and, if asked or in contact,
         the gap ``(delta, ddelta)`` (else None)."""
-        tau = tau_servo - self.viscous * x[self.i_v] - fs.coulomb
-        F = 0.0
-        gap = None
-        if contact_v0 is not None or with_gap:
-            delta, ddelta, Jn = self.gap(x)
-            gap = (delta, ddelta)
-            if contact_v0 is not None:
-                F = self.contact_force(delta, ddelta, contact_v0)
-                tau = tau + Jn * F
-        return tau, F, gap
+        c = self._tau0
+        if c[0] is not tau_servo or c[1] is not fs:
+            c = self._tau0 = (tau_servo, fs, tau_servo - fs.coulomb)
+        tau = c[2] - self.viscous * x[self.i_v]
+        if contact_v0 is None and not with_gap:
+            return tau, 0.0, None
+        delta, ddelta, Jn = self.gap(x)
+        if contact_v0 is None or delta <= 0.0:
+            return tau, 0.0, (delta, ddelta)
+        F = self._k * delta**self._p * (1.0 + self._d * ddelta / contact_v0)
+        if F <= 0.0:
+            return tau, 0.0, (delta, ddelta)
+        tau += Jn * F
+        return tau, F, (delta, ddelta)
 
     def _derivative(self, x, a, F: float, caught: bool):
         """State derivative from the arm's accelerations ``a`` and the contact force ``F``."""
         nv = self.nv
-        xd = np.zeros(self.size)
-        xd[:nv] = x[nv + 1:2 * nv + 1]
-        xd[nv] = x[self.i_thd]
+        xd = np.empty(self.size)
+        xd[:nv + 1] = x[nv + 1:2 * nv + 2]      # q' = v, theta' = thetadot
         xd[nv + 1:2 * nv + 1] = a
-        if not caught:
+        if caught:
+            xd[self.i_thd] = 0.0
+        else:
             th = x[nv]
             xd[self.i_thd] = (-self._mgl * math.sin(th) - F * self._r * math.cos(th)) / self._Ip
         xd[self.i_P] = F
