@@ -550,6 +550,40 @@ def test_verify_survives_a_file_that_crashes_the_hdf5_library(campaign, monkeypa
         finalize_campaign(campaign)
 
 
+def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(campaign, monkeypatch, tmp_path):
+    """All files are checked in one child; a crash costs that file only: the files after it
+    are checked in a new child (a broken one among them is still reported)."""
+    files = sorted(campaign.rglob("*.nc"))
+    assert len(files) >= 3
+    crash, broken = files[0], files[-1]
+    _drop_channel(broken)
+    real = archive._inspect
+    checkers = tmp_path / "checker-pids"
+
+    def crashing(path, **kwargs):
+        with open(checkers, "a") as fh:   # the children's memory is not ours: note the pid on disk
+            fh.write(f"{os.getpid()}\n")
+        if Path(path) == crash:
+            faulthandler.disable()
+            os.kill(os.getpid(), signal.SIGSEGV)
+        return real(path, **kwargs)
+
+    monkeypatch.setattr(archive, "_inspect", crashing)
+    found = archive._inspect_isolated_many(files)
+    assert len(found) == len(files)
+    assert "crashed the HDF5 library (signal 11)" in found[0][0]
+    assert any("f_piezo" in p for p in found[-1])
+    assert all(f == [] for f in found[1:-1])
+    pids = checkers.read_text().split()
+    assert len(pids) == len(files) and str(os.getpid()) not in pids   # every check ran in a child:
+    assert len(set(pids)) == 2           # one for the crash, one for the files after it ...
+    monkeypatch.setattr(archive, "_inspect", real)
+    calls = []
+    monkeypatch.setattr(os, "fork", lambda real_fork=os.fork: calls.append(1) or real_fork())
+    archive._inspect_isolated_many(files[1:-1])
+    assert calls == [1]                  # ... and intact files cost one child in all
+
+
 def test_finalize_refuses_a_broken_trial(campaign):
     _drop_channel(_first_trial(campaign))
     with pytest.raises(TrialFileError, match="f_piezo is missing"):
