@@ -72,14 +72,26 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 import h5py
 import numpy as np
 from h5py import h5a, h5d, h5ds, h5i, h5o, h5p, h5r, h5s, h5t
-import xarray as xr
-from xarray.backends import AbstractDataStore, BackendArray
-from xarray.core import indexing as xr_indexing
 
 from . import __version__
 from .errors import InputError, TrialFileError
 from .scene import BASES, GAINS, Scene
 from .schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH, variables
+
+
+class _LazyXarray:
+    """xarray, imported on first use. Importing it (and pandas with it) costs ~0.6 s, which
+    jobs that only check or index files (``finalize_archive``, ``verify``) need not pay; the
+    first attribute access replaces this stand-in by the module itself."""
+
+    def __getattr__(self, name: str) -> Any:
+        global xr
+        import xarray
+        xr = xarray
+        return getattr(xarray, name)
+
+
+xr: Any = _LazyXarray()
 
 __all__ = [
     "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",
@@ -1058,42 +1070,51 @@ def _xr_attrs(attrs: Mapping[str, Any], string_types: Mapping[str, np.dtype]) ->
     return {k: _xr_attr(k, v, string_types) for k, v in attrs.items() if k not in _NC_HIDDEN}
 
 
-class _Loaded(BackendArray):
-    """A variable's data, read by the check, served to xarray's decoding as a backend array.
+@functools.lru_cache(maxsize=None)
+def _store_classes() -> tuple[type, type]:
+    """The xarray backend classes the reader hands its arrays to, defined on first use (they
+    subclass xarray's, see :class:`_LazyXarray`)."""
+    from xarray.backends import AbstractDataStore, BackendArray
+    from xarray.core import indexing as xr_indexing
 
-    Indexed like h5netcdf's variables: the dtype is the HDF5 dataset's (variable-length strings:
-    object dtype with h5py's metadata) and a 0-d index returns a scalar.
-    """
+    class _Loaded(BackendArray):
+        """A variable's data, read by the check, served to xarray's decoding as a backend array.
 
-    def __init__(self, data: np.ndarray, dtype: np.dtype):
-        self.array = data
-        self.shape = data.shape
-        self.dtype = dtype
+        Indexed like h5netcdf's variables: the dtype is the HDF5 dataset's (variable-length strings:
+        object dtype with h5py's metadata) and a 0-d index returns a scalar.
+        """
 
-    def __getitem__(self, key: Any) -> Any:
-        return xr_indexing.explicit_indexing_adapter(key, self.shape, xr_indexing.IndexingSupport.OUTER_1VECTOR,
-                                                     self.array.__getitem__)
+        def __init__(self, data: np.ndarray, dtype: np.dtype):
+            self.array = data
+            self.shape = data.shape
+            self.dtype = dtype
+
+        def __getitem__(self, key: Any) -> Any:
+            return xr_indexing.explicit_indexing_adapter(key, self.shape, xr_indexing.IndexingSupport.OUTER_1VECTOR,
+                                                         self.array.__getitem__)
 
 
-class _GroupStore(AbstractDataStore):
-    """One group of a trial file, already read and checked, as an xarray data store."""
+    class _GroupStore(AbstractDataStore):
+        """One group of a trial file, already read and checked, as an xarray data store."""
 
-    def __init__(self, variables_: Mapping[str, xr.Variable], attrs: Mapping[str, Any], unlimited: set[str]):
-        self._variables = dict(variables_)
-        self._attrs = dict(attrs)
-        self._unlimited = set(unlimited)
+        def __init__(self, variables_: Mapping[str, xr.Variable], attrs: Mapping[str, Any], unlimited: set[str]):
+            self._variables = dict(variables_)
+            self._attrs = dict(attrs)
+            self._unlimited = set(unlimited)
 
-    def get_variables(self) -> dict[str, xr.Variable]:
-        return self._variables
+        def get_variables(self) -> dict[str, xr.Variable]:
+            return self._variables
 
-    def get_attrs(self) -> dict[str, Any]:
-        return self._attrs
+        def get_attrs(self) -> dict[str, Any]:
+            return self._attrs
 
-    def get_dimensions(self) -> dict[str, int]:
-        return {d: n for v in self._variables.values() for d, n in zip(v.dims, v.shape)}
+        def get_dimensions(self) -> dict[str, int]:
+            return {d: n for v in self._variables.values() for d, n in zip(v.dims, v.shape)}
 
-    def get_encoding(self) -> dict[str, Any]:
-        return {"unlimited_dims": set(self._unlimited)}
+        def get_encoding(self) -> dict[str, Any]:
+            return {"unlimited_dims": set(self._unlimited)}
+
+    return _Loaded, _GroupStore
 
 
 def _dataset(group: _StoredGroup, source: str) -> xr.Dataset:
@@ -1102,6 +1123,9 @@ def _dataset(group: _StoredGroup, source: str) -> xr.Dataset:
     The group's dataset encoding is ``unlimited_dims`` only (as in ``open_datatree``'s nodes);
     :func:`open_trial` adds ``source`` as ``open_dataset`` does.
     """
+    from xarray.core import indexing as xr_indexing
+
+    _Loaded, _GroupStore = _store_classes()
     made = {}
     for var in group.variables:
         if not var.is_variable:
