@@ -148,12 +148,14 @@ def _kind(plant) -> str:
     return "fixed"
 
 
-def _point_force(r: np.ndarray, n: np.ndarray, R: np.ndarray, F: float) -> pin.Force:
+def _point_force(r, n: np.ndarray, R: np.ndarray, F: float) -> pin.Force:
     """Force ``n F`` (world axes) at the point ``r`` of a joint's frame (rotation ``R`` to the
-    world), as a Pinocchio force in that joint's frame (RNEA's fext; as :func:`base_wrench`)."""
-    f_local = R.T @ (n * F)
-    return pin.Force(f_local, np.array([r[1] * f_local[2] - r[2] * f_local[1], r[2] * f_local[0] - r[0] * f_local[2],
-                                        r[0] * f_local[1] - r[1] * f_local[0]]))
+    world), as a Pinocchio force in that joint's frame (RNEA's fext; as :func:`base_wrench`).
+    The moment ``r x f`` is taken in Python floats (the same IEEE products and differences
+    as NumPy's scalars, without their per-operation overhead)."""
+    f0, f1, f2 = (R.T @ (n * F)).tolist()
+    r0, r1, r2 = r
+    return pin.Force(np.array([f0, f1, f2, r1 * f2 - r2 * f1, r2 * f0 - r0 * f2, r0 * f1 - r1 * f0]))
 
 
 def mount_wrenches(plant, X, XD, F) -> np.ndarray:
@@ -186,7 +188,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
     V, A = X[:, plant.i_v], XD[:, plant.i_v]
     frame = model.frames[fid]
     jid = frame.parentJoint
-    r = np.array(frame.placement.translation)
+    r = tuple(np.array(frame.placement.translation).tolist())
     fext = pin.StdVec_Force()
     for _ in range(model.njoints):
         fext.append(pin.Force.Zero())
@@ -203,18 +205,16 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
         mount = plant.mount_id
         place = pin.updateFramePlacement
         M_mount = data.oMf[mount]
-    for k in range(N):
-        q = Q[k]
-        Fk = F[k]
+    for k, (q, v, a, Fk) in enumerate(zip(Q, V, A, F.tolist())):
         if Fk != 0.0:                             # (a NaN force still reaches the wrench)
             fk(model, data, q)
             fext[jid] = _point_force(r, n, oMi[jid].rotation, Fk)
-            rnea(model, data, q, V[k], A[k], fext)
+            rnea(model, data, q, v, a, fext)
             fext[jid] = zero
         else:                                     # no external force: RNEA without fext is identical
             if kind != "fixed":
                 fk(model, data, q)
-            rnea(model, data, q, V[k], A[k])
+            rnea(model, data, q, v, a)
         if kind == "fixed":
             out[k] = M_joint.act(f_joint).vector
         else:

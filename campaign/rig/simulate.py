@@ -13,7 +13,9 @@ import dataclasses
 import math
 
 import numpy as np
+import pandas as pd
 import xarray as xr
+from xarray.indexes import PandasIndex
 
 from .. import schema
 from ..errors import InputError, SimulationError
@@ -210,9 +212,50 @@ def _var(data, spec: schema.Var, dims=None):
 
 
 def _time(dim: str, values):
+    """A clock's time coordinate as ``(index, index variable)``: the ``PandasIndex`` and
+    the variable xarray's default index of the dimension coordinate would give it."""
     c = schema.CLOCKS[dim]
-    return xr.Variable((dim,), np.asarray(values, dtype=float),
-                       {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
+    var = xr.Variable((dim,), np.asarray(values, dtype=float),
+                      {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
+    index = PandasIndex(pd.Index(var.values, name=dim), dim, coord_dtype=var.dtype)
+    return index, index.create_variables({dim: var})[dim]
+
+
+#: (dim, labels) -> (index, index variable) of the label coordinates (joints, axes): the
+#: same in every trial, indexed once (xarray indexes are immutable; every Dataset and tree
+#: built from them holds its own shallow copies of the variable)
+_LABELS: dict = {}
+
+
+def _labels(dim: str, labels) -> tuple:
+    key = (dim, tuple(labels))
+    hit = _LABELS.get(key)
+    if hit is None:
+        var = xr.Variable((dim,), list(labels))
+        index = PandasIndex.from_variables({dim: var}, options={})
+        hit = _LABELS[key] = (index, index.create_variables({dim: var})[dim])
+    return hit
+
+
+def _coords(coords: dict) -> xr.Coordinates:
+    """Indexed coordinates of one group from its ``(index, index variable)`` pairs (what
+    the Dataset constructor would build from the bare dimension coordinates)."""
+    return xr.Coordinates({name: v for name, (_, v) in coords.items()},
+                          indexes={name: i for name, (i, _) in coords.items()})
+
+
+def _check_finite(groups) -> None:
+    """Refuse a trial with a non-finite value in any channel (``groups``: (name, {key: data})),
+    naming the first such channel; one pass over all float values when every one is finite."""
+    arrays = [np.ravel(x) for _, group in groups for x in group.values()]
+    values = np.concatenate([x for x in arrays if x.dtype.kind == "f"])
+    if np.isfinite(values).all():
+        return
+    for name, group in groups:
+        for key, x in group.items():
+            x = np.asarray(x)
+            if x.dtype.kind == "f" and not np.all(np.isfinite(x)):
+                raise SimulationError(f"channel {name}/{key} has non-finite values; nothing is stored")
 
 
 def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
@@ -300,12 +343,15 @@ def record(rig: Rig, traj) -> xr.DataTree:
     wrench[pre] = rest
     if loop:
         # the emulator sampled the sensor at its ticks; between ticks the reading is interpolated
-        ticks = plant.ticks()          # (times, wrenches, records): built from its history once here
-        tk, wk, _ = ticks
+        tk, wk, rec = plant.ticks()    # (times, wrenches, records): built from its history once here
+        # the states each tick reached, one emulator period later (at rest before the first),
+        # interpolated linearly between ticks (the plant's platform_history, on these arrays)
+        t_rec = np.concatenate([[plant.t_first], tk + plant.emulator_period])
+        rec = np.vstack([np.zeros(24), rec])
         tk = np.concatenate([[traj.t_contact], tk])
         wk = np.vstack([rest, wk])
-        for i in range(6):
-            wrench[~pre, i] = np.interp(tft[~pre], tk, wk[:, i])
+        tn = tft[~pre]
+        wrench[~pre] = np.column_stack([np.interp(tn, tk, wk[:, i]) for i in range(6)])
     else:
         if np.any(post):
             last = traj.x[-1]
@@ -321,20 +367,20 @@ def record(rig: Rig, traj) -> xr.DataTree:
     tau = np.where((ts < traj.servo_t[0])[:, None], traj.tau_static[None, aq], traj.servo_tau[idx][:, aq])
 
     coords = {"t_joint": _time("t_joint", tj), "t_pend": _time("t_pend", tp), "t_force": _time("t_force", tf),
-              "t_ft": _time("t_ft", tft), "t_servo": _time("t_servo", ts), "joint": ("joint", joints),
-              "axis": ("axis", ["x", "y", "z"])}
+              "t_ft": _time("t_ft", tft), "t_servo": _time("t_servo", ts), "joint": _labels("joint", joints),
+              "axis": _labels("axis", "xyz")}
     measured = {
-        "q_enc": _var(q_meas, spec["q_enc"]),
-        "theta_pend": _var(theta, spec["theta_pend"]),
-        "f_piezo": _var(f_meas, spec["f_piezo"]),
-        "ft_force": _var(force, spec["ft_force"]),
-        "ft_torque": _var(torque, spec["ft_torque"]),
-        "tau_cmd": _var(tau, spec["tau_cmd"]),
-        "q_cmd": _var(plant.q0[aq].copy(), spec["q_cmd"]),
-        "hammer_mass_eff": _var(np.float64(plant.pend.m_b), spec["hammer_mass_eff"]),
-        "pendulum_radius": _var(np.float64(plant.pend.radius), spec["pendulum_radius"]),
-        "impact_direction": _var(plant.n.copy(), spec["impact_direction"]),
-        "piezo_full_scale": _var(np.float64(fs), spec["piezo_full_scale"]),
+        "q_enc": q_meas,
+        "theta_pend": theta,
+        "f_piezo": f_meas,
+        "ft_force": force,
+        "ft_torque": torque,
+        "tau_cmd": tau,
+        "q_cmd": plant.q0[aq].copy(),
+        "hammer_mass_eff": np.float64(plant.pend.m_b),
+        "pendulum_radius": np.float64(plant.pend.radius),
+        "impact_direction": plant.n.copy(),
+        "piezo_full_scale": np.float64(fs),
     }
 
     # truth
@@ -345,40 +391,38 @@ def record(rig: Rig, traj) -> xr.DataTree:
     # tip velocity and energy are exact at the samples (Pinocchio per sample); before the
     # touch and after the integration stopped the arm is at rest (one evaluation each)
     if loop:
-        P_hist, V_hist = plant.platform_history(tt)
+        P_hist = np.column_stack([np.interp(tt, t_rec, rec[:, i]) for i in range(6, 12)])
+        V_hist = np.column_stack([np.interp(tt, t_rec, rec[:, i]) for i in range(18, 24)])
         energy, tip_v = truth_terms(plant, Xt, pre, post, P_hist, V_hist)
     else:
         energy, tip_v = truth_terms(plant, Xt, pre, post)
     c0, c1, _ = traj.contacts[0]
     peak = float(np.max(sampler.contact_force(np.linspace(c0, c1, 2001))))
     truth = {
-        "q": _var(Xt[:, aq], tspec["q"]),
-        "v": _var(Xt[:, av], tspec["v"]),
-        "theta": _var(Xt[:, plant.i_th], tspec["theta"]),
-        "theta_dot": _var(Xt[:, plant.i_thd], tspec["theta_dot"]),
-        "f_contact": _var(f_t, tspec["f_contact"]),
-        "tip_velocity_n": _var(tip_v, tspec["tip_velocity_n"]),
-        "energy": _var(energy, tspec["energy"]),
-        "contact_start": _var(np.float64(c0), tspec["contact_start"]),
-        "contact_end": _var(np.float64(c1), tspec["contact_end"]),
-        "v_a_pre": _var(np.float64(traj.v_a_pre), tspec["v_a_pre"]),
-        "v_a_post": _var(np.float64(traj.v_a_post), tspec["v_a_post"]),
-        "v_b_pre": _var(np.float64(traj.v_b_pre), tspec["v_b_pre"]),
-        "v_b_post": _var(np.float64(traj.v_b_post), tspec["v_b_post"]),
-        "impulse": _var(np.float64(traj.impulse), tspec["impulse"]),
-        "peak_force": _var(np.float64(peak), tspec["peak_force"]),
-        "e_contact": _var(np.float64(rig.plant.contact.restitution), tspec["e_contact"]),
+        "q": Xt[:, aq],
+        "v": Xt[:, av],
+        "theta": Xt[:, plant.i_th],
+        "theta_dot": Xt[:, plant.i_thd],
+        "f_contact": f_t,
+        "tip_velocity_n": tip_v,
+        "energy": energy,
+        "contact_start": np.float64(c0),
+        "contact_end": np.float64(c1),
+        "v_a_pre": np.float64(traj.v_a_pre),
+        "v_a_post": np.float64(traj.v_a_post),
+        "v_b_pre": np.float64(traj.v_b_pre),
+        "v_b_post": np.float64(traj.v_b_post),
+        "impulse": np.float64(traj.impulse),
+        "peak_force": np.float64(peak),
+        "e_contact": np.float64(rig.plant.contact.restitution),
     }
-    truth_coords = {"t_truth": _time("t_truth", tt), "joint": ("joint", joints)}
+    truth_coords = {"t_truth": _time("t_truth", tt), "joint": _labels("joint", joints)}
 
     if flexible:
         tb = sample_grid(float(p("ves.rate")), t_end)
         body = plant.beam.base_body()
         if loop:
-            tk, _, rec = ticks
-            tk = np.concatenate([[plant.t_first], tk + plant.emulator_period])
-            rec = np.vstack([np.zeros(24), rec])
-            chan = np.column_stack([np.interp(tb, tk, rec[:, i]) for i in range(18)])
+            chan = np.column_stack([np.interp(tb, t_rec, rec[:, i]) for i in range(18)])
             structure, platform, command = chan[:, 0:6], chan[:, 6:12], chan[:, 12:18]
             base_truth = np.column_stack([P_hist, V_hist])
         else:
@@ -387,39 +431,39 @@ def record(rig: Rig, traj) -> xr.DataTree:
             platform = command = structure     # ideal coupling: the platform is the structure
             base_truth = plant.base_state(Xt)
         measured.update({
-            "base_position": _var(structure[:, :3], spec["base_position"]),
-            "base_rotation": _var(structure[:, 3:], spec["base_rotation"]),
-            "platform_cmd_position": _var(command[:, :3], spec["platform_cmd_position"]),
-            "platform_cmd_rotation": _var(command[:, 3:], spec["platform_cmd_rotation"]),
-            "platform_position": _var(platform[:, :3], spec["platform_position"]),
-            "platform_rotation": _var(platform[:, 3:], spec["platform_rotation"]),
-            "base_mass": _var(np.float64(body.mass), spec["base_mass"]),
-            "base_inertia": _var(np.asarray(body.inertia, float), spec["base_inertia"]),
-            "base_com": _var(np.asarray(body.com, float), spec["base_com"]),
-            "base_mount": _var(np.asarray(body.mount.translation, float), spec["base_mount"]),
+            "base_position": structure[:, :3],
+            "base_rotation": structure[:, 3:],
+            "platform_cmd_position": command[:, :3],
+            "platform_cmd_rotation": command[:, 3:],
+            "platform_position": platform[:, :3],
+            "platform_rotation": platform[:, 3:],
+            "base_mass": np.float64(body.mass),
+            "base_inertia": np.asarray(body.inertia, float),
+            "base_com": np.asarray(body.com, float),
+            "base_mount": np.asarray(body.mount.translation, float),
         })
         coords["t_base"] = _time("t_base", tb)
-        coords["axis2"] = ("axis2", ["x", "y", "z"])
+        coords["axis2"] = _labels("axis2", "xyz")
         truth.update({
-            "base_position": _var(base_truth[:, 0:3], tspec["base_position"]),
-            "base_rotation": _var(base_truth[:, 3:6], tspec["base_rotation"]),
-            "base_velocity": _var(base_truth[:, 6:9], tspec["base_velocity"]),
-            "base_omega": _var(base_truth[:, 9:12], tspec["base_omega"]),
+            "base_position": base_truth[:, 0:3],
+            "base_rotation": base_truth[:, 3:6],
+            "base_velocity": base_truth[:, 6:9],
+            "base_omega": base_truth[:, 9:12],
         })
-        truth_coords["axis"] = ("axis", ["x", "y", "z"])
+        truth_coords["axis"] = _labels("axis", "xyz")
 
-    for name, group in (("measured", measured), ("truth", truth)):
-        for key, var in group.items():
-            if var.dtype.kind == "f" and not np.all(np.isfinite(var.values)):
-                raise SimulationError(f"channel {name}/{key} has non-finite values; nothing is stored")
-    measured = xr.Dataset(measured, coords=coords)
-    truth = xr.Dataset(truth, coords=truth_coords,
+    _check_finite((("measured", measured), ("truth", truth)))
+    # each group is built from its Variables and indexed coordinates in one constructor call,
+    # and attached to the root without the copies DataTree.from_dict makes
+    measured = xr.Dataset({k: _var(x, spec[k]) for k, x in measured.items()}, coords=_coords(coords))
+    truth = xr.Dataset({k: _var(x, tspec[k]) for k, x in truth.items()}, coords=_coords(truth_coords),
                        attrs={"n_contacts": len(traj.contacts), "settled": int(traj.settled),
                               "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
                               "ves_mode": str(p("ves.mode")) if flexible else "none"})
-    root = xr.Dataset(attrs={
+    tree = xr.DataTree(xr.Dataset(attrs={
         "scene_json": scene.to_json(), "scene_sha256": scene.sha256, "seed": int(scene.seed), "base": scene.base,
         "config": int(scene.config), "gain": scene.gain, "speed": float(scene.speed), "repeat": int(scene.repeat),
         "robot": robot.name, "scene_name": scene.name,
-    })
-    return xr.DataTree.from_dict({"/": root, "/measured": measured, "/truth": truth})
+    }))
+    tree.children = {"measured": xr.DataTree(measured), "truth": xr.DataTree(truth)}
+    return tree
