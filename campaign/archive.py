@@ -74,24 +74,15 @@ import numpy as np
 from h5py import h5a, h5d, h5ds, h5i, h5o, h5p, h5r, h5s, h5t
 
 from . import __version__
+from ._lazy import LazyModule
 from .errors import InputError, TrialFileError
 from .scene import BASES, GAINS, Scene
 from .schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH, variables
 
 
-class _LazyXarray:
-    """xarray, imported on first use. Importing it (and pandas with it) costs ~0.6 s, which
-    jobs that only check or index files (``finalize_archive``, ``verify``) need not pay; the
-    first attribute access replaces this stand-in by the module itself."""
-
-    def __getattr__(self, name: str) -> Any:
-        global xr
-        import xarray
-        xr = xarray
-        return getattr(xarray, name)
-
-
-xr: Any = _LazyXarray()
+#: xarray, imported on first use (:mod:`campaign._lazy`): jobs that only check or index
+#: trial files (``finalize_archive``, ``verify``) never need it
+xr: Any = LazyModule("xarray")
 
 __all__ = [
     "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",
@@ -1073,7 +1064,7 @@ def _xr_attrs(attrs: Mapping[str, Any], string_types: Mapping[str, np.dtype]) ->
 @functools.lru_cache(maxsize=None)
 def _store_classes() -> tuple[type, type]:
     """The xarray backend classes the reader hands its arrays to, defined on first use (they
-    subclass xarray's, see :class:`_LazyXarray`)."""
+    subclass xarray's, which is imported on first use)."""
     from xarray.backends import AbstractDataStore, BackendArray
     from xarray.core import indexing as xr_indexing
 

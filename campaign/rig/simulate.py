@@ -13,11 +13,9 @@ import dataclasses
 import math
 
 import numpy as np
-import pandas as pd
-import xarray as xr
-from xarray.indexes import PandasIndex
 
 from .. import schema
+from .._lazy import LazyModule
 from ..errors import InputError, SimulationError
 from ..paper import impact_direction
 from ..robot import load_robot
@@ -30,6 +28,11 @@ from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
 __all__ = ["simulate", "build", "Rig"]
+
+# imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) need
+# not pay ~0.6 s for xarray and pandas; a simulation imports them when it records
+xr = LazyModule("xarray")
+pd = LazyModule("pandas")
 
 #: RK4 steps per contact duration estimate: the step is set from the contact's own time scale
 STEPS_PER_CONTACT = 32
@@ -217,7 +220,7 @@ def _time(dim: str, values):
     c = schema.CLOCKS[dim]
     var = xr.Variable((dim,), np.asarray(values, dtype=float),
                       {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
-    index = PandasIndex(pd.Index(var.values, name=dim), dim, coord_dtype=var.dtype)
+    index = xr.indexes.PandasIndex(pd.Index(var.values, name=dim), dim, coord_dtype=var.dtype)
     return index, index.create_variables({dim: var})[dim]
 
 
@@ -232,7 +235,7 @@ def _labels(dim: str, labels) -> tuple:
     hit = _LABELS.get(key)
     if hit is None:
         var = xr.Variable((dim,), list(labels))
-        index = PandasIndex.from_variables({dim: var}, options={})
+        index = xr.indexes.PandasIndex.from_variables({dim: var}, options={})
         hit = _LABELS[key] = (index, index.create_variables({dim: var})[dim])
     return hit
 
