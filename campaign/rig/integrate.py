@@ -141,6 +141,10 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     t_max_end = t_contact + max_post
 
     rhs = plant.rhs
+    # when the servo output cannot change at a tick (no PID) or an emulator samples the F/T
+    # there, a step end's full evaluation is used anyway (next step's k1, the F/T sample):
+    # the event checks take the contact gap from it instead of a separate kinematics call
+    reuse_eval = T_emu is not None or not pid.active
     gap_end = [0.0, 0.0, 0.0]   # overlap and its rate at the last accepted step in contact, peak overlap
     last = None     # the last plant.evaluate: its inputs (by identity) and outputs
 
@@ -182,7 +186,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             # with every joint stuck, no contact and a constant servo torque on a fixed base
             # the holding torques cannot change
             fs.all_stuck and contact_v0 is None and not pid.active and T_emu is None)
-        if need_lam:
+        if need_lam or (reuse_eval and (contact_v0 is not None or not caught)):
             _, lam, gap = ev(xx, tt)
         elif contact_v0 is not None or not caught:
             plant._t = tt
