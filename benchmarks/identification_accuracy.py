@@ -13,7 +13,10 @@ Variants:
   fit (the default before the F/T method);
 * ``previous``: joint encoders, power-law edges, cubic pendulum fit on 50 ms, 20 ms post-contact
   joint window at 1 kHz (the 1 kHz default before the pendulum ODE fit);
-* ``encoders``: joint encoders with power-law contact edges;
+* ``before``: the default before the joint-dynamics model (``arm_model="lti"``: at 1 kHz the
+  tip-position LTI fit on a 40 ms post-contact window; at 50 Hz the F/T method, as now);
+* ``encoders``: joint encoders with the default ``arm_model="joint"`` (joint-space dynamics
+  driven by the measured servo torque, 60 ms post-contact window at 1 kHz);
 * ``ft``: the arm's momentum from the base F/T sensor and the piezo force;
 * ``combined``: v'_a - v_a from the encoders and the F/T weighted by their estimated variances;
 * ``default``: ``arm_velocity="auto"`` (F/T when the joint samples are coarser than 5 ms).
@@ -22,10 +25,15 @@ Usage::
 
     .venv/bin/python benchmarks/identification_accuracy.py [--repeats 2] [--rates 50 1000]
 
-Runs ~45 s on one core (144 simulated trials).
+Runs ~2 min on one core (144 simulated trials; the joint model's least squares on small
+matrices run single-threaded: OMP_NUM_THREADS=1 unless set).
 """
 
 from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")   # small matrices: BLAS threads only contend
 
 import argparse
 import time
@@ -41,9 +49,11 @@ GAINS = ("zero", "low", "high")
 SPEEDS = (1.0, 1.5, 2.0, 2.5)
 VARIANTS = {
     "combined": {"arm_velocity": "combined"},
-    "old": {"arm_velocity": "encoders", "edge_model": "line", "pendulum_model": "poly",
+    "old": {"arm_velocity": "encoders", "arm_model": "lti", "edge_model": "line", "pendulum_model": "poly",
             "joint_post_window_min": 0.02},
-    "previous": {"arm_velocity": "encoders", "pendulum_model": "poly", "joint_post_window_min": 0.02},
+    "previous": {"arm_velocity": "encoders", "arm_model": "lti", "pendulum_model": "poly",
+                 "joint_post_window_min": 0.02},
+    "before": {"arm_model": "lti"},
     "encoders": {"arm_velocity": "encoders"},
     "ft": {"arm_velocity": "ft"},
     "default": {},

@@ -63,17 +63,42 @@ real VES-II allows (paper section 3, design brief section 5):
    about equals the encoders (High worst 1.40 % against 1.44 %: the F/T variance is the larger);
    with 20 ms it cut High's 90th percentile 0.81 -> 0.67 %, worst 3.06 -> 2.78 %.
    ``"auto"`` (default) uses the F/T when the joint samples are coarser than
-   ``auto_joint_interval`` (5 ms) and the encoders otherwise: measured over the sweep of
-   :data:`ACCURACY_NOTE`, the F/T wins at 50 Hz (High gains worst 2.9 % against 9.5 %) and
-   the encoders win at 1 kHz (every gain).
+   ``auto_joint_interval`` (5 ms) and the encoders otherwise: chosen when the encoder
+   method was the tip-space ``lti`` model (50 Hz High worst 6.1 % against the F/T's 2.7 %;
+   the encoders win at 1 kHz, every gain). With the joint-dynamics model the encoders
+   (2.0 %) and ``"combined"`` (1.9 %) beat the F/T at 50 Hz too (:data:`ACCURACY_NOTE`);
+   ``auto`` is unchanged so far.
 
-   **Joint encoders** (``"encoders"``). The impact point's
-   position along n, ``s(t) = n . p(q(t))`` (forward kinematics of each sample), is fitted
-   over a pre-contact window (``joint_pre_window``, 0.2 s) and a post-contact window
+   **Joint encoders** (``"encoders"``), default model ``arm_model="joint"``: the joint
+   samples of a pre-contact window (``joint_pre_window``, 0.2 s), the contact and a
+   post-contact window ``max(joint_model_post_min, joint_post_samples / rate)`` (60 ms at
+   1 kHz, 0.1 s = 5 samples at 50 Hz) are fitted, each joint weighted by its encoder
+   resolution, with the arm's linearised joint-space dynamics
+   ``M x'' = dtau_cmd - G x - k_B B x' + f(t) w - c(sign x')`` driven by the *measured*
+   servo torque ``tau_cmd`` (a measured channel: the controller output the drives apply)
+   and the measured force shape; unknown: one generalised impulse per joint ``w`` (the
+   impact response's direction in joint space is measured, not the model's), a scale of
+   the drive file's viscous friction (``k_B``), a Coulomb torque per joint and direction
+   of motion, the pre-contact pose and velocities (details: :func:`_joint_dynamics_fit`). ``v'_a = n . J(q_e) qd(t_e)``.
+   Why: at High gains the servo and the friction take back most of the impulse within the
+   contact (configuration 2 at 1.0 m/s: the impulse alone would give the tip 57 mm/s, the
+   servo -17.5, viscous -15, Coulomb -8, net 15.6), so the net v'_a - v_a is a small
+   difference, and the tip-space model below, which has to guess the servo (a spring-
+   damper on the tip) and reads one tip series mixing three joints' quantisation noise,
+   missed 1 % at the smallest tip motions (1.53 %). With the servo's torque measured, the
+   remaining unknowns are few and smooth; the model explains the servo's reversal of the
+   tip after the contact, so the post window can be longer (60 ms: 40 ms left more noise,
+   80 ms more Coulomb-sign switching). Noise-free encoders: v'_a - v_a within 0.41 % over
+   the 1 kHz sweep. It falls back to ``lti`` without a usable ``tau_cmd`` or on a flexible
+   base (the platform's acceleration would enter the joint dynamics; not built).
+
+   ``arm_model="lti"`` (the default before; kept for comparison and as the fallback): the
+   impact point's position along n, ``s(t) = n . p(q(t))`` (forward kinematics of each
+   sample), is fitted over the pre-contact window and a post-contact window
    ``max(joint_post_window_min, joint_post_samples / rate)`` (0.1 s = 5 samples at 50 Hz;
    40 ms at 1 kHz: measured over the sweep, 20 ms left the 0.3-count encoder noise at
    High gains' smallest tip motions, 3.1 % worst m*, 60-80 ms let the servo's reversal
-   bias the model, 2.7-4.7 %) with one model (``arm_model="lti"``, the default)::
+   bias the model, 2.7-4.7 %) with the model::
 
        s(t) = s_s + v_a u + w y_f(t) + c y_1(t),      u = t - t_s,
 
@@ -94,8 +119,9 @@ real VES-II allows (paper section 3, design brief section 5):
    a polynomial deceleration of order ``resistance_order`` from the contact start) and
    ``onesided`` (independent polynomial fits before the start and after the end,
    extrapolated to the edges). With the power-law contact edges the ``lti`` model follows
-   the rig closely at 1 kHz; at 50 Hz its High-gain worst case is 9.5 % (the servo reverses
-   the tip 10-20 ms after the contact, between two samples), hence the F/T method there.
+   the rig closely at 1 kHz but for the High-gain trials of smallest tip motion (worst
+   1.53 %); at 50 Hz its High-gain worst case is 6.1 % (the servo reverses the tip 10-20 ms
+   after the contact, between two samples), hence the F/T method there.
    On a flexible base the tip's inertial velocity is the base point's plus the arm's:
    the platform pose channels (1 kHz; the emulated base channels when the platform ones
    are absent) give ``n . (p_b + R r0)`` (``r0`` the tip at ``q_cmd`` in the base frame,
@@ -118,6 +144,7 @@ Measured accuracy against the simulator truth: :data:`ACCURACY_NOTE`.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 from collections.abc import Iterable, Mapping
@@ -126,6 +153,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import xarray as xr
+from scipy.linalg import expm as _expm
 from scipy.optimize import least_squares
 
 from .errors import InputError, TrialFileError
@@ -162,48 +190,43 @@ REQUIRED_CHANNELS = {
 FLEXIBLE_CONSTANTS = {"base_mass": (), "base_inertia": ("axis", "axis2")}
 BASE_POSE_CHANNELS = (("platform_position", "platform_rotation"), ("base_position", "base_rotation"))
 
-ARM_MODELS = ("lti", "poly", "onesided")
+ARM_MODELS = ("joint", "lti", "poly", "onesided")
 EDGE_MODELS = ("power", "line")
 PENDULUM_MODELS = ("ode", "poly")
 ARM_VELOCITIES = ("auto", "ft", "encoders", "combined")
 FT_ROWS = ("all", "linear", "angular")
+JOINT_COULOMB = ("global", "joint", "sign")
 #: channels the F/T momentum method reads (``tau_cmd`` optional: the servo-step split)
 FT_CHANNELS = {"ft_force": ("t_ft", "axis"), "ft_torque": ("t_ft", "axis")}
 
 ACCURACY_NOTE = """\
 |relative error| of m* (eq 10) and e (eq 12) against eq 10/12 on the simulator's true edge
-velocities, default options (arm_velocity="auto", power-law contact edges, pendulum ODE fit),
-campaign.rig of the working tree on 2026-11-21, fixed base, configurations 1-3 x
-1.0/1.5/2.0/2.5 m/s x 2 repeats per gain (random contact phase, sensor noise and
-quantisation), median / 90th percentile / worst (benchmarks/identification_accuracy.py):
+velocities, default options (arm_velocity="auto", arm_model="joint", power-law contact
+edges, pendulum ODE fit), campaign.rig of the working tree on 2026-11-21, fixed base,
+configurations 1-3 x 1.0/1.5/2.0/2.5 m/s x 2 repeats per gain (random contact phase, sensor
+noise and quantisation), median / 90th percentile / worst (benchmarks/identification_accuracy.py):
 
   joint encoders at 50 Hz (the paper's 20 ms): F/T momentum method
     Zero  m* 0.34 / 0.98 / 1.5 %   e 0.05 / 0.12 / 0.27 %
     Low   m* 0.27 / 0.82 / 1.4 %   e 0.04 / 0.15 / 0.21 %
     High  m* 0.72 / 2.2 / 2.7 %    e 0.05 / 0.13 / 0.26 %   (signed mean -0.35 %)
-    (encoders at 50 Hz: High m* 1.4 / 3.4 / 6.4 %, mean +1.4 %)
-  joint encoders at 1 kHz: encoder method, 40 ms post-contact window
-    Zero  m* 0.10 / 0.27 / 0.39 %  Low m* 0.13 / 0.46 / 0.65 %  High m* 0.29 / 0.96 / 1.53 %
-    e 0.02 % median, worst 0.11 %
-    misses of the 1 % target: config 2 High 1.0 m/s, m* +1.53 % (repeat 0) and -1.02 %
-    (repeat 1); every other trial within 0.96 % (rerun after the rig's contact-edge
-    refinement; before it +1.44 / -1.05 %, others within 0.78 %). There the tip gains only 14 mm/s, so 1 %
-    is 0.14 mm/s of v'_a - v_a, and the fit's error is the joint encoders' 0.3-count noise
-    (the same two trials with noise-free encoders: v'_a - v_a within 0.85 %; with the 20 ms
-    window and noise: 3.1 / 0.3 %). The F/T method is no better there (its noise, 0.2 N,
-    0.02 N m: v'_a - v_a off 1.7 / 0.9 %) and the variance-weighted combination
-    (arm_velocity="combined") gives 1.40 %.
-    (previous default, cubic pendulum fit and 20 ms post window: High 0.27 / 0.78 / 2.8 %,
-    e worst 1.22 %; diagnosed on the first run: v'_b of the 1.0 m/s Zero trial of config 3
-    off by 5.9 mm/s, the pendulum encoder's quantisation left by the 50 ms cubic)
+    (encoders with the joint model at 50 Hz: Zero / Low / High worst 0.89 / 0.84 / 2.04 %;
+    arm_velocity="combined": 0.78 / 0.57 / 1.88 %; the tip-space lti model: High 6.1 %)
+  joint encoders at 1 kHz: encoder method, joint-dynamics model, 60 ms post window
+    Zero  m* 0.07 / 0.18 / 0.31 %  Low m* 0.07 / 0.26 / 0.49 %  High m* 0.14 / 0.68 / 0.86 %
+    e 0.01 % median, worst 0.09 %; every trial within the 1 % target
+    (before, arm_model="lti": Zero 0.39, Low 0.65, High 1.53 % worst; the misses were
+    config 2 High 1.0 m/s, +1.53 / -1.02 %, where the tip gains only 15 mm/s of a 57 mm/s
+    impulse the servo and friction take back within the contact; noise-free encoders give
+    the joint model v'_a - v_a within 0.41 % over the sweep, so the rest is the encoders'
+    0.3-count noise)
   ideal scene (no gravity, friction, servo, noise; stiff 1 ms contact -> encoders):
-  m* < 0.006 %, e < 0.002 %.
+  m* < 0.007 %, e < 0.003 %.
   contact edges (power law): start and end within 0.15 ms of the truth.
 
 The F/T method's spread is the sensor noise (0.2 N, 0.02 N m at 1 kHz integrated over the
 ~70 ms contact, against 0.05-0.7 N s of arm momentum); noise-free trials give m* within
-0.5 % for every gain. The encoder method's High-gain worst cases at 50 Hz are the model
-(the servo reverses the tip within 10-20 ms after the contact, between two samples)."""
+0.5 % for every gain."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -247,9 +270,35 @@ class IdentifyOptions:
     resistance_order : int
         Order of the polynomial resistance deceleration (``poly``; the ``onesided`` fit
         after the contact has degree ``resistance_order + 1``).
-    arm_model : {"lti", "poly", "onesided"}
-        The tip-velocity model of the module docstring (``lti`` default; the others for
-        comparison).
+    arm_model : {"joint", "lti", "poly", "onesided"}
+        The encoder method's tip-velocity model (module docstring, step 3): ``joint``
+        (default) the joint-space dynamics driven by the measured servo torque; it falls
+        back to ``lti`` on a flexible base or without a usable ``tau_cmd`` channel. The
+        others for comparison.
+    joint_model_post_min : float
+        Post-contact window of ``arm_model="joint"``:
+        ``max(joint_model_post_min, joint_post_samples / rate)`` (:meth:`joint_model_window`)
+        [s]. 60 ms: measured over the 1 kHz sweep of :data:`ACCURACY_NOTE`, 40 ms left more
+        of the encoder noise (High worst 0.84 %), 80 ms more Coulomb-sign switching (1.16 %).
+    joint_contact_steps : int
+        Equal integration steps of the joint model over the contact (200; 100 moved m* by
+        up to 0.2 %, 400 by < 0.03 %).
+    joint_post_step : float
+        Largest integration step of the joint model after the contact [s]; the steps end
+        on the servo ticks.
+    joint_viscous_max : float
+        Upper bound of the viscous-friction scale ``k_B`` (times the drive file's values).
+    joint_coulomb_iterations : int
+        Largest number of Coulomb-sign iterations of the joint model.
+    joint_coulomb : {"sign", "global", "joint"}
+        Coulomb friction of the joint model: a free constant per joint and direction of
+        motion (default: no friction ratios taken from the drive file), one scale of the
+        drive file's per-joint, per-direction values, or one scale per joint. ``global``
+        is a little quieter on the rig (whose friction is the drive file's times one
+        scale: 1 kHz High worst 0.72 % against 0.86 %) but assumes those ratios; on the
+        synthetic trials of tests/test_identify.py, whose joints decelerate each at its
+        own rate, it is off by 2.2-4.3 % where they decelerate, ``sign`` within 1 % (median
+        0.3 %).
     base_window : float
         One-sided base-pose window (flexible base) [s].
     min_tip_counts : float
@@ -292,7 +341,13 @@ class IdentifyOptions:
     min_pre_samples: int = 3
     min_post_samples: int = 4
     resistance_order: int = 1
-    arm_model: str = "lti"
+    arm_model: str = "joint"
+    joint_model_post_min: float = 0.06
+    joint_contact_steps: int = 200
+    joint_post_step: float = 1e-3
+    joint_viscous_max: float = 30.0
+    joint_coulomb_iterations: int = 4
+    joint_coulomb: str = "sign"
     min_tip_counts: float = 5.0
     base_window: float = 0.02
     arm_velocity: str = "auto"
@@ -307,11 +362,16 @@ class IdentifyOptions:
         ``max(joint_post_window_min, joint_post_samples / rate)``."""
         return max(self.joint_post_window_min, self.joint_post_samples / rate)
 
+    def joint_model_window(self, rate: float) -> float:
+        """Post-contact joint window of ``arm_model="joint"`` [s] at a joint sampling
+        ``rate`` [Hz]: ``max(joint_model_post_min, joint_post_samples / rate)``."""
+        return max(self.joint_model_post_min, self.joint_post_samples / rate)
+
     def __post_init__(self):
         for name in ("k_sigma", "merge_gap", "edge_fit_level", "pendulum_window", "joint_pre_window",
                      "pendulum_pre_window", "pendulum_post_window",
                      "joint_post_window_min", "base_window", "edge_low_sigma", "ft_rest_window",
-                     "auto_joint_interval"):
+                     "auto_joint_interval", "joint_model_post_min", "joint_post_step", "joint_viscous_max"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise InputError(f"identification option {name} must be > 0, got {v!r}")
@@ -321,16 +381,18 @@ class IdentifyOptions:
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"identification option {name} must be >= 0, got {v!r}")
         for name in ("pendulum_degree", "min_pre_samples", "min_post_samples", "resistance_order",
-                     "joint_post_samples", "ft_min_samples"):
+                     "joint_post_samples", "ft_min_samples", "joint_contact_steps", "joint_coulomb_iterations"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 0:
                 raise InputError(f"identification option {name} must be an integer >= 0, got {v!r}")
+        if self.joint_contact_steps < 1:
+            raise InputError(f"joint_contact_steps must be >= 1, got {self.joint_contact_steps}")
         if self.pendulum_degree < 1:
             raise InputError(f"pendulum_degree must be >= 1, got {self.pendulum_degree}")
         if self.arm_model not in ARM_MODELS:
             raise InputError(f"arm_model must be one of {ARM_MODELS}, got {self.arm_model!r}")
         for name, allowed in (("edge_model", EDGE_MODELS), ("arm_velocity", ARM_VELOCITIES), ("ft_rows", FT_ROWS),
-                              ("pendulum_model", PENDULUM_MODELS)):
+                              ("pendulum_model", PENDULUM_MODELS), ("joint_coulomb", JOINT_COULOMB)):
             if getattr(self, name) not in allowed:
                 raise InputError(f"{name} must be one of {allowed}, got {getattr(self, name)!r}")
 
@@ -812,7 +874,7 @@ def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: Identi
         return float("nan"), float("nan"), n_pre, n_con, n_post, ""
     T = t_e - t_s
     sel = pre | contact | post
-    if opt.arm_model == "lti":
+    if opt.arm_model in ("lti", "joint"):     # "joint" without a servo channel or on a flexible base
         v_pre, v_post = _lti_fit(t[sel], s[sel], t_s, t_e, cin, info=info)
     elif opt.arm_model == "poly":
         tt, ss = t[sel], s[sel]
@@ -1094,6 +1156,264 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
     return v_a, v_post, ""
 
 
+# ----------------------------------------------------------------------------------------
+# arm: joint-space dynamics driven by the measured servo torque (arm_model="joint")
+# ----------------------------------------------------------------------------------------
+def _joint_grid(t_s: float, t_e: float, t_stop: float, ticks: np.ndarray, opt: IdentifyOptions) -> np.ndarray:
+    """Integration nodes of the joint model: ``joint_contact_steps`` equal steps over the
+    contact, then the servo ticks after it (each tick interval split into equal steps of at
+    most ``joint_post_step``) up to ``t_stop``: the servo torque is constant on every step
+    after the contact, so those steps are exact."""
+    contact = t_s + (t_e - t_s) * np.arange(opt.joint_contact_steps + 1) / opt.joint_contact_steps
+    tk = ticks[(ticks > t_e + 1e-9) & (ticks < t_stop - 1e-9)]
+    edges = np.concatenate([[t_e], tk, [t_stop]])
+    nodes = []
+    for a, b in itertools.pairwise(edges):
+        k = max(1, math.ceil((b - a) / opt.joint_post_step - 1e-9))
+        nodes.append(a + (b - a) * np.arange(1, k + 1) / k)
+    return np.concatenate([contact] + nodes)
+
+
+def _cell_means(grid: np.ndarray, cum) -> np.ndarray:
+    """Mean of a signal over each grid cell from its cumulative integral ``cum(t)``."""
+    C = cum(grid)
+    return np.diff(C, axis=0) / np.diff(grid).reshape((-1,) + (1,) * (C.ndim - 1))
+
+
+def _joint_dynamics_fit(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: Contact, cin: _ContactInput,
+                        ts: np.ndarray, tau: np.ndarray, post_window: float, opt: IdentifyOptions,
+                        info: dict | None = None):
+    """Tip velocities along n at the contact edges from a joint-space dynamics fit.
+
+    The arm moves by milliradians over the identification window, so its joint motion
+    ``x = q - q_s`` obeys the linear model::
+
+        M x'' = [tau_cmd(t) - tau_cmd(t_s)] - G x - k_B B x' + f(t) w - c(sign x')
+
+    about the pre-contact pose ``q_s`` (the mean of the pre-window samples), with
+
+    * ``M`` the joint-space inertia (armature included) and ``G = dg/dq`` the gravity
+      stiffness of the robot model at ``q_s``;
+    * ``tau_cmd`` the measured servo torque (zero-order hold between ticks; integrated
+      exactly: the steps after the contact end on the ticks, the steps inside it take the
+      torque's exact mean);
+    * ``B`` the drive file's viscous friction times one unknown scale ``k_B >= 0`` (the
+      only nonlinear unknown: bounded scalar search on the residual);
+    * ``f`` the measured piezo force normalised to unit impulse and ``w`` one unknown
+      generalised impulse per joint: the joint-space direction of the impact response is
+      measured, not taken from ``M`` (so ``m*`` is not the model's eq 11);
+    * ``c`` Coulomb friction for the sign of each joint's velocity (``joint_coulomb``:
+      by default an unknown constant per joint and direction), the signs taken from the fitted
+      velocities (fixed-point iteration from "all joints one way", at most
+      ``joint_coulomb_iterations``; the iterate with the smallest residual is kept).
+
+    The pre-contact samples lie on ``q_s + qd_s (t - t_s)``; ``q_s``, ``qd_s``, ``w`` and
+    the Coulomb scale enter linearly (least squares inside the search over ``k_B``). The
+    model is integrated exactly over each step (matrix exponential of the augmented
+    system, inputs constant per step), ``joint_contact_steps`` steps over the contact and
+    at most ``joint_post_step`` after it, and interpolated to the sample times by cubic
+    Hermite. Each joint's samples are weighted by the inverse of its encoder resolution
+    (the same noise in counts on every joint): no joint's noise is mixed into another's,
+    as it is in the tip-position series of ``arm_model="lti"``.
+
+    Parameters
+    ----------
+    robot : campaign.robot.Robot
+    n : ndarray, shape (3,)
+        Unit impact direction, base frame.
+    t, Q : ndarray, shapes (N,), (N, nv)
+        Joint samples of the window (pre-contact, contact and post-contact).
+    c : Contact
+    cin : _ContactInput
+        The measured force shape.
+    ts, tau : ndarray, shapes (S,), (S, nv)
+        Servo tick times and commanded torques.
+    post_window : float
+        Post-contact window [s] (the samples ``Q`` already end there).
+    opt : IdentifyOptions
+    info : dict, optional
+        Receives ``sd_delta`` (standard deviation of ``v'_a - v_a`` from the residual
+        scatter), ``viscous_scale`` (``k_B``) and ``coulomb_iterations``.
+
+    Returns
+    -------
+    v_a, v_a_post : float
+        ``n . J(q_s) qd_s`` and ``n . J(q_e) qd(t_e)`` [m/s], ``q_e`` the fitted pose at
+        the contact end (the Jacobian moves by ~1 % over the contact at High gains).
+    """
+    model = robot.model
+    data = model.createData()
+    nv = model.nv
+    pre = t < c.start
+    q_s = Q[pre].mean(axis=0)
+    H = np.array(pin.crba(model, data, q_s))
+    H = np.triu(H) + np.triu(H, 1).T
+    Minv = np.linalg.inv(H)
+    G = np.array(pin.computeGeneralizedGravityDerivatives(model, data, q_s))
+    pin.framesForwardKinematics(model, data, q_s)
+    Jn_s = n @ pin.computeFrameJacobian(model, data, q_s, robot.impact_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+    visc = np.asarray(robot.viscous, float)
+    cpos, cneg = np.asarray(robot.coulomb_pos, float), np.asarray(robot.coulomb_neg, float)
+
+    grid = _joint_grid(c.start, c.end, max(float(t[-1]), c.end) + 1e-9, ts, opt)
+    K = grid.size - 1
+    steps = np.diff(grid)
+    i_end = opt.joint_contact_steps                      # grid[i_end] == c.end
+    # inputs, as cell means: normalised force, servo torque change from its value at t_s
+    force = _cell_means(grid, lambda x: np.interp(x, cin._tt, cin._I, left=0.0, right=1.0))
+    k0 = int(np.searchsorted(ts, c.start, side="right")) - 1
+    dtau = tau - tau[max(k0, 0)]
+    servo = _cell_means(grid, lambda x: _zoh_integral(ts, dtau, x))
+
+    after = t >= c.start
+    ta = t[after]
+    cell = np.clip(np.searchsorted(grid, ta, side="right") - 1, 0, K - 1)
+    hstep = steps[cell]
+    sfrac = (ta - grid[cell]) / hstep
+    # cubic Hermite weights (positions and velocities at the cell's ends)
+    s2, s3 = sfrac * sfrac, sfrac * sfrac * sfrac
+    h00, h10, h01, h11 = 2 * s3 - 3 * s2 + 1, (s3 - 2 * s2 + sfrac) * hstep, -2 * s3 + 3 * s2, (s3 - s2) * hstep
+    u_pre = t[~after] - c.start
+    wres = 1.0 / np.asarray(robot.encoder_resolution, float)
+    N = t.size
+
+    def at_samples(X):
+        """Joint positions (N, nv, m) at the sample times from node states X (K+1, 2nv, m)."""
+        P = np.zeros((N, nv, X.shape[2]))
+        P[after] = (h00[:, None, None] * X[cell, :nv] + h10[:, None, None] * X[cell, nv:]
+                    + h01[:, None, None] * X[cell + 1, :nv] + h11[:, None, None] * X[cell + 1, nv:])
+        return P
+
+    def propagate(kB: float, U: np.ndarray, X0: np.ndarray) -> np.ndarray:
+        """Node states (K+1, 2nv, m) of m input columns U (K, nv, m) from X0 (2nv, m)."""
+        A = np.zeros((2 * nv, 2 * nv))
+        A[:nv, nv:] = np.eye(nv)
+        A[nv:, :nv] = -Minv @ G
+        A[nv:, nv:] = -kB * Minv * visc[None, :]
+        aug = np.zeros((3 * nv, 3 * nv))
+        aug[:2 * nv, :2 * nv] = A
+        aug[nv:2 * nv, 2 * nv:] = Minv
+        cache = {}
+        X = np.empty((K + 1, 2 * nv, U.shape[2]))
+        X[0] = X0
+        for k in range(K):
+            key = round(float(steps[k]) * 1e10)
+            if key not in cache:
+                E = _expm(aug * steps[k])
+                cache[key] = (E[:2 * nv, :2 * nv], E[:2 * nv, 2 * nv:])
+            Phi, Gam = cache[key]
+            X[k + 1] = Phi @ X[k] + Gam @ U[k]
+        return X
+
+    def columns(signs):
+        """Inputs of the unknown-coefficient columns and the known servo input."""
+        cols_u, cols_x0, names = [], [], []
+        for j in range(nv):                       # pre-contact velocity of joint j
+            x0 = np.zeros(2 * nv)
+            x0[nv + j] = 1.0
+            cols_u.append(np.zeros((K, nv)))
+            cols_x0.append(x0)
+            names.append(("v", j))
+        for j in range(nv):                       # generalised impulse on joint j
+            u = np.zeros((K, nv))
+            u[:, j] = force
+            cols_u.append(u)
+            cols_x0.append(np.zeros(2 * nv))
+            names.append(("w", j))
+        fric = np.where(signs > 0, -cpos[None, :], np.where(signs < 0, cneg[None, :], 0.0))
+        if opt.joint_coulomb == "global":          # one scale of the drive file's Coulomb friction
+            cols_u.append(fric)
+            cols_x0.append(np.zeros(2 * nv))
+            names.append(("c", -1))
+        elif opt.joint_coulomb == "joint":         # one scale per joint
+            for j in range(nv):
+                u = np.zeros((K, nv))
+                u[:, j] = fric[:, j]
+                cols_u.append(u)
+                cols_x0.append(np.zeros(2 * nv))
+                names.append(("c", j))
+        else:                                      # a free constant per joint and sign
+            for j in range(nv):
+                for sg in (1.0, -1.0):
+                    on = signs[:, j] == sg
+                    if on.any():
+                        u = np.zeros((K, nv))
+                        u[on, j] = -sg
+                        cols_u.append(u)
+                        cols_x0.append(np.zeros(2 * nv))
+                        names.append(("c", j))
+        cols_u.append(servo)
+        cols_x0.append(np.zeros(2 * nv))
+        return np.stack(cols_u, axis=2), np.stack(cols_x0, axis=1), names
+
+    def solve(kB, signs):
+        U, X0, names = columns(signs)
+        X = propagate(kB, U, X0)
+        P = at_samples(X)
+        m = len(names)
+        D = np.zeros((N, nv, nv + m))
+        D[:, np.arange(nv), np.arange(nv)] = 1.0                 # q_s
+        D[:, :, nv:] = P[:, :, :m]
+        for j in range(nv):
+            D[~after, j, nv + j] = u_pre                          # the pre-contact line
+        y = Q - q_s - P[:, :, m]                                  # the servo part is known
+        Aw = (D * wres[None, :, None]).reshape(N * nv, nv + m)
+        yw = (y * wres[None, :]).reshape(-1)
+        sc = np.abs(Aw).max(axis=0)
+        sc[sc == 0] = 1.0
+        p, *_ = np.linalg.lstsq(Aw / sc, yw, rcond=None)
+        p = p / sc
+        r = Aw @ p - yw
+        return p, float(r @ r), X, names, Aw
+
+    def search(signs):
+        if not np.any(visc > 0):
+            return 0.0
+        from scipy.optimize import minimize_scalar
+        res = minimize_scalar(lambda k: solve(k, signs)[1], bounds=(0.0, opt.joint_viscous_max), method="bounded",
+                              options={"xatol": 1e-3})
+        return float(res.x)
+
+    # Coulomb signs: start with every joint moving one way (the free Coulomb coefficients
+    # take either sign), then the signs of the fitted velocities; the iterate with the
+    # smallest residual is kept (near a reversal the signs can cycle between two patterns)
+    signs = np.ones((K, nv))
+    best = None
+    for it in range(max(1, opt.joint_coulomb_iterations)):
+        kB = search(signs)
+        p, cost, X, names, Aw = solve(kB, signs)
+        if best is None or cost < best[1]:
+            best = (p, cost, X, names, Aw, kB)
+        m = len(names)
+        vel = X[:, nv:, :m] @ p[nv:] + X[:, nv:, m]
+        new = np.sign(0.5 * (vel[1:] + vel[:-1]))
+        if np.array_equal(new, signs):
+            break
+        signs = new
+    p, cost, X, names, Aw, kB = best
+    m = len(names)
+    qd_s = p[nv:2 * nv]
+    qd_e = X[i_end, nv:, :m] @ p[nv:] + X[i_end, nv:, m]
+    q_e = q_s + p[:nv] + X[i_end, :nv, :m] @ p[nv:] + X[i_end, :nv, m]
+    pin.framesForwardKinematics(model, data, q_e)
+    Jn_e = n @ pin.computeFrameJacobian(model, data, q_e, robot.impact_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+    v_pre, v_post = float(Jn_s @ qd_s), float(Jn_e @ qd_e)
+    if info is not None:
+        # standard deviation of v'_a - v_a from the residual scatter (linear unknowns at
+        # the fitted k_B and signs; one more degree of freedom for k_B)
+        gvec = np.zeros(nv + m)
+        gvec[nv:] = Jn_e @ X[i_end, nv:, :m]
+        gvec[nv:2 * nv] -= Jn_s
+        sc = np.abs(Aw).max(axis=0)
+        sc[sc == 0] = 1.0
+        row = np.linalg.pinv(Aw / sc).T @ (gvec / sc)
+        dof = max(Aw.shape[0] - Aw.shape[1] - 1, 1)
+        info["sd_delta"] = float(math.sqrt(cost / dof) * np.linalg.norm(row) / 1.0)
+        info["viscous_scale"] = kB
+        info["coulomb_iterations"] = it + 1
+    return v_pre, v_post
+
+
 def _tip_displacement(robot, q_cmd, n, t, s, t_s, t_e, post_window, opt):
     """Largest tip displacement along n after the contact relative to the pre-contact mean
     [m], and the joint encoders' resolution projected on the tip along n [m]."""
@@ -1140,6 +1460,18 @@ def _time(ds: xr.Dataset, dim: str, where: str) -> np.ndarray:
         raise InputError(f"{where}: time coordinate {dim!r} must be finite and strictly increasing "
                          f"with at least 2 samples")
     return t
+
+
+def _servo_channel(ds: xr.Dataset, nv: int, where: str):
+    """``(t_servo, tau_cmd)`` when the trial has a usable commanded-torque channel (dims
+    ``(t_servo, joint)``, ``nv`` joints, finite), else ``None`` (the joint model then falls
+    back to ``arm_model="lti"``)."""
+    if "tau_cmd" not in ds.variables or tuple(ds["tau_cmd"].dims) != ("t_servo", "joint"):
+        return None
+    tau = np.asarray(ds["tau_cmd"].values, float)
+    if tau.shape[1] != nv or tau.shape[0] < 2 or not np.all(np.isfinite(tau)):
+        return None
+    return _time(ds, "t_servo", where), tau
 
 
 def _finite_scalar(ds, name, where, positive=True) -> float:
@@ -1275,7 +1607,10 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
         reasons.append(f"only {nb_post} pendulum samples in the {w:g} s after the contact (or before the brake)")
 
     # 3. arm tip along n
-    post_window = opt.post_window(1.0 / float(np.median(np.diff(tj))))
+    rate = 1.0 / float(np.median(np.diff(tj)))
+    servo = _servo_channel(measured, nv, where) if opt.arm_model == "joint" and not flexible else None
+    joint_model = servo is not None and servo[0][0] <= c.start
+    post_window = opt.joint_model_window(rate) if joint_model else opt.post_window(rate)
     cin = _ContactInput(tf, f, c, c.end + post_window + 1e-3)
     win = (tj >= c.start - opt.joint_pre_window) & (tj <= c.end + post_window)
     tw = tj[win]
@@ -1311,7 +1646,10 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
             if not method_note:
                 method = want
     va_rel, va_post_rel, n_pre, n_con, n_post, why = _arm_fit(tw, s_arm, c.start, c.end, cin, post_window, opt,
-                                                             fit=method != "ft", info=info_enc)
+                                                             fit=method != "ft" and not joint_model, info=info_enc)
+    if joint_model and method != "ft" and not why:
+        va_rel, va_post_rel = _joint_dynamics_fit(robot, n, tw, Q[win], c, cin, servo[0], servo[1], post_window, opt,
+                                                  info=info_enc)
     if method == "ft" and not why:
         va_rel, va_post_rel = v_ft, v_ft_post
     elif method == "combined" and not why:
