@@ -69,7 +69,9 @@ real VES-II allows (paper section 3, design brief section 5):
    (2.0 %) and ``"combined"`` (1.9 %) beat the F/T at 50 Hz too (:data:`ACCURACY_NOTE`);
    ``auto`` is unchanged so far.
 
-   **Joint encoders** (``"encoders"``), default model ``arm_model="joint"``: the joint
+   **Joint encoders** (``"encoders"``), default model ``arm_model="joint"`` when the joint
+   samples are at most ``auto_joint_interval`` (5 ms) apart, else ``"lti"`` (below: over the
+   0.1 s a 50 Hz record needs, an inertia the nominal model lacks biases it): the joint
    samples of a pre-contact window (``joint_pre_window``, 0.2 s), the contact and a
    post-contact window ``max(joint_model_post_min, joint_post_samples / rate)`` (60 ms at
    1 kHz, 0.1 s = 5 samples at 50 Hz) are fitted, each joint weighted by its encoder
@@ -1608,7 +1610,13 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
 
     # 3. arm tip along n
     rate = 1.0 / float(np.median(np.diff(tj)))
-    servo = _servo_channel(measured, nv, where) if opt.arm_model == "joint" and not flexible else None
+    # the joint model propagates the nominal arm dynamics over its window: dense samples
+    # (<= auto_joint_interval) keep that window short; with 20 ms samples it would span
+    # 0.1 s, where an inertia the model does not know (the virtual rotor inertia lambda
+    # itself, in the lambda-recovery trials) biases m* by ~2 %: there the tip-space model serves
+    servo = (_servo_channel(measured, nv, where)
+             if opt.arm_model == "joint" and not flexible and 1.0 / rate <= opt.auto_joint_interval * (1 + 1e-9)
+             else None)
     joint_model = servo is not None and servo[0][0] <= c.start
     post_window = opt.joint_model_window(rate) if joint_model else opt.post_window(rate)
     cin = _ContactInput(tf, f, c, c.end + post_window + 1e-3)
