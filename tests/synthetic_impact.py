@@ -61,7 +61,7 @@ from campaign.paper import configuration_q
 from campaign.robot import load_robot
 from campaign.robot.floating import BaseBody, attach_to_floating_base
 
-__all__ = ["DECAYS", "Spec", "SyntheticTrial", "cached_trial", "make_trial", "write_trial"]
+__all__ = ["DECAYS", "Spec", "SyntheticTrial", "cached_trial", "make_trial", "truth_m_e", "write_trial"]
 
 DECAYS = ("none", "exponential", "viscous", "coulomb", "servo")
 _FINE_DT = 2e-5  # s, integration grid (50 kHz)
@@ -437,3 +437,11 @@ def write_trial(trial: SyntheticTrial, path):
     from campaign.archive import write_trial as archive_write
 
     return archive_write(trial.tree, path)
+
+
+def truth_m_e(measured, truth) -> tuple[float, float]:
+    """m* (eq 10) and e (eq 12) from a trial's true edge velocities (its ``truth`` group) and
+    its hammer mass: what identification is scored against (synthetic or rig trials)."""
+    va, vap = float(truth["v_a_pre"]), float(truth["v_a_post"])
+    vb, vbp = float(truth["v_b_pre"]), float(truth["v_b_post"])
+    return float(measured["hammer_mass_eff"]) * (vb - vbp) / (vap - va), (vap - vbp) / (vb - va)

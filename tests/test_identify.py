@@ -12,7 +12,7 @@ import json
 
 import numpy as np
 import pytest
-from synthetic_impact import cached_trial, make_trial, write_trial
+from synthetic_impact import cached_trial, make_trial, truth_m_e, write_trial
 
 from campaign.cli import main
 from campaign.errors import InputError, TrialFileError
@@ -223,12 +223,6 @@ def test_synthetic_generator_is_consistent_with_eq_11(puma):
 
 
 # -- F/T momentum method (issue 6) -----------------------------------------------------
-def _truth_m_e(measured, truth):
-    va, vap = float(truth["v_a_pre"]), float(truth["v_a_post"])
-    vb, vbp = float(truth["v_b_pre"]), float(truth["v_b_post"])
-    return float(measured["hammer_mass_eff"]) * (vb - vbp) / (vap - va), (vap - vbp) / (vb - va)
-
-
 @pytest.fixture(scope="module")
 def high_gain_trials():
     """Rig trials at High gains with the paper's 50 Hz encoders: the case the encoder
@@ -250,7 +244,7 @@ def test_ft_momentum_on_high_gain_rig_trials_at_50hz(puma, high_gain_trials):
         r = identify_trial(measured, robot=puma, meta=attrs)
         assert not r.excluded, r.reason
         assert r.arm_velocity == "ft", r.arm_velocity_note
-        m_true, e_true = _truth_m_e(measured, truth)
+        m_true, e_true = truth_m_e(measured, truth)
         assert abs(r.m_eff / m_true - 1) < 0.03, (attrs["config"], attrs["speed"], r.m_eff, m_true)
         assert abs(r.e / e_true - 1) < 0.03
 
@@ -364,7 +358,7 @@ def test_hammer_velocities_from_the_pendulum_ode_at_1khz(puma):
             vb, vbp = float(truth["v_b_pre"]), float(truth["v_b_post"])
             worst_new = max(worst_new, abs(r.v_b - vb), abs(r.v_b_post - vbp))
             worst_old = max(worst_old, abs(old.v_b - vb), abs(old.v_b_post - vbp))
-            _, e_true = _truth_m_e(measured, truth)
+            _, e_true = truth_m_e(measured, truth)
             assert abs(r.e / e_true - 1) < 0.002, (config, repeat, r.e, e_true)
     assert worst_new < 5e-4, worst_new
     assert worst_old > 1e-3, worst_old          # what the equation-of-motion fit removed
@@ -378,7 +372,7 @@ def test_high_gain_slowest_tip_at_1khz(puma):
     r = identify_trial(measured, robot=puma, meta=attrs)
     assert not r.excluded, r.reason
     assert r.arm_velocity == "encoders"
-    m_true, e_true = _truth_m_e(measured, truth)
+    m_true, e_true = truth_m_e(measured, truth)
     assert abs(r.m_eff / m_true - 1) < 0.022
     assert abs(r.e / e_true - 1) < 0.005
 
@@ -388,5 +382,5 @@ def test_combined_arm_velocity_runs_on_a_rig_trial(puma):
     r = identify_trial(measured, robot=puma, meta=attrs, options=IdentifyOptions(arm_velocity="combined"))
     assert not r.excluded, r.reason
     assert r.arm_velocity == "combined", r.arm_velocity_note
-    m_true, _ = _truth_m_e(measured, truth)
+    m_true, _ = truth_m_e(measured, truth)
     assert abs(r.m_eff / m_true - 1) < 0.01

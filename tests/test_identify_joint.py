@@ -11,12 +11,7 @@ import pytest
 
 from campaign.errors import InputError
 from campaign.identify import IdentifyOptions, identify_trial
-
-
-def _truth_m_e(measured, truth):
-    va, vap = float(truth["v_a_pre"]), float(truth["v_a_post"])
-    vb, vbp = float(truth["v_b_pre"]), float(truth["v_b_post"])
-    return float(measured["hammer_mass_eff"]) * (vb - vbp) / (vap - va), (vap - vbp) / (vb - va)
+from synthetic_impact import truth_m_e
 
 
 @pytest.fixture(scope="module")
@@ -40,7 +35,7 @@ def test_joint_model_meets_1pct_on_the_slowest_high_gain_trials(puma, slow_high_
         r = identify_trial(measured, robot=puma, meta=attrs)
         assert not r.excluded, r.reason
         assert r.arm_velocity == "encoders"
-        m_true, e_true = _truth_m_e(measured, truth)
+        m_true, e_true = truth_m_e(measured, truth)
         assert abs(r.m_eff / m_true - 1) < 0.01, (attrs["repeat"], r.m_eff, m_true)
         assert abs(r.e / e_true - 1) < 0.005
 
@@ -84,7 +79,7 @@ def test_joint_model_beats_the_tip_space_model_on_these_trials(puma, slow_high_g
         errs = []
         for measured, truth, attrs in slow_high_gain_1khz:
             r = identify_trial(measured, robot=puma, meta=attrs, options=IdentifyOptions(arm_model=model))
-            errs.append(abs(r.m_eff / _truth_m_e(measured, truth)[0] - 1))
+            errs.append(abs(r.m_eff / truth_m_e(measured, truth)[0] - 1))
         worst[model] = max(errs)
     assert worst["joint"] < worst["lti"], worst
 
