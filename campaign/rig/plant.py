@@ -243,12 +243,9 @@ class FixedBasePlant:
         if contact_v0 is None and not with_gap:
             return tau, 0.0, None
         delta, ddelta, Jn = self.gap(x)
-        if contact_v0 is None or delta <= 0.0:
-            return tau, 0.0, (delta, ddelta)
-        F = self._k * delta**self._p * (1.0 + self._d * ddelta / contact_v0)
-        if F <= 0.0:
-            return tau, 0.0, (delta, ddelta)
-        tau += Jn * F
+        F = 0.0 if contact_v0 is None else self.contact_force(delta, ddelta, contact_v0)
+        if F > 0.0:
+            tau += Jn * F
         return tau, F, (delta, ddelta)
 
     def _derivative(self, x, a, F: float, caught: bool):
