@@ -126,6 +126,28 @@ class PID:
         self._kI = self.scale * self.I * self.period
         self._ref = np.rint(self._ref_counts) if self.quantize else self._ref_counts
         self._lo = -np.asarray(self.tau_max, dtype=float)
+        # the per-joint constants as Python floats for update() (see there)
+        self._joints = list(zip(np.asarray(self.resolution, dtype=float).tolist(), self._ref.tolist(),
+                                np.asarray(self.tau_gc, dtype=float).tolist(), self._lo.tolist(),
+                                np.asarray(self.tau_max, dtype=float).tolist()))
+
+    @property
+    def e_prev(self) -> np.ndarray:
+        """Position error of the last tick [counts]."""
+        return np.array(self._e_prev)
+
+    @e_prev.setter
+    def e_prev(self, value) -> None:
+        self._e_prev = np.asarray(value, dtype=float).tolist()
+
+    @property
+    def e_sum(self) -> np.ndarray:
+        """Sum of the position errors of all ticks so far [counts] (the integral over T)."""
+        return np.array(self._e_sum)
+
+    @e_sum.setter
+    def e_sum(self, value) -> None:
+        self._e_sum = np.asarray(value, dtype=float).tolist()
 
     def hold_static(self, tau_needed: np.ndarray) -> None:
         """Start at rest on the reference with the integrator wound up to ``tau_needed``
@@ -140,13 +162,21 @@ class PID:
     def update(self, q: np.ndarray) -> np.ndarray:
         """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m].
 
-        Called at every servo tick of every trial: NumPy's ``clip`` and ``round`` wrappers
-        cost more than the arithmetic here, so their ufuncs are called directly."""
+        Called at every servo tick of every trial on 3-6 joints, where a NumPy call costs
+        more than its arithmetic: the law runs on Python floats, operation for operation
+        what the vector form ``kP e + kD (e - e_prev) + kI sum(e) + tau_gc``, clipped to the
+        peak torques, gives (``round`` rounds half to even, as ``np.rint``)."""
         if not self.active:
             return np.minimum(np.maximum(self.tau_gc, self._lo), self.tau_max)
-        c = q / self.resolution
-        e = self._ref - (np.rint(c) if self.quantize else c)
-        self.e_sum = self.e_sum + e
-        u = self._kP * e + self._kD * (e - self.e_prev) + self._kI * self.e_sum + self.tau_gc
-        self.e_prev = e
-        return np.minimum(np.maximum(u, self._lo), self.tau_max)
+        kP, kD, kI, quantize = self._kP, self._kD, self._kI, self.quantize
+        e_prev, e_sum = self._e_prev, self._e_sum
+        out = []
+        for j, (qj, (res, ref, gc, lo, hi)) in enumerate(zip(q.tolist(), self._joints)):
+            c = qj / res
+            e = ref - (float(round(c)) if quantize else c)
+            s = e_sum[j] + e
+            u = kP * e + kD * (e - e_prev[j]) + kI * s + gc
+            e_sum[j] = s
+            e_prev[j] = e
+            out.append(hi if u > hi else (lo if u < lo else u))
+        return np.array(out)

@@ -338,6 +338,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         pin.framesForwardKinematics(self.fmodel, self.fdata, self._qfull(self.q0_arm, 0.0)[0])
         self.p_tip0 = np.array(self.fdata.oMf[self.ffid].translation)
         self._s0 = float(self.n @ self.p_tip0)
+        self._M_ftip = self.fdata.oMf[self.ffid]     # live reference (see FixedBasePlant.tip)
 
     # -- the emulator ------------------------------------------------------------------
     def reset_loop(self, t_last: float):
@@ -393,11 +394,17 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     def tip(self, q, t=None):
         model, data = self.fmodel, self.fdata
         qf, vb, _ = self._qfull(q, self._t if t is None else t)
-        n = self.n
         # one call gives the frame's world-aligned Jacobian and updates its placement
-        J = n @ pin.computeFrameJacobian(model, data, qf, self.ffid, pin.LOCAL_WORLD_ALIGNED)[:3]
+        J = pin.computeFrameJacobian(model, data, qf, self.ffid, pin.LOCAL_WORLD_ALIGNED)
+        p = self._M_ftip.translation
+        if self._axis is not None:       # n = sign e_i: the same numbers as the products below
+            i, sign = self._axis
+            J, s = (-J[i], -float(p[i])) if sign < 0 else (J[i], float(p[i]))
+        else:
+            n = self.n
+            J, s = n @ J[:3], float(n @ p)
         self._tip_base_speed = float(J[:6] @ vb)
-        return float(n @ data.oMf[self.ffid].translation) - self._s0, J[6:]
+        return s - self._s0, J[6:]
 
     def gap(self, x):
         na = self.na
