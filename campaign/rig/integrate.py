@@ -431,7 +431,7 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             t = k_tick * T
             ts[-1] = t
             tau_new = plant.servo(pid.update(x[arm_q]))
-            changed = bool((tau_new != tau).any())
+            changed = tau_new.tolist() != tau.tolist()   # (lists: a NumPy reduction costs 2 us)
             if changed:      # keep the same object otherwise: evaluations at this state stay valid
                 tau = tau_new
             servo_t.append(t)
