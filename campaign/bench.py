@@ -61,6 +61,10 @@ __all__ = [
 TARGET_FIXED = 0.025
 TARGET_FLEXIBLE = 0.150
 TARGET_WRITE = 0.050
+#: the naive baseline's time on the machine the rig issue's targets were set on ("about
+#: 350 ms", issue 3) [s]: the per-trial times are also reported scaled by this over the
+#: same run's baseline, so a slower or busier machine does not decide the verdict alone
+BASELINE_AT_TARGETS = 0.350
 #: accuracy target of issue 8 for m* and e at the default setting (relative)
 TARGET_REL_ERR = 1e-3
 #: the reference is the same scene at this multiple of the default substeps (in and out of contact)
@@ -789,9 +793,17 @@ def format_cost(c: dict[str, Any]) -> str:
         lo, hi = c["sim_range"][group]
         gains = ", ".join(f"{g} {c['per_gain'][(group, g)] * 1e3:.0f}" for g in ("zero", "low", "high")
                           if (group, g) in c["per_gain"])
+        scaled = c["sim"][group] * BASELINE_AT_TARGETS / c["baseline"]["naive_integration"]
+        if c["sim"][group] <= target:
+            verdict = "met"
+        elif scaled <= target:
+            verdict = "missed here; met at the targets' machine speed"
+        else:
+            verdict = "missed"
         rows.append([group, c["sim_n"][group], f"**{c['sim'][group] * 1e3:.0f}**", f"{lo * 1e3:.0f}-{hi * 1e3:.0f}",
-                     f"{target * 1e3:.0f}", ("met" if c["sim"][group] <= target else "missed") + f"; by gain: {gains}"])
-    table1 = _md(["base", "trials timed", "median simulation [ms]", "min-max [ms]", "target [ms]", "verdict"], rows)
+                     f"{scaled * 1e3:.0f}", f"{target * 1e3:.0f}", f"{verdict}; by gain: {gains}"])
+    table1 = _md(["base", "trials timed", "median simulation [ms]", "min-max [ms]",
+                  f"scaled to a {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline [ms]", "target [ms]", "verdict"], rows)
     wrows = [[g, f"**{v * 1e3:.1f}**", f"{TARGET_WRITE * 1e3:.0f}", "met" if v <= TARGET_WRITE else "missed"]
              for g, v in c["write"].items()]
     table2 = _md(["base", "median write_trial [ms]", "target [ms]", "verdict"], wrows)
@@ -803,7 +815,10 @@ def format_cost(c: dict[str, Any]) -> str:
         ["the rig's RK4 forced to a uniform 0.1 ms step (10/10 substeps)", f"{b['uniform_0p1ms'] * 1e3:.0f}"],
         ["**the rig at its default setting** (simulation incl. channels)", f"**{b['ours_same_scene'] * 1e3:.0f}**"],
     ])
-    return "\n\n".join([table1, table2, table3,
+    scale_note = (f"The scaled column is the median times {BASELINE_AT_TARGETS * 1e3:.0f} ms / the naive baseline of "
+                  f"this run ({b['naive_integration'] * 1e3:.0f} ms): issue 3 set the targets where that baseline took "
+                  f"about {BASELINE_AT_TARGETS * 1e3:.0f} ms, so it is the time this rig would take on that machine.")
+    return "\n\n".join([table1, scale_note, table2, table3,
                         f"Identification of one trial (not part of the simulation time): median "
                         f"{c['identify'] * 1e3:.1f} ms."])
 
