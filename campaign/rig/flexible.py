@@ -97,6 +97,15 @@ class _FloatingMixin:
         self._fext = pin.StdVec_Force()
         for _ in range(self.fmodel.njoints):
             self._fext.append(pin.Force.Zero())
+        # the F/T sample's own external forces (zero but on the impact link while it is
+        # set), the impact link and the impact point in its frame, read once (indexing
+        # model.frames copies a Frame)
+        self._fext_ft = pin.StdVec_Force()
+        for _ in range(self.fmodel.njoints):
+            self._fext_ft.append(pin.Force.Zero())
+        tip_frame = self.fmodel.frames[self.ffid]
+        self._tip_jid = tip_frame.parentJoint
+        self._tip_r = tuple(np.array(tip_frame.placement.translation).tolist())
         g = np.array([0.0, 0.0, -gravity])
         self.w_static = static_arm_wrench(robot, self.q0_arm, g, mount=self.frobot.base.mount)
         self.gravity_vec = g
@@ -109,17 +118,14 @@ class _FloatingMixin:
         # wrench into the mount's axes come from this configuration's forward kinematics
         pin.forwardKinematics(model, data, q7full)
         if F > 0.0:
-            fext = self._fext
-            for i in range(len(fext)):
-                fext[i] = pin.Force.Zero()
-            jid = model.frames[self.ffid].parentJoint
-            R = data.oMi[jid].rotation
-            f_local = R.T @ (self.n * F)
-            r = model.frames[self.ffid].placement.translation
-            fext[jid] = pin.Force(f_local, np.array([r[1] * f_local[2] - r[2] * f_local[1],
-                                                     r[2] * f_local[0] - r[0] * f_local[2],
-                                                     r[0] * f_local[1] - r[1] * f_local[0]]))
+            jid = self._tip_jid
+            # the moment r x f in Python floats: the same IEEE products as NumPy's scalars
+            f0, f1, f2 = (data.oMi[jid].rotation.T @ (self.n * F)).tolist()
+            r0, r1, r2 = self._tip_r
+            fext = self._fext_ft
+            fext[jid] = pin.Force(np.array([f0, f1, f2, r1 * f2 - r2 * f1, r2 * f0 - r0 * f2, r0 * f1 - r1 * f0]))
             pin.rnea(model, data, q7full, vfull, afull, fext)
+            fext[jid] = pin.Force.Zero()
         else:   # no external force: plain RNEA (same forces, none of the fext set-up)
             pin.rnea(model, data, q7full, vfull, afull)
         pin.updateFramePlacement(model, data, self.mount_id)
