@@ -6,7 +6,7 @@ import warnings
 
 import numpy as np
 import pytest
-from synthetic_impact import cached_trial
+from synthetic_impact import cached_trial, truth_m_e
 
 from campaign.errors import InputError
 from campaign.exiit import effective_mass_batch
@@ -85,23 +85,64 @@ def test_full_structure_is_symmetric_psd(puma):
     np.testing.assert_allclose(f.predict(Q), m, rtol=1e-3)
 
 
-def test_lambda_recovery_from_identified_synthetic_trials(puma, Q3):
-    """End to end: trials simulated with a known lambda as extra armature (no friction or
-    servo), identified from their measured channels, fitted: lambda_3 within 5 %, CIs
-    cover all three true values, eq 11 with the fitted lambda predicts every cell's mean
-    identified m* within 5 %."""
-    Q, m, cells = [], [], {}
+#: joint-encoder rates of the lambda-recovery design: the paper's 50 Hz (identification by
+#: the tip-space ``lti`` model) and 1 kHz (the joint-space model built with the nominal arm
+#: inertia, which lacks the lambda the trials carry)
+JOINT_RATES = (50.0, 1000.0)
+#: why the 1 kHz recovery misses its CIs (measured; issue 6): eq 10's m*, which
+#: identification reproduces (test below), sits +0.4 .. +1.1 % above eq 11 on these trials'
+#: 40 ms contacts -- the pendulum's gravity impulse during the contact (+0.34 .. +0.54 %) and
+#: the arm's Jacobian change over it (J(q_e) against J(q_s), up to +0.75 %, growing with
+#: speed) -- and at 1 kHz the bootstrap CIs are narrow enough (lambda_3 about +-1 %) to
+#: exclude the truth; the missing lambda in the joint model is not the cause
+#: (test_joint_model_is_not_biased_by_the_lambda_its_nominal_model_lacks)
+NON_IMPULSIVE_1KHZ = ("eq 10's m* departs from eq 11 by +0.4..+1.1 % on 40 ms contacts (hammer gravity, "
+                      "Jacobian change over the contact); the 1 kHz CIs of lambda_1 and lambda_3 exclude the truth")
+
+
+def _lambda_trials(joint_rate, **kw):
+    """The lambda-recovery design: configurations 1-3 x 1.2/1.8/2.4 m/s x 2 repeats, the
+    paper's lambda as extra armature, no friction or servo (``decay="none"``)."""
     seed = 300
     for config in (1, 2, 3):
         for speed in (1.2, 1.8, 2.4):
             for repeat in range(2):
                 seed += 1
-                tr = cached_trial(config=config, speed=speed, decay="none", lam=tuple(LAM), seed=seed, repeat=repeat)
-                r = identify_trial(tr.measured, robot=puma)
-                assert not r.excluded, r.reason
-                Q.append(r.q_cmd)
-                m.append(r.m_eff)
-                cells.setdefault(config, []).append(r.m_eff)
+                yield config, cached_trial(config=config, speed=speed, decay="none", lam=tuple(LAM), seed=seed,
+                                           repeat=repeat, joint_rate=joint_rate, **kw)
+
+
+@pytest.fixture(scope="module")
+def identified_lambda_trials(puma):
+    """``rate -> [(config, trial, identification)]`` with default options, identified once
+    per rate for the tests below (the 1 kHz identification takes a few seconds)."""
+    cache = {}
+
+    def get(rate):
+        if rate not in cache:
+            cache[rate] = [(config, tr, identify_trial(tr.measured, robot=puma)) for config, tr in _lambda_trials(rate)]
+        return cache[rate]
+
+    return get
+
+
+@pytest.mark.parametrize("joint_rate", [
+    50.0,
+    pytest.param(1000.0, marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=NON_IMPULSIVE_1KHZ)),
+])
+def test_lambda_recovery_from_identified_synthetic_trials(puma, Q3, identified_lambda_trials, joint_rate):
+    """End to end: trials simulated with a known lambda as extra armature (no friction or
+    servo), identified from their measured channels with default options, fitted:
+    lambda_3 within 5 %, CIs cover all three true values, eq 11 with the fitted lambda
+    predicts every cell's mean identified m* within 5 %. At 1 kHz a known miss (strict
+    xfail: it fails once the cause, :data:`NON_IMPULSIVE_1KHZ`, is dealt with, so the
+    marker must go then)."""
+    Q, m, cells = [], [], {}
+    for config, _, r in identified_lambda_trials(joint_rate):
+        assert not r.excluded, r.reason
+        Q.append(r.q_cmd)
+        m.append(r.m_eff)
+        cells.setdefault(config, []).append(r.m_eff)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)
         f = LambdaFit(puma, n_bootstrap=60, random_state=0).fit(np.array(Q), np.array(m))
@@ -110,6 +151,47 @@ def test_lambda_recovery_from_identified_synthetic_trials(puma, Q3):
     pred = f.predict(Q3)
     for k, config in enumerate((1, 2, 3)):
         assert pred[k] == pytest.approx(np.mean(cells[config]), rel=0.05)
+
+
+def test_identified_m_eff_of_the_lambda_trials_at_1khz_is_eq10_within_1pct(identified_lambda_trials):
+    """What identification is asked for at 1 kHz (issue 6: m* within 1 %), on the
+    lambda-recovery trials: every trial's m* within 1 % of eq 10 on its true edge
+    velocities, e within 0.5 % -- so the 1 kHz recovery's miss is eq 10 against eq 11,
+    not the identification."""
+    for _, tr, r in identified_lambda_trials(1000.0):
+        assert not r.excluded, r.reason
+        assert r.arm_velocity == "encoders"
+        m_true, e_true = truth_m_e(tr.measured, tr.tree["truth"].to_dataset())
+        assert abs(r.m_eff / m_true - 1) < 0.01, (tr.truth["contact_start"], r.m_eff, m_true)
+        assert abs(r.e / e_true - 1) < 0.005
+
+
+def test_joint_model_is_not_biased_by_the_lambda_its_nominal_model_lacks(puma, monkeypatch):
+    """The 1 kHz default (joint-space model with the nominal arm inertia) on noise-free
+    encoders: the same trials (seed, contact phase) with and without lambda as extra
+    armature give the same relative error in v'_a - v_a within 0.1 % (a tenth of the 1 %
+    target): the generalised impulses are fitted per joint, so an inertia the model lacks
+    does not enter the tip velocity over the 1 kHz window."""
+    from campaign import identify as idm
+
+    calls = []
+    orig = idm._joint_dynamics_fit
+
+    def spy(*args, **kw):
+        calls.append(1)
+        return orig(*args, **kw)
+
+    monkeypatch.setattr(idm, "_joint_dynamics_fit", spy)
+    for config, seed in ((1, 303), (2, 309), (3, 315)):
+        err = []
+        for lam in (tuple(LAM), (0.0, 0.0, 0.0)):
+            tr = cached_trial(config=config, speed=1.8, decay="none", lam=lam, seed=seed, joint_rate=1000.0,
+                              encoder_noise_counts=0.0, quantize=False)
+            r = identify_trial(tr.measured, robot=puma)
+            assert not r.excluded, r.reason
+            err.append((r.v_a_post - r.v_a) / (tr.truth["v_a_post"] - tr.truth["v_a_pre"]) - 1)
+        assert abs(err[0] - err[1]) < 1e-3, (config, err)
+    assert len(calls) == 6          # the joint model did the work, not a fallback
 
 
 def test_bad_input_is_named(puma, Q3):
