@@ -61,7 +61,8 @@ from campaign.paper import configuration_q
 from campaign.robot import load_robot
 from campaign.robot.floating import BaseBody, attach_to_floating_base
 
-__all__ = ["DECAYS", "Spec", "SyntheticTrial", "cached_trial", "make_trial", "truth_m_e", "write_trial"]
+__all__ = ["DECAYS", "Spec", "SyntheticTrial", "cached_trial", "make_trial", "truth_m_e", "truth_m_impulse",
+           "write_trial"]
 
 DECAYS = ("none", "exponential", "viscous", "coulomb", "servo")
 _FINE_DT = 2e-5  # s, integration grid (50 kHz)
@@ -445,3 +446,34 @@ def truth_m_e(measured, truth) -> tuple[float, float]:
     va, vap = float(truth["v_a_pre"]), float(truth["v_a_post"])
     vb, vbp = float(truth["v_b_pre"]), float(truth["v_b_post"])
     return float(measured["hammer_mass_eff"]) * (vb - vbp) / (vap - va), (vap - vbp) / (vb - va)
+
+
+def truth_m_impulse(measured, truth, robot) -> float:
+    """Eq 11's impulsive-limit m* of a trial from its truth: the true contact impulse over
+    the true tip velocity change through the Jacobian at the contact start,
+    ``P / n.J(q_s) (qd(t_e) - qd(t_s))`` -- what identification with
+    ``m_eff_estimator="impulse"`` is scored against (synthetic or rig trials).
+
+    ``n.J(q_s) qd(t_s)`` is the true ``v_a_pre``, and ``n.J(q_s) qd(t_e)`` the true
+    ``v_a_post`` less ``n.(J(q_e) - J(q_s)) qd(t_e)``; only that correction (< 1 % of the
+    velocity change) takes ``q`` and ``qd`` interpolated from the truth samples, so their
+    spacing (1 ms) hardly enters. On the impulsive synthetic trials (``decay="none"``, fixed
+    base) it is eq 11 with the trial's lambda.
+    """
+    robot = _robot(robot) if isinstance(robot, str) else robot
+    t = np.asarray(truth["t_truth"].values, float)
+    q, v = np.asarray(truth["q"].values, float), np.asarray(truth["v"].values, float)
+    t_s, t_e = float(truth["contact_start"]), float(truth["contact_end"])
+    n = unit_direction(np.asarray(measured["impact_direction"].values, float))
+
+    def at(x, tq):
+        return np.array([np.interp(tq, t, x[:, k]) for k in range(x.shape[1])])
+
+    def jn(qq):
+        data = robot.model.createData()
+        pin.framesForwardKinematics(robot.model, data, qq)
+        return n @ impact_jacobian(robot.model, data, qq, robot.impact_frame_id)[:3]
+
+    qd_e = at(v, t_e)
+    dv = float(truth["v_a_post"]) - float(truth["v_a_pre"]) - float((jn(at(q, t_e)) - jn(at(q, t_s))) @ qd_e)
+    return float(truth["impulse"]) / dv
