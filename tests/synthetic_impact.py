@@ -56,6 +56,7 @@ from campaign.schema import SCHEMA_VERSION
 from scipy.integrate import solve_ivp
 from scipy.signal import cont2discrete, lfilter
 
+from campaign.bench import truth_m_impulse as _truth_m_impulse
 from campaign.exiit import impact_jacobian, inertia, lambda_matrix, unit_direction
 from campaign.paper import configuration_q
 from campaign.robot import load_robot
@@ -449,31 +450,6 @@ def truth_m_e(measured, truth) -> tuple[float, float]:
 
 
 def truth_m_impulse(measured, truth, robot) -> float:
-    """Eq 11's impulsive-limit m* of a trial from its truth: the true contact impulse over
-    the true tip velocity change through the Jacobian at the contact start,
-    ``P / n.J(q_s) (qd(t_e) - qd(t_s))`` -- what identification with
-    ``m_eff_estimator="impulse"`` is scored against (synthetic or rig trials).
-
-    ``n.J(q_s) qd(t_s)`` is the true ``v_a_pre``, and ``n.J(q_s) qd(t_e)`` the true
-    ``v_a_post`` less ``n.(J(q_e) - J(q_s)) qd(t_e)``; only that correction (< 1 % of the
-    velocity change) takes ``q`` and ``qd`` interpolated from the truth samples, so their
-    spacing (1 ms) hardly enters. On the impulsive synthetic trials (``decay="none"``, fixed
-    base) it is eq 11 with the trial's lambda.
-    """
-    robot = _robot(robot) if isinstance(robot, str) else robot
-    t = np.asarray(truth["t_truth"].values, float)
-    q, v = np.asarray(truth["q"].values, float), np.asarray(truth["v"].values, float)
-    t_s, t_e = float(truth["contact_start"]), float(truth["contact_end"])
-    n = unit_direction(np.asarray(measured["impact_direction"].values, float))
-
-    def at(x, tq):
-        return np.array([np.interp(tq, t, x[:, k]) for k in range(x.shape[1])])
-
-    def jn(qq):
-        data = robot.model.createData()
-        pin.framesForwardKinematics(robot.model, data, qq)
-        return n @ impact_jacobian(robot.model, data, qq, robot.impact_frame_id)[:3]
-
-    qd_e = at(v, t_e)
-    dv = float(truth["v_a_post"]) - float(truth["v_a_pre"]) - float((jn(at(q, t_e)) - jn(at(q, t_s))) @ qd_e)
-    return float(truth["impulse"]) / dv
+    """Eq 11's impulsive-limit m* of a trial from its truth
+    (:func:`campaign.bench.truth_m_impulse`); ``robot`` may be a robot name."""
+    return _truth_m_impulse(measured, truth, _robot(robot) if isinstance(robot, str) else robot)
