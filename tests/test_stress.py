@@ -126,6 +126,7 @@ def test_cost_verdict_scales_by_the_same_runs_baseline():
     the targets were set on (this run's naive baseline against issue 3's ~350 ms), or missed."""
     def cost(sim_fixed, naive):
         return dict(sim={"fixed": sim_fixed}, sim_n={"fixed": 3}, sim_range={"fixed": (sim_fixed, sim_fixed)},
+                    sim_scaled={"fixed": sim_fixed * bench.BASELINE_AT_TARGETS / naive}, naive_between=(naive,) * 3,
                     per_gain={("fixed", "zero"): sim_fixed}, write={"fixed": 0.02}, identify=0.03, skipped=[],
                     baseline=dict(naive_integration=naive, naive_trial=naive, ours_same_scene=sim_fixed,
                                   uniform_0p1ms=0.2))
