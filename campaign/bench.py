@@ -834,8 +834,8 @@ def format_cost(c: dict[str, Any]) -> str:
                   f"{nb[0] * 1e3:.0f} ms, {nb[1] * 1e3:.0f}-{nb[2] * 1e3:.0f} ms over the run: the machine's speed "
                   f"drifts within a run): issue 3 set the targets where that baseline took "
                   f"about {BASELINE_AT_TARGETS * 1e3:.0f} ms, so it estimates the time on that machine, if this naive RK4 is "
-                  "the one the issue timed (not checkable; on this kind of machine it has taken 518-1054 ms, with the "
-                  "load). The machine-independent figure is the rig's ratio to the "
+                  "the one the issue timed (not checkable; the range above shows how much the shared machine drifts). "
+                  "The machine-independent figure is the rig's ratio to the "
                   "baseline in the last table.")
     return "\n\n".join([table1, scale_note, table2, table3,
                         f"Identification of one trial (not part of the simulation time): median "
