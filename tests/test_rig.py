@@ -416,3 +416,59 @@ def test_constrained_dynamics_through_locked_joints_equal_the_crba_solve(base):
         assert np.allclose(a, a_ref, rtol=1e-9, atol=1e-9 * scale), modes
         assert np.allclose(lam, lam_ref, rtol=1e-9, atol=1e-9 * max(1.0, float(np.max(np.abs(tau))))), modes
         assert np.all(a[fs.stuck] == 0.0)
+
+
+@pytest.mark.parametrize("base", ["fixed", "flexible"])
+def test_hot_path_shortcuts_give_the_same_numbers_as_the_general_forms(base):
+    """The integrator's shortcuts are the general computation bit for bit: the RK4 stage
+    ``rhs`` (loads and derivative inlined) equals ``evaluate``'s derivative in and out of
+    contact, caught or not, for every stick/slip assignment; the tip projection on the
+    axis-aligned impact direction equals ``n @ p`` and ``n @ J``; the PID on Python floats
+    equals its vector law."""
+    import importlib
+    import itertools
+
+    import pinocchio as pin
+
+    sim = importlib.import_module("campaign.rig.simulate")
+    rig = sim.build(make_scene(base=base, config=2, gain="high", speed=2.0))
+    plant = rig.plant
+    nv = plant.nv
+    rng = np.random.default_rng(5)
+    x = np.zeros(plant.size)
+    x[:nv] = plant.q0 + rng.normal(0.0, 0.05, nv)
+    t = rig.t_contact + 0.0004                   # inside the VES emulator's first tick
+    plant._t = t
+    # the head 2 mm into the tip (in contact), closing at ~1 m/s
+    x[plant.i_th] = np.arcsin((plant.tip(x[:nv])[0] + 2e-3) / plant.pend.radius)
+    x[plant.i_thd] = 1.0 / plant.pend.radius
+    tau = rng.normal(0.0, 20.0, nv)
+    for modes, contact_v0, caught in itertools.product(itertools.product((0, 1, -1), repeat=nv),
+                                                       (None, 2.0), (False, True)):
+        modes = np.array(modes)
+        x[plant.i_v] = np.where(modes == 0, 0.0, rng.normal(0.0, 0.3, nv))
+        fs = plant.friction_state(modes, x[:nv])
+        xd = plant.rhs(x, tau, fs, contact_v0, caught, t)
+        xd_ref = plant.evaluate(x, tau, fs, contact_v0, caught, t)[0]
+        assert np.array_equal(xd, xd_ref), (modes, contact_v0, caught)
+        if contact_v0 is not None:
+            assert xd[plant.i_P] > 0.0            # the contact force acted
+
+    if base == "fixed":
+        assert plant._axis == (0, -1.0)          # the paper's n = -x takes the shortcut
+        s, Jn = plant.tip(x[:nv])
+        J = pin.computeFrameJacobian(plant.model, plant.data, x[:nv], plant.fid, pin.LOCAL_WORLD_ALIGNED)
+        p = plant.data.oMf[plant.fid].translation
+        assert s == float(plant.n @ p) - plant._s0
+        assert np.array_equal(Jn, plant.n @ J[:3])
+
+    pid = rig.pid
+    e_prev, e_sum = pid.e_prev, pid.e_sum
+    for _ in range(5):
+        q = pid.q_ref + rng.normal(0.0, 2e-3, nv)
+        e = pid._ref - np.rint(q / pid.resolution)
+        e_sum = e_sum + e
+        u = pid._kP * e + pid._kD * (e - e_prev) + pid._kI * e_sum + pid.tau_gc
+        e_prev = e
+        assert np.array_equal(pid.update(q), np.minimum(np.maximum(u, -pid.tau_max), pid.tau_max))
+    assert np.array_equal(pid.e_prev, e_prev) and np.array_equal(pid.e_sum, e_sum)
