@@ -749,6 +749,7 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
     naive_scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
     naive_rk4(naive_scene)   # warm-up
     scaled: dict[str, list] = {}
+    writes_scaled: dict[str, list] = {}
     naive_between: list[float] = []
     with tempfile.TemporaryDirectory() as tmp:
         for group, kw in cost_scenes(quick=quick):
@@ -773,6 +774,7 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
             for _ in range(repeats):
                 _, w, _ = _timed(lambda: archive.write_trial(tree, path))
                 writes.setdefault(group, []).append(w)
+                writes_scaled.setdefault(group, []).append(w * BASELINE_AT_TARGETS / b)
         log(f"[cost] simulated {sum(len(v) for v in sims.values())} trials")
         scene = naive_scene
         naive = [_timed(lambda: naive_rk4(scene, duration=0.5))[1] for _ in range(baseline_repeats)]
@@ -789,11 +791,21 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
         sim_range={k: (min(v), max(v)) for k, v in sims.items()},
         per_gain={k: statistics.median(v) for k, v in per.items()},
         write={k: statistics.median(v) for k, v in writes.items()},
+        write_scaled={k: statistics.median(v) for k, v in writes_scaled.items()},
         identify=statistics.median(idents) if idents else math.nan,
         baseline=dict(naive_integration=statistics.median(naive), naive_trial=statistics.median(naive_full),
                       ours_same_scene=statistics.median(ours), uniform_0p1ms=statistics.median(uniform)),
         skipped=skipped, repeats=repeats,
     )
+
+
+def _verdict(measured: float, scaled: float, target: float) -> str:
+    """Met here, met only once scaled to the machine the targets were set on, or missed."""
+    if measured <= target:
+        return "met"
+    if scaled <= target:
+        return f"missed here; met scaled to the {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline"
+    return "missed"
 
 
 def format_cost(c: dict[str, Any]) -> str:
@@ -807,19 +819,15 @@ def format_cost(c: dict[str, Any]) -> str:
         gains = ", ".join(f"{g} {c['per_gain'][(group, g)] * 1e3:.0f}" for g in ("zero", "low", "high")
                           if (group, g) in c["per_gain"])
         scaled = c["sim_scaled"][group]
-        if c["sim"][group] <= target:
-            verdict = "met"
-        elif scaled <= target:
-            verdict = f"missed here; met scaled to the {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline"
-        else:
-            verdict = "missed"
+        verdict = _verdict(c["sim"][group], scaled, target)
         rows.append([group, c["sim_n"][group], f"**{c['sim'][group] * 1e3:.0f}**", f"{lo * 1e3:.0f}-{hi * 1e3:.0f}",
                      f"{scaled * 1e3:.0f}", f"{target * 1e3:.0f}", f"{verdict}; by gain: {gains}"])
     table1 = _md(["base", "trials timed", "median simulation [ms]", "min-max [ms]",
                   f"scaled to a {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline [ms]", "target [ms]", "verdict"], rows)
-    wrows = [[g, f"**{v * 1e3:.1f}**", f"{TARGET_WRITE * 1e3:.0f}", "met" if v <= TARGET_WRITE else "missed"]
-             for g, v in c["write"].items()]
-    table2 = _md(["base", "median write_trial [ms]", "target [ms]", "verdict"], wrows)
+    wrows = [[g, f"**{v * 1e3:.1f}**", f"{c['write_scaled'][g] * 1e3:.1f}", f"{TARGET_WRITE * 1e3:.0f}",
+              _verdict(v, c["write_scaled"][g], TARGET_WRITE)] for g, v in c["write"].items()]
+    table2 = _md(["base", "median write_trial [ms]", f"scaled to a {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline [ms]",
+                  "target [ms]", "verdict"], wrows)
     b = c["baseline"]
     table3 = _md(["same run, configuration 1, Zero gains, 1.5 m/s", "median wall [ms]"], [
         ["naive fixed-step RK4 at 0.1 ms, Python-side Pinocchio, 0.5 s of trial (integration only)",

@@ -127,7 +127,8 @@ def test_cost_verdict_scales_by_the_same_runs_baseline():
     def cost(sim_fixed, naive):
         return dict(sim={"fixed": sim_fixed}, sim_n={"fixed": 3}, sim_range={"fixed": (sim_fixed, sim_fixed)},
                     sim_scaled={"fixed": sim_fixed * bench.BASELINE_AT_TARGETS / naive}, naive_between=(naive,) * 3,
-                    per_gain={("fixed", "zero"): sim_fixed}, write={"fixed": 0.02}, identify=0.03, skipped=[],
+                    per_gain={("fixed", "zero"): sim_fixed}, write={"fixed": 0.06}, identify=0.03, skipped=[],
+                    write_scaled={"fixed": 0.06 * bench.BASELINE_AT_TARGETS / naive},
                     baseline=dict(naive_integration=naive, naive_trial=naive, ours_same_scene=sim_fixed,
                                   uniform_0p1ms=0.2))
     row = lambda text: next(line for line in text.splitlines() if line.startswith("| fixed | 3 |"))
@@ -136,3 +137,7 @@ def test_cost_verdict_scales_by_the_same_runs_baseline():
     assert "met scaled to the 350 ms baseline" in row(bench.format_cost(cost(0.040, 2 * bench.BASELINE_AT_TARGETS)))
     assert "| missed;" in row(bench.format_cost(cost(0.040, bench.BASELINE_AT_TARGETS)))
     assert "| 20 |" in row(bench.format_cost(cost(0.040, 2 * bench.BASELINE_AT_TARGETS)))
+    # the write verdict the same way: 60 ms here is 30 ms there (target 50 ms)
+    write_row = lambda text: next(line for line in text.splitlines() if line.startswith("| fixed | **60.0**"))
+    assert "met scaled" in write_row(bench.format_cost(cost(0.040, 2 * bench.BASELINE_AT_TARGETS)))
+    assert write_row(bench.format_cost(cost(0.040, bench.BASELINE_AT_TARGETS))).endswith("| missed |")
