@@ -125,12 +125,12 @@ def test_cost_verdict_scales_by_the_same_runs_baseline():
     """The per-trial verdict: met in absolute terms, met only once scaled to the machine
     the targets were set on (this run's naive baseline against issue 3's ~350 ms), or missed."""
     def cost(sim_fixed, naive):
-        return dict(sim={"fixed": sim_fixed}, sim_n={"fixed": 3}, sim_range={"fixed": (sim_fixed, sim_fixed)},
-                    sim_scaled={"fixed": sim_fixed * bench.BASELINE_AT_TARGETS / naive}, naive_between=(naive,) * 3,
-                    per_gain={("fixed", "zero"): sim_fixed}, write={"fixed": 0.06}, identify=0.03, skipped=[],
-                    write_scaled={"fixed": 0.06 * bench.BASELINE_AT_TARGETS / naive},
-                    baseline=dict(naive_integration=naive, naive_trial=naive, ours_same_scene=sim_fixed,
-                                  uniform_0p1ms=0.2))
+        return {"sim": {"fixed": sim_fixed}, "sim_n": {"fixed": 3}, "sim_range": {"fixed": (sim_fixed, sim_fixed)},
+                "sim_scaled": {"fixed": sim_fixed * bench.BASELINE_AT_TARGETS / naive}, "naive_between": (naive,) * 3,
+                "per_gain": {("fixed", "zero"): sim_fixed}, "write": {"fixed": 0.06}, "identify": 0.03, "skipped": [],
+                "write_scaled": {"fixed": 0.06 * bench.BASELINE_AT_TARGETS / naive},
+                "baseline": {"naive_integration": naive, "naive_trial": naive, "ours_same_scene": sim_fixed,
+                             "uniform_0p1ms": 0.2}}
     row = lambda text: next(line for line in text.splitlines() if line.startswith("| fixed | 3 |"))
     assert "| met;" in row(bench.format_cost(cost(0.020, 0.700)))
     # twice the targets' baseline: 40 ms here is 20 ms there

@@ -178,5 +178,5 @@ class PID:
             u = kP * e + kD * (e - e_prev[j]) + kI * s + gc
             e_sum[j] = s
             e_prev[j] = e
-            out.append(hi if u > hi else (lo if u < lo else u))
+            out.append(min(max(u, lo), hi))
         return np.array(out)
