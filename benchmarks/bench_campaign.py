@@ -115,7 +115,7 @@ def machine_probe(repeats: int = 3) -> float:
 
 def bench_one(name: str, unit: str, cores: int) -> dict:
     """Run one campaign from clean in a temporary directory; return the measurements."""
-    probe = machine_probe()
+    probe_before = machine_probe()
     cfg = yaml.safe_load(CONFIGS[name].read_text())
     cfg["job_unit"] = unit
     work = Path(tempfile.mkdtemp(prefix=f"bench-{name}-{unit}-"))
@@ -131,6 +131,9 @@ def bench_one(name: str, unit: str, cores: int) -> dict:
         trials = trials_per_job(results)
     finally:
         shutil.rmtree(work, ignore_errors=True)
+    # the machine's speed drifts during a run: the baseline before and after it, averaged
+    probe_after = machine_probe()
+    probe = 0.5 * (probe_before + probe_after)
     sim = [r for r in recs if r["job"].startswith("simulate")]
     ident = [r for r in recs if r["job"].startswith("identify")]
     jobs_cpu = sum(r["cpu"]["total"] for r in recs)
@@ -145,6 +148,7 @@ def bench_one(name: str, unit: str, cores: int) -> dict:
     per_job = [r["cpu"].get("startup", 0.0) + r["cpu"].get("imports", 0.0) for r in sim + ident]
     return {
         "campaign": name, "unit": unit, "cores": cores, "wall": wall, "report": report, "dag": dag, "probe": probe,
+        "probes": (probe_before, probe_after),
         "cpu": cpu, "report_cpu": report_cpu, "jobs": len(recs), "sim_jobs": len(sim), "trials": n_trials,
         "parts": parts, "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan"),
         "job_overhead": sum(per_job) / len(per_job) if per_job else float("nan"),
@@ -178,7 +182,8 @@ def table(rows: list[dict]) -> str:
         verdict = ("met" if total <= target else
                    f"missed here; met scaled to the {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline" if scaled <= target else "missed")
         lines.append(f"| {r['campaign']} | {r['unit']} | {r['trials']} | {r['jobs']} | {wall} | "
-                     f"{total:.1f} | {1e3 * r['probe']:.0f} | {scaled:.1f} | {target:.0f} ({verdict}) | {r['load']:.1f} | "
+                     f"{total:.1f} | {1e3 * r['probe']:.0f} ({1e3 * r['probes'][0]:.0f} / {1e3 * r['probes'][1]:.0f}) | "
+                     f"{scaled:.1f} | {target:.0f} ({verdict}) | {r['load']:.1f} | "
                      f"{cpu:.1f} | {cpu / r['cores']:.1f} | {share['simulation']} | {share['identification']} | "
                      f"{share['start-up + imports']} | {share['other job work']} | {share['Snakemake']} |")
     return "\n".join(lines)
@@ -245,7 +250,8 @@ def main(argv: list[str] | None = None) -> int:
         "pickles). `CPU / cores` is what the run costs on an otherwise idle machine if both cores stay busy; "
         "`load` is the machine's 1-minute load average when the run ended (other work on the machine "
         "stretches the wall time, not the CPU time). `naive baseline` is issue 3's straightforward RK4 "
-        "(0.5 s of fixed-base trial at 0.1 ms steps) timed just before the run (median of 3): the targets were "
+        "(0.5 s of fixed-base trial at 0.1 ms steps), the mean of its median of 3 just before and just after the run "
+        "(shown in brackets): the targets were "
         f"set on a machine where it took about {BASELINE_AT_TARGETS * 1e3:.0f} ms, so `scaled` (the run with its "
         f"report times {BASELINE_AT_TARGETS * 1e3:.0f} ms / the baseline) estimates what it would take there, "
         "if this naive RK4 is the one the issue timed (not checkable). The scaling suits Python-bound work "
