@@ -389,23 +389,30 @@ def test_cached_rig_robot_and_paper_files_pick_up_an_edit(tmp_path, monkeypatch)
     assert load_paper()["impact_direction"] == [0.0, 1.0, 0.0] != n0
 
 
+def _perturbed_state(base: str, *, seed: int):
+    """(rig, x, tau, rng): configuration 2, High gains, the arm 0.05 rad (rms) off its pose,
+    the plant's clock inside the VES emulator's first tick, a random servo torque."""
+    import importlib
+
+    sim = importlib.import_module("campaign.rig.simulate")
+    rig = sim.build(make_scene(base=base, config=2, gain="high", speed=2.0))
+    plant = rig.plant
+    rng = np.random.default_rng(seed)
+    x = np.zeros(plant.size)
+    x[:plant.nv] = plant.q0 + rng.normal(0.0, 0.05, plant.nv)
+    plant._t = rig.t_contact + 0.0004
+    return rig, x, rng.normal(0.0, 20.0, plant.nv), rng
+
+
 @pytest.mark.parametrize("base", ["fixed", "flexible"])
 def test_constrained_dynamics_through_locked_joints_equal_the_crba_solve(base):
     """The fast path (ABA on a model with the stuck joints locked, RNEA for the holding
     torque) solves the same constrained dynamics as the CRBA block solve it replaced, for
     every stick/slip assignment, with contact force and (flexible) a moving platform."""
-    import importlib
     import itertools
 
-    sim = importlib.import_module("campaign.rig.simulate")
-    rig = sim.build(make_scene(base=base, config=2, gain="high", speed=2.0))
-    plant = rig.plant
-    nv = plant.nv
-    rng = np.random.default_rng(3)
-    x = np.zeros(plant.size)
-    x[:nv] = plant.q0 + rng.normal(0.0, 0.05, nv)
-    plant._t = rig.t_contact + 0.0004     # inside the VES emulator's first tick
-    tau = rng.normal(0.0, 20.0, nv)
+    rig, x, tau, rng = _perturbed_state(base, seed=3)
+    plant, nv = rig.plant, rig.plant.nv
     for modes in itertools.product((0, 1, -1), repeat=nv):
         modes = np.array(modes)
         v = np.where(modes == 0, 0.0, rng.normal(0.0, 0.3, nv))
@@ -425,24 +432,15 @@ def test_hot_path_shortcuts_give_the_same_numbers_as_the_general_forms(base):
     contact, caught or not, for every stick/slip assignment; the tip projection on the
     axis-aligned impact direction equals ``n @ p`` and ``n @ J``; the PID on Python floats
     equals its vector law."""
-    import importlib
     import itertools
 
     import pinocchio as pin
 
-    sim = importlib.import_module("campaign.rig.simulate")
-    rig = sim.build(make_scene(base=base, config=2, gain="high", speed=2.0))
-    plant = rig.plant
-    nv = plant.nv
-    rng = np.random.default_rng(5)
-    x = np.zeros(plant.size)
-    x[:nv] = plant.q0 + rng.normal(0.0, 0.05, nv)
-    t = rig.t_contact + 0.0004                   # inside the VES emulator's first tick
-    plant._t = t
+    rig, x, tau, rng = _perturbed_state(base, seed=5)
+    plant, nv, t = rig.plant, rig.plant.nv, rig.plant._t
     # the head 2 mm into the tip (in contact), closing at ~1 m/s
     x[plant.i_th] = np.arcsin((plant.tip(x[:nv])[0] + 2e-3) / plant.pend.radius)
     x[plant.i_thd] = 1.0 / plant.pend.radius
-    tau = rng.normal(0.0, 20.0, nv)
     for modes, contact_v0, caught in itertools.product(itertools.product((0, 1, -1), repeat=nv),
                                                        (None, 2.0), (False, True)):
         modes = np.array(modes)
