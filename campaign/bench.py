@@ -55,7 +55,7 @@ __all__ = [
     "pareto_front", "format_wp_table", "plot_work_precision", "trial_cost", "format_cost",
     "StressCase", "StressResult", "stress_cases", "run_case", "run_stress", "check_invariants",
     "format_stress", "closed_form_stress", "format_closed_form", "write_section", "machine_line",
-    "truth_m_impulse",
+    "truth_m_impulse", "write_probe",
 ]
 
 #: per-trial simulation time targets of the rig issues (3 and 4) [s]
@@ -63,9 +63,19 @@ TARGET_FIXED = 0.025
 TARGET_FLEXIBLE = 0.150
 TARGET_WRITE = 0.050
 #: the naive baseline's time on the machine the rig issue's targets were set on ("about
-#: 350 ms", issue 3) [s]: the per-trial times are also reported scaled by this over the
-#: same run's baseline, so a slower or busier machine does not decide the verdict alone
+#: 350 ms", issue 3) [s]; printed beside the rig's times as the issue asks, but not used to
+#: scale them: our naive RK4 (:func:`naive_rk4`) does more per step than the issue's
+#: unpublished one (a FrictionState and the contact kinematics at every stage) and takes
+#: 2-2.6x that here, while the issue's write references below take 0.75-1.15x theirs
 BASELINE_AT_TARGETS = 0.350
+#: issue 3's own reference costs on the machine its targets were set on [s]: one NetCDF4
+#: group of a few channels written through xarray/h5netcdf ("about 35 ms whatever its
+#: size") and the same arrays through plain h5py ("about 3 ms"). Fixed library work that
+#: :func:`write_probe` repeats exactly, so ``probe / reference`` says how this machine, at
+#: this minute, compares with that one; the per-trial and campaign times are also shown
+#: scaled by the xarray figure (the Python-bound one, like the rig)
+XARRAY_WRITE_AT_TARGETS = 0.035
+H5PY_WRITE_AT_TARGETS = 0.003
 #: accuracy target of issue 8 for m* and e at the default setting (relative)
 TARGET_REL_ERR = 1e-3
 #: the reference is the same scene at this multiple of the default substeps (in and out of contact)
@@ -728,6 +738,48 @@ def cost_scenes(*, quick: bool = False) -> list[tuple[str, dict]]:
     return out
 
 
+def write_probe(*, repeats: int = 7, samples: int = 500) -> dict[str, float]:
+    """Issue 3's two write references, timed here: median wall time [s] of writing one
+    NetCDF4 group of a few channels through xarray's h5netcdf engine (``"xarray"``) and of
+    the same arrays through plain h5py (``"h5py"``), each into a fresh file.
+
+    The group holds what a trial's group holds, at a trial's size: a time coordinate and
+    three float channels (``samples`` long; one of them 3 wide) with ``units``. Compare
+    with :data:`XARRAY_WRITE_AT_TARGETS` and :data:`H5PY_WRITE_AT_TARGETS`.
+    """
+    import h5py
+    import xarray as xr
+
+    t = np.arange(samples) * 1e-3
+    rng = np.random.default_rng(0)
+    data = {"f_piezo": ("t", rng.normal(size=samples)), "ft_force": (("t", "axis"), rng.normal(size=(samples, 3))),
+            "theta_pend": ("t", rng.normal(size=samples))}
+    ds = xr.Dataset({k: (d, v, {"units": "1"}) for k, (d, v) in data.items()},
+                    coords={"t": ("t", t, {"units": "s"}), "axis": list("xyz")})
+
+    def xarray_write(path):
+        ds.to_netcdf(path, engine="h5netcdf", group="measured")
+
+    def h5py_write(path):
+        with h5py.File(path, "w") as f:
+            g = f.create_group("measured")
+            g.create_dataset("t", data=t)
+            for k, (_, v) in data.items():
+                g.create_dataset(k, data=v)
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, write in (("xarray", xarray_write), ("h5py", h5py_write)):
+            write(Path(tmp) / f"warm-{name}.nc")
+            times = []
+            for i in range(repeats):
+                t0 = time.perf_counter()
+                write(Path(tmp) / f"{name}-{i}.nc")
+                times.append(time.perf_counter() - t0)
+            out[name] = statistics.median(times)
+    return out
+
+
 def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repeats: int | None = None,
                log: Callable[[str], None] = print) -> dict[str, Any]:
     """Median simulation time per trial (default setting), file writing time separately, and
@@ -743,14 +795,14 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
     writes: dict[str, list] = {}
     idents: list[float] = []
     skipped = []
-    # the naive baseline (0.5 s of a fixed-base trial, configuration 1, Zero gains, 1.5 m/s)
-    # is also timed after every scene, so each trial's time can be scaled by the baseline of
-    # the same minute: the shared machine's speed drifts by 1.5x within a run
+    # issue 3's xarray write reference is timed after every scene, so each trial's time can
+    # be scaled by the machine's speed of the same minute: it drifts by 1.5x within a run
     naive_scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
     naive_rk4(naive_scene)   # warm-up
+    write_probe(repeats=1)   # warm-up (h5py, h5netcdf imports)
     scaled: dict[str, list] = {}
     writes_scaled: dict[str, list] = {}
-    naive_between: list[float] = []
+    probes: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
         for group, kw in cost_scenes(quick=quick):
             scene = make_scene(**kw)
@@ -765,16 +817,17 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
                 walls.append(w)
                 sims.setdefault(group, []).append(w)
                 per.setdefault((group, kw["gain"]), []).append(w)
-            b = _timed(lambda: naive_rk4(naive_scene, duration=0.5))[1]
-            naive_between.append(b)
-            scaled.setdefault(group, []).extend(w * BASELINE_AT_TARGETS / b for w in walls)
+            probe = write_probe(repeats=3)
+            probes.append(probe)
+            factor = probe["xarray"] / XARRAY_WRITE_AT_TARGETS   # this machine now vs the targets' one
+            scaled.setdefault(group, []).extend(w / factor for w in walls)
             _, w_id, _ = _timed(lambda: _identify(tree))
             idents.append(w_id)
             path = Path(tmp) / f"{group}-{kw['config']}-{kw['gain']}-{kw['speed']}.nc"
             for _ in range(repeats):
                 _, w, _ = _timed(lambda: archive.write_trial(tree, path))
                 writes.setdefault(group, []).append(w)
-                writes_scaled.setdefault(group, []).append(w * BASELINE_AT_TARGETS / b)
+                writes_scaled.setdefault(group, []).append(w / factor)
         log(f"[cost] simulated {sum(len(v) for v in sims.values())} trials")
         scene = naive_scene
         naive = [_timed(lambda: naive_rk4(scene, duration=0.5))[1] for _ in range(baseline_repeats)]
@@ -787,7 +840,7 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
     return dict(
         sim=med, sim_n={k: len(v) for k, v in sims.items()},
         sim_scaled={k: statistics.median(v) for k, v in scaled.items()},
-        naive_between=(statistics.median(naive_between), min(naive_between), max(naive_between)),
+        probe_xarray=_spread([p["xarray"] for p in probes]), probe_h5py=_spread([p["h5py"] for p in probes]),
         sim_range={k: (min(v), max(v)) for k, v in sims.items()},
         per_gain={k: statistics.median(v) for k, v in per.items()},
         write={k: statistics.median(v) for k, v in writes.items()},
@@ -799,12 +852,20 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
     )
 
 
+def _spread(values: Sequence[float]) -> tuple[float, float, float]:
+    """(median, min, max); NaNs when there is nothing (no scene ran)."""
+    if not values:
+        return (math.nan,) * 3
+    return statistics.median(values), min(values), max(values)
+
+
 def _verdict(measured: float, scaled: float, target: float) -> str:
-    """Met here, met only once scaled to the machine the targets were set on, or missed."""
+    """Met here, met only once scaled to the machine the targets were set on (by issue 3's
+    xarray write reference), or missed."""
     if measured <= target:
         return "met"
     if scaled <= target:
-        return f"missed here; met scaled to the {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline"
+        return "missed here; met scaled by the write reference"
     return "missed"
 
 
@@ -823,10 +884,10 @@ def format_cost(c: dict[str, Any]) -> str:
         rows.append([group, c["sim_n"][group], f"**{c['sim'][group] * 1e3:.0f}**", f"{lo * 1e3:.0f}-{hi * 1e3:.0f}",
                      f"{scaled * 1e3:.0f}", f"{target * 1e3:.0f}", f"{verdict}; by gain: {gains}"])
     table1 = _md(["base", "trials timed", "median simulation [ms]", "min-max [ms]",
-                  f"scaled to a {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline [ms]", "target [ms]", "verdict"], rows)
+                  "scaled by the write reference [ms]", "target [ms]", "verdict"], rows)
     wrows = [[g, f"**{v * 1e3:.1f}**", f"{c['write_scaled'][g] * 1e3:.1f}", f"{TARGET_WRITE * 1e3:.0f}",
               _verdict(v, c["write_scaled"][g], TARGET_WRITE)] for g, v in c["write"].items()]
-    table2 = _md(["base", "median write_trial [ms]", f"scaled to a {BASELINE_AT_TARGETS * 1e3:.0f} ms baseline [ms]",
+    table2 = _md(["base", "median write_trial [ms]", "scaled by the write reference [ms]",
                   "target [ms]", "verdict"], wrows)
     b = c["baseline"]
     table3 = _md(["same run, configuration 1, Zero gains, 1.5 m/s", "median wall [ms]"], [
@@ -836,15 +897,21 @@ def format_cost(c: dict[str, Any]) -> str:
         ["the rig's RK4 forced to a uniform 0.1 ms step (10/10 substeps)", f"{b['uniform_0p1ms'] * 1e3:.0f}"],
         ["**the rig at its default setting** (simulation incl. channels)", f"**{b['ours_same_scene'] * 1e3:.0f}**"],
     ])
-    nb = c["naive_between"]
-    scale_note = (f"The scaled column is the median over the trials of each one's time times "
-                  f"{BASELINE_AT_TARGETS * 1e3:.0f} ms / the naive baseline timed right after its scene (median "
-                  f"{nb[0] * 1e3:.0f} ms, {nb[1] * 1e3:.0f}-{nb[2] * 1e3:.0f} ms over the run: the machine's speed "
-                  f"drifts within a run): issue 3 set the targets where that baseline took "
-                  f"about {BASELINE_AT_TARGETS * 1e3:.0f} ms, so it estimates the time on that machine, if this naive RK4 is "
-                  "the one the issue timed (not checkable; the range above shows how much the shared machine drifts). "
-                  "The machine-independent figure is the rig's ratio to the "
-                  "baseline in the last table.")
+    px, ph = c["probe_xarray"], c["probe_h5py"]
+    rx = px[0] / XARRAY_WRITE_AT_TARGETS
+    scale_note = (
+        f"Machine speed: issue 3 states two write costs measured where its targets were set, one NetCDF4 "
+        f"group of a few channels through xarray/h5netcdf (about {XARRAY_WRITE_AT_TARGETS * 1e3:.0f} ms) and the "
+        f"same arrays through plain h5py (about {H5PY_WRITE_AT_TARGETS * 1e3:.0f} ms). Timed after every scene of "
+        f"this run (`campaign.bench.write_probe`) they took {px[0] * 1e3:.1f} ms ({px[1] * 1e3:.1f}-"
+        f"{px[2] * 1e3:.1f}) and {ph[0] * 1e3:.1f} ms ({ph[1] * 1e3:.1f}-{ph[2] * 1e3:.1f}): this machine ran at "
+        f"{rx:.2f}x and {ph[0] / H5PY_WRITE_AT_TARGETS:.2f}x those times"
+        + ("; within 25 % of that machine, so the raw times are what the targets mean. " if 0.8 <= rx <= 1.25 else ". ")
+        + "The scaled column divides each trial's time by its scene's xarray ratio (the Python-bound "
+        "reference, like the rig). The naive RK4 below is not used for scaling: ours took "
+        f"{b['naive_integration'] / BASELINE_AT_TARGETS:.1f}x the issue's {BASELINE_AT_TARGETS * 1e3:.0f} ms here "
+        "because it does more per step than the issue's unpublished one (a friction state and the contact "
+        "kinematics at every stage); the machine-independent figure is the rig's ratio to it in the same run.")
     return "\n\n".join([table1, scale_note, table2, table3,
                         f"Identification of one trial (not part of the simulation time): median "
                         f"{c['identify'] * 1e3:.1f} ms."])

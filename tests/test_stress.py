@@ -121,23 +121,39 @@ def test_lambda_fit_on_a_single_pose_flags_every_component():
     assert not np.any(est.identifiable_)
 
 
-def test_cost_verdict_scales_by_the_same_runs_baseline():
-    """The per-trial verdict: met in absolute terms, met only once scaled to the machine
-    the targets were set on (this run's naive baseline against issue 3's ~350 ms), or missed."""
-    def cost(sim_fixed, naive):
+def test_cost_verdict_scales_by_the_write_reference_of_the_same_run():
+    """The per-trial verdict: met in absolute terms, met only once scaled to the machine the
+    targets were set on (this run's xarray write probe against issue 3's ~35 ms), or missed;
+    the note says how fast the machine ran and does not scale by the naive RK4."""
+    def cost(sim_fixed, probe):
+        factor = probe / bench.XARRAY_WRITE_AT_TARGETS
         return {"sim": {"fixed": sim_fixed}, "sim_n": {"fixed": 3}, "sim_range": {"fixed": (sim_fixed, sim_fixed)},
-                "sim_scaled": {"fixed": sim_fixed * bench.BASELINE_AT_TARGETS / naive}, "naive_between": (naive,) * 3,
+                "sim_scaled": {"fixed": sim_fixed / factor}, "probe_xarray": (probe, probe, probe),
+                "probe_h5py": (0.003, 0.002, 0.004),
                 "per_gain": {("fixed", "zero"): sim_fixed}, "write": {"fixed": 0.06}, "identify": 0.03, "skipped": [],
-                "write_scaled": {"fixed": 0.06 * bench.BASELINE_AT_TARGETS / naive},
-                "baseline": {"naive_integration": naive, "naive_trial": naive, "ours_same_scene": sim_fixed,
+                "write_scaled": {"fixed": 0.06 / factor},
+                "baseline": {"naive_integration": 0.7, "naive_trial": 0.8, "ours_same_scene": sim_fixed,
                              "uniform_0p1ms": 0.2}}
     row = lambda text: next(line for line in text.splitlines() if line.startswith("| fixed | 3 |"))
-    assert "| met;" in row(bench.format_cost(cost(0.020, 0.700)))
-    # twice the targets' baseline: 40 ms here is 20 ms there
-    assert "met scaled to the 350 ms baseline" in row(bench.format_cost(cost(0.040, 2 * bench.BASELINE_AT_TARGETS)))
-    assert "| missed;" in row(bench.format_cost(cost(0.040, bench.BASELINE_AT_TARGETS)))
-    assert "| 20 |" in row(bench.format_cost(cost(0.040, 2 * bench.BASELINE_AT_TARGETS)))
+    ref = bench.XARRAY_WRITE_AT_TARGETS
+    assert "| met;" in row(bench.format_cost(cost(0.020, ref)))
+    # a machine twice as slow: 40 ms here is 20 ms there
+    assert "met scaled by the write reference" in row(bench.format_cost(cost(0.040, 2 * ref)))
+    assert "| 20 |" in row(bench.format_cost(cost(0.040, 2 * ref)))
+    assert "| missed;" in row(bench.format_cost(cost(0.040, ref)))
     # the write verdict the same way: 60 ms here is 30 ms there (target 50 ms)
     write_row = lambda text: next(line for line in text.splitlines() if line.startswith("| fixed | **60.0**"))
-    assert "met scaled" in write_row(bench.format_cost(cost(0.040, 2 * bench.BASELINE_AT_TARGETS)))
-    assert write_row(bench.format_cost(cost(0.040, bench.BASELINE_AT_TARGETS))).endswith("| missed |")
+    assert "met scaled" in write_row(bench.format_cost(cost(0.040, 2 * ref)))
+    assert write_row(bench.format_cost(cost(0.040, ref))).endswith("| missed |")
+    # the note reports the machine's ratio, and calls the raw times the targets' only when close
+    assert "ran at 1.00x" in bench.format_cost(cost(0.040, ref))
+    assert "raw times are what the targets mean" in bench.format_cost(cost(0.040, ref))
+    assert "raw times are what the targets mean" not in bench.format_cost(cost(0.040, 2 * ref))
+    assert "2.0x the issue's 350 ms" in bench.format_cost(cost(0.040, ref))
+
+
+def test_write_probe_times_both_references():
+    """The machine probe writes a real group both ways and returns positive medians."""
+    probe = bench.write_probe(repeats=1, samples=20)
+    assert set(probe) == {"xarray", "h5py"}
+    assert all(0.0 < v < 5.0 for v in probe.values()), probe
