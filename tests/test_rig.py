@@ -470,3 +470,68 @@ def test_hot_path_shortcuts_give_the_same_numbers_as_the_general_forms(base):
         e_prev = e
         assert np.array_equal(pid.update(q), np.minimum(np.maximum(u, -pid.tau_max), pid.tau_max))
     assert np.array_equal(pid.e_prev, e_prev) and np.array_equal(pid.e_sum, e_sum)
+
+
+def test_ves_loop_shortcuts_give_the_same_numbers_as_the_plain_computation():
+    """The VES loop plant's per-tick shortcuts are the plain computation bit for bit: the
+    kept bias (the last state and platform motion asked for again) equals a fresh RNEA,
+    and is recomputed when the state, the instant or the emulator's motion changes; the
+    F/T sample as one 6-vector equals the (force, moment) pair; a tick's record columns of
+    ``VesLoop.advance`` equal the named fields of ``VesLoop.step``."""
+    import copy
+
+    import pinocchio as pin
+
+    from campaign.rig.flexible import _TICK_RECORD
+
+    rig, x, tau, rng = _perturbed_state("flexible", seed=11)
+    plant, na = rig.plant, rig.plant.na
+
+    def fresh_bias(q, v):
+        plant._bias_last = None
+        return plant._bias(q, v)
+
+    # set the platform moving: a few emulator ticks with the arm accelerating on it
+    xd = np.zeros(plant.size)
+    for _ in range(5):
+        xd[plant.i_v] = rng.normal(0.0, 20.0, na)
+        plant.on_emulator_tick(plant.t_last + plant.emulator_period, x, xd)
+    t0 = plant._t = plant.t_last + 0.25 * plant.emulator_period
+    assert np.any(plant._platform(t0)[1] != 0.0) and np.any(plant._platform(t0)[2] != plant._platform(t0 + 5e-4)[2])
+    for _ in range(3):
+        q, v = x[:na] + rng.normal(0.0, 0.01, na), rng.normal(0.0, 0.3, na)
+        b = plant._bias(q, v)
+        assert plant._bias(q.copy(), v.copy()) is b                      # kept
+        assert np.array_equal(b, fresh_bias(q, v))
+        v2 = v.copy()
+        v2[0] += 1e-9
+        assert np.array_equal(plant._bias(q, v2), fresh_bias(q, v2))      # another state: recomputed
+        assert not np.array_equal(plant._bias(q, v2), b)
+        plant._t = t0 + 0.0005                                             # another instant
+        assert np.array_equal(plant._bias(q, v), fresh_bias(q, v))
+        plant._t = t0
+
+    # across an emulator tick: the tick's own instant keeps its motion, later ones move on
+    q, v = x[:na].copy(), rng.normal(0.0, 0.3, na)
+    t_tick = plant.t_last + plant.emulator_period
+    plant._t = t_tick
+    before = plant._bias(q, v)
+    plant.on_emulator_tick(t_tick, x, xd)
+    assert np.array_equal(plant._bias(q, v), before)
+    assert np.array_equal(before, fresh_bias(q, v))
+    plant._t = t_tick + 0.5 * plant.emulator_period
+    assert np.array_equal(plant._bias(q, v), fresh_bias(q, v))
+
+    qf = np.concatenate([pin.SE3ToXYZQUAT(pin.SE3.Identity()), x[:na]])
+    vf, af = rng.normal(0.0, 0.2, 6 + na), rng.normal(0.0, 2.0, 6 + na)
+    for F in (0.0, 25.0):
+        f, m = plant._mount_wrench(qf, vf, af, F)
+        assert np.array_equal(plant._mount_wrench6(qf, vf, af, F), np.concatenate([f, m]))
+
+    loop_a, loop_b = copy.deepcopy(plant.loop), copy.deepcopy(plant.loop)
+    for _ in range(4):
+        w = plant.w_static + rng.normal(0.0, 5.0, 6)
+        state = loop_a.step(w)
+        out = loop_b.advance(w)
+        assert np.array_equal(out[_TICK_RECORD],
+                              np.concatenate([state.structure_pose, state.pose, state.command, state.twist]))

@@ -45,7 +45,11 @@ __all__ = ["IdealCouplingPlant", "VesLoopPlant"]
 
 def _quat_of_rotvec(r):
     """Unit quaternion (x, y, z, w) of a rotation vector."""
-    rx, ry, rz = float(r[0]), float(r[1]), float(r[2])
+    return _quat_of_rotvec_xyz(float(r[0]), float(r[1]), float(r[2]))
+
+
+def _quat_of_rotvec_xyz(rx: float, ry: float, rz: float):
+    """:func:`_quat_of_rotvec` of the components (Python floats)."""
     angle = math.sqrt(rx * rx + ry * ry + rz * rz)
     k = 0.5 - angle * angle / 48.0 if angle < 1e-4 else math.sin(0.5 * angle) / angle
     return k * rx, k * ry, k * rz, math.cos(0.5 * angle)
@@ -71,7 +75,7 @@ def _platform_free_flyer(pose, twist, accel):
     w0 = J00 * t3 + J01 * t4 + J02 * t5
     w1 = J10 * t3 + J11 * t4 + J12 * t5
     w2 = J20 * t3 + J21 * t4 + J22 * t5
-    qx, qy, qz, qw = _quat_of_rotvec(r)
+    qx, qy, qz, qw = _quat_of_rotvec_xyz(rx, ry, rz)
     q = np.array((p0, p1, p2, qx, qy, qz, qw))
     v = np.array((v0, v1, v2, w0, w1, w2))
     a = np.array((R00 * a0 + R10 * a1 + R20 * a2 - (w1 * v2 - w2 * v1),
@@ -106,6 +110,12 @@ class _FloatingMixin:
         tip_frame = self.fmodel.frames[self.ffid]
         self._tip_jid = tip_frame.parentJoint
         self._tip_r = tuple(np.array(tip_frame.placement.translation).tolist())
+        # live references into fdata (Pinocchio hands its elements by reference; indexing
+        # data.oMi or data.f through the bindings costs ~2 us a time): the wrench below the
+        # first arm joint, that joint's placement and the mount frame's
+        self._f_arm = self.fdata.f[self.arm_joint]
+        self._oMi_arm = self.fdata.oMi[self.arm_joint]
+        self._oMf_mount = self.fdata.oMf[self.mount_id]
         g = np.array([0.0, 0.0, -gravity])
         self.w_static = static_arm_wrench(robot, self.q0_arm, g, mount=self.frobot.base.mount)
         self.gravity_vec = g
@@ -113,6 +123,11 @@ class _FloatingMixin:
     def _mount_wrench(self, q7full, vfull, afull, F):
         """Wrench of the arm on the platform at the mount, platform axes, about the mount
         origin (what the F/T sensor reads): (force [N], moment [N m])."""
+        w = self._mount_wrench6(q7full, vfull, afull, F)
+        return w[:3], w[3:]
+
+    def _mount_wrench6(self, q7full, vfull, afull, F):
+        """:meth:`_mount_wrench` as one 6-vector (force [N], moment [N m])."""
         model, data = self.fmodel, self.fdata
         # RNEA leaves data.oMi as it found it (Pinocchio 4.1): the placements that turn the
         # wrench into the mount's axes come from this configuration's forward kinematics
@@ -129,9 +144,8 @@ class _FloatingMixin:
         else:   # no external force: plain RNEA (same forces, none of the fext set-up)
             pin.rnea(model, data, q7full, vfull, afull)
         pin.updateFramePlacement(model, data, self.mount_id)
-        w_world = data.oMi[self.arm_joint].act(data.f[self.arm_joint])
-        w_mount = data.oMf[self.mount_id].actInv(w_world)
-        return -np.array(w_mount.linear), -np.array(w_mount.angular)
+        w_world = self._oMi_arm.act(self._f_arm)
+        return np.negative(self._oMf_mount.actInv(w_world).vector)
 
 
 class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
@@ -309,6 +323,11 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
         return self._mount_wrench(q7, x[self.i_v], xd[self.i_v], F)
 
 
+#: columns of a VES loop step's output (:meth:`.ves.VesLoop.advance`) that a tick's record
+#: keeps, in the record's order: structure pose, platform pose, set-point, platform twist
+_TICK_RECORD = np.r_[0:6, 12:18, 30:36, 18:24]
+
+
 class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     """The arm on the VES-II platform, whose motion the emulator prescribes.
 
@@ -338,6 +357,8 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self._vf = np.zeros(6 + self.na)
         self._z6 = np.zeros(6)
         self._af = np.zeros(6 + self.na)
+        self._vf_ft = np.zeros(6 + self.na)
+        self._af_ft = np.zeros(6 + self.na)
         H = pin.crba(self.fmodel, self.fdata, np.concatenate([pin.SE3ToXYZQUAT(pin.SE3.Identity()), self.q0_arm]))
         self._fcrba_full = bool(np.allclose(H, H.T))
         self.reset_loop(0.0)
@@ -354,6 +375,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self.t_first = t_last
         self.history = []      # (t, record row) per emulator tick
         self._cache = {}
+        self._bias_last = None
 
     def _platform(self, t):
         # the RK4 stages, event checks and servo tick of one emulator tick ask for a few
@@ -381,15 +403,15 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         """Sample the F/T wrench at ``t`` and advance the emulator one tick."""
         na = self.na
         qf, vb, ab = self._qfull(x[:na], t)
-        vf = np.concatenate([vb, x[self.i_v]])
-        af = np.concatenate([ab, xd[self.i_v]])
-        F = xd[self.i_P]
-        f, m = self._mount_wrench(qf, vf, af, F)
-        w = np.concatenate([f, m])
+        vf, af = self._vf_ft, self._af_ft    # buffers: Pinocchio reads them before they change
+        vf[:6] = vb
+        vf[6:] = x[self.i_v]
+        af[:6] = ab
+        af[6:] = xd[self.i_v]
+        w = self._mount_wrench6(qf, vf, af, xd[self.i_P])
         # the record holds the platform as it was at this tick (before the step), then the
-        # step's outputs at the next tick are recorded there
-        state = self.loop.step(w)
-        self.history.append((t, w, np.concatenate([state.structure_pose, state.pose, state.command, state.twist])))
+        # step's outputs at the next tick are recorded there (:meth:`ticks` picks the columns)
+        self.history.append((t, w, self.loop.advance(w)))
         self.t_last = t
         # the platform at this tick is the end of the tick just stepped and the start of the
         # next one (continuous to rounding): keep it, drop the rest
@@ -435,13 +457,26 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     def _bias(self, q, v):
         """``rnea(q, v, [a_b, 0])_m`` on the free-flyer model with the platform's motion at
         ``self._t``: gravity, Coriolis and the base acceleration felt by the arm joints."""
-        qf, vb, ab = self._qfull(q, self._t)
+        # the step-end evaluation and the servo tick's consistency check after a new torque
+        # ask for the same state and instant: the last result is kept, keyed by the
+        # platform motion object (the same object means the same motion, see _platform)
+        plat = self._platform(self._t)
+        key = (q.tobytes(), v.tobytes())
+        last = self._bias_last
+        if last is not None and last[0] is plat and last[1] == key:
+            return last[2]
+        qb, vb, ab = plat
+        qf = self._qf
+        qf[:7] = qb
+        qf[7:] = q
         vf = self._vf
         vf[:6] = vb
         vf[6:] = v
         af = self._af
         af[:6] = ab
-        return pin.rnea(self.fmodel, self.fdata, qf, vf, af)[6:]
+        bias = pin.rnea(self.fmodel, self.fdata, qf, vf, af)[6:]
+        self._bias_last = (plat, key, bias)
+        return bias
 
     def constrained(self, q, v, tau, fs):
         """``(lam, a)`` of the arm on the prescribed platform: ``H_mm a = u + S^T lam`` with
@@ -481,7 +516,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         if not self.history:
             return np.zeros(0), np.zeros((0, 6)), np.zeros((0, 24))
         t = np.array([h[0] for h in self.history])
-        return t, np.array([h[1] for h in self.history]), np.array([h[2] for h in self.history])
+        return t, np.array([h[1] for h in self.history]), np.array([h[2] for h in self.history])[:, _TICK_RECORD]
 
     def platform_history(self, times):
         """Platform pose and twist (n, 6) each at ``times``, interpolated linearly between

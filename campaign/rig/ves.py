@@ -431,6 +431,13 @@ class VesLoop:
             Views into ``out``: the platform at ``t_{k+1}`` (acceleration approached from
             inside the tick), its set-point, and the structure's pose and rate.
         """
+        out = self.advance(w_meas, out)
+        return PlatformState(out[12:18], out[18:24], out[24:30], out[30:36], out[0:6], out[6:12])
+
+    def advance(self, w_meas, out: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`step` without wrapping the output: the step's output array (``STEP_WIDTH``;
+        the first :data:`RECORD_WIDTH` entries are :data:`RECORD_COLUMNS`). The VES loop's
+        per-tick call (building the named views costs as much as the matrix product)."""
         buf = self._in
         buf[24:30] = w_meas
         N = self.latency_ticks
@@ -448,7 +455,7 @@ class VesLoop:
             self._j0 = j1
         self.tick += 1
         self._last = out
-        return PlatformState(out[12:18], out[18:24], out[24:30], out[30:36], out[0:6], out[6:12])
+        return out
 
     def run(self, wrenches) -> np.ndarray:
         """Step through a wrench sequence (n, 6) and return the records (n, RECORD_WIDTH)."""
