@@ -66,7 +66,7 @@ TARGET_WRITE = 0.050
 #: 350 ms", issue 3) [s]; printed beside the rig's times as the issue asks, but not used to
 #: scale them: our naive RK4 (:func:`naive_rk4`) does more per step than the issue's
 #: unpublished one (a FrictionState and the contact kinematics at every stage) and takes
-#: 2-2.6x that here, while the issue's write references below take 0.75-1.15x theirs
+#: 2-2.6x that here, while the issue's write references below take 0.5-1.4x theirs
 BASELINE_AT_TARGETS = 0.350
 #: issue 3's own reference costs on the machine its targets were set on [s]: one NetCDF4
 #: group of a few channels written through xarray/h5netcdf ("about 35 ms whatever its
