@@ -344,7 +344,7 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     timer = timer if timer is not None else Timer()
     with timer.imports():
         from .archive import trial_path, write_trial
-        from .rig import simulate
+        from .rig import simulate_arrays   # plain arrays: the job never imports xarray
         from .scene import make_scene
     cells = [(str(b), int(c), str(g)) for b, c, g in cells]
     plan = []
@@ -374,15 +374,15 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     for i, (scene, path) in enumerate(plan, 1):
         t0 = time.perf_counter()
         with timer("simulate"):
-            tree = simulate(scene)
+            trial = simulate_arrays(scene)
         t1 = time.perf_counter()
         with timer("write"):
-            write_trial(tree, path)
+            write_trial(trial, path)
         t2 = time.perf_counter()
-        truth = tree["truth"]
-        duration = 1e3 * float(truth["contact_end"] - truth["contact_start"])
+        truth = trial["truth"].data_vars
+        duration = 1e3 * float(truth["contact_end"].values - truth["contact_start"].values)
         print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, contact {duration:.1f} ms, peak "
-              f"{float(truth['peak_force']):.1f} N; simulated {1e3 * (t1 - t0):.0f} ms, written "
+              f"{float(truth['peak_force'].values):.1f} N; simulated {1e3 * (t1 - t0):.0f} ms, written "
               f"{1e3 * (t2 - t1):.0f} ms -> {path}", flush=True)
         written.append(path)
     return written
@@ -458,7 +458,7 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
     for i, path in enumerate(paths, 1):
         t0 = time.perf_counter()
         with timer("identify"):
-            measured, attrs = load_trial(path)
+            measured, attrs = load_trial(path, arrays=True)   # plain arrays: no xarray in the job
             name = str(attrs.get("robot") or measured.attrs.get("robot") or "")
             if not name:
                 raise TrialFileError(f"{path}: no 'robot' attribute in the trial")

@@ -29,3 +29,28 @@ def test_lazy_module_raises_for_a_missing_attribute_and_module():
         LazyModule("json").no_such_function
     with pytest.raises(ModuleNotFoundError):
         LazyModule("no_such_module_here").anything
+
+
+def test_a_simulation_job_never_imports_xarray(tmp_path):
+    """runner.run_cells (the simulate rules) records and writes plain arrays: xarray and
+    pandas cost ~0.7 s per job, more than the job's fixed-base trials take to simulate."""
+    code = ("import sys; from campaign import runner; "
+            f"out = runner.run_cells([('fixed', 1, 'zero')], archive_dir={str(tmp_path)!r}, speeds=[1.5], "
+            "repeats=1, campaign_seed=1); "
+            "print(len(out), sorted(m for m in ('xarray', 'pandas') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "1 []", out
+    assert len(list(tmp_path.rglob("*.nc"))) == 1
+
+
+def test_an_identification_job_never_imports_xarray(tmp_path):
+    """runner.identify_trials (the identify rules) reads trials as plain arrays."""
+    from campaign import runner
+
+    [trial] = runner.run_cells([("fixed", 1, "low")], archive_dir=tmp_path, speeds=[1.5], repeats=1,
+                               campaign_seed=1)
+    code = ("import sys; from campaign import runner; "
+            f"rows = runner.identify_trials([{str(trial)!r}], {str(tmp_path / 'id.csv')!r}); "
+            "print(len(rows), rows[0]['m_eff'] != '', sorted(m for m in ('xarray', 'pandas') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip().splitlines()[-1] == "1 True []", out

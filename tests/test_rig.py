@@ -251,13 +251,13 @@ def test_recorded_ft_wrench_energy_and_tip_speed_equal_plain_per_sample_pinocchi
     from campaign.rig.sensors import StateSampler, sample_grid
     sim = importlib.import_module("campaign.rig.simulate")   # the module (campaign.rig exports the function)
     seen = {}
-    real_record = sim.record
+    real_record = sim.record_arrays
 
     def spy(rig, traj):
         seen["rig"], seen["traj"] = rig, traj
         return real_record(rig, traj)
 
-    monkeypatch.setattr(sim, "record", spy)
+    monkeypatch.setattr(sim, "record_arrays", spy)
     scene = make_scene(config=2, gain="high", speed=2.0,
                        params={"sensors.ft_noise_force": 0.0, "sensors.ft_noise_torque": 0.0})
     tree = simulate(scene)

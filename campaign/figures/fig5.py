@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from ..archive import open_trial
+from ..archive import open_trial_arrays
 from ..identify import detect_contact
 from ..paper import load_paper
 from . import style
@@ -37,8 +37,9 @@ def series(trial: str | os.PathLike) -> dict:
         mid-times), ``t_truth, disp_truth, vel_truth``, ``contact`` (start, end) from the
         piezo force, ``cell`` (the trial's cell), ``sample_interval`` [s].
     """
-    measured = open_trial(trial, group="measured")
-    truth = open_trial(trial, group="truth")
+    # plain arrays: the job never imports xarray (~0.6 s)
+    measured = open_trial_arrays(trial, group="measured")
+    truth = open_trial_arrays(trial, group="truth")
     t_f = np.asarray(measured["t_force"].values, float)
     contact = detect_contact(t_f, np.asarray(measured["f_piezo"].values, float),
                              float(measured["piezo_full_scale"].values))

@@ -15,7 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..archive import open_trial
+from ..archive import open_trial_arrays
 from ..identify import detect_contact
 from ..paper import load_paper
 from . import style
@@ -35,7 +35,7 @@ def series(trial: str | os.PathLike) -> dict:
         ``t`` [s] from the contact start, ``x`` [mm], ``max_amplitude`` [mm] (largest
         ``|x|`` after the contact start), ``speed`` [m/s], ``config``, ``gain``.
     """
-    measured = open_trial(trial, group="measured")
+    measured = open_trial_arrays(trial, group="measured")   # plain arrays: the job never imports xarray
     if "base_position" not in measured.variables:
         raise ValueError(f"{trial}: no base_position channel; Figure 9 needs a flexible-base trial")
     contact = detect_contact(np.asarray(measured["t_force"].values, float),
@@ -44,7 +44,7 @@ def series(trial: str | os.PathLike) -> dict:
     if contact.n_contacts == 0:
         raise ValueError(f"{trial}: no contact found in the piezo force; Figure 9 needs an impact")
     t = np.asarray(measured["t_base"].values, float) - contact.start
-    x = 1e3 * np.asarray(measured["base_position"].sel(axis="x").values, float)
+    x = 1e3 * np.asarray(measured["base_position"].values, float)[:, list(measured["axis"].values).index("x")]
     after = t >= 0
     return {"t": t, "x": x, "max_amplitude": float(np.max(np.abs(x[after]))) if after.any() else float("nan"),
             "speed": float(measured.attrs.get("speed", np.nan)), "config": measured.attrs.get("config", "?"),

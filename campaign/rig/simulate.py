@@ -20,6 +20,7 @@ from ..errors import InputError, SimulationError
 from ..paper import impact_direction
 from ..robot import load_robot
 from ..scene import Scene
+from ..schema import ChannelArray, GroupArrays, TrialArrays
 from .contact import Contact, contact_duration_estimate
 from .controller import PID, check_stability
 from .integrate import integrate_trial
@@ -27,10 +28,11 @@ from .pendulum import Pendulum
 from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
-__all__ = ["simulate", "build", "Rig"]
+__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "Rig"]
 
-# imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) need
-# not pay ~0.6 s for xarray and pandas; a simulation imports them when it records
+# imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
+# the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
+# only a DataTree (to_tree) imports them
 xr = LazyModule("xarray")
 pd = LazyModule("pandas")
 
@@ -210,10 +212,6 @@ def _offset():
     return np.asarray(load_paper()["offset_deg"], dtype=float)
 
 
-def _var(data, spec: schema.Var, dims=None):
-    return xr.Variable(dims or spec.dims, data, {"units": spec.units, "long_name": spec.long_name})
-
-
 def _time(dim: str, values):
     """A clock's time coordinate as ``(index, index variable)``: the ``PandasIndex`` and
     the variable xarray's default index of the dimension coordinate would give it."""
@@ -278,6 +276,14 @@ def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
     SimulationError
         The integration failed (blow-up); nothing is returned.
     """
+    return to_tree(simulate_arrays(scene, integration=integration))
+
+
+def simulate_arrays(scene: Scene, *, integration: dict | None = None) -> TrialArrays:
+    """:func:`simulate` returning the trial as plain arrays (``campaign.archive.TrialArrays``),
+    which :func:`campaign.archive.write_trial` stores as the same file: the campaign's
+    simulation jobs use it and never import xarray (~0.7 s per job, more than a fixed-base
+    trial takes to simulate). :func:`to_tree` gives the DataTree :func:`simulate` returns."""
     rig = build(scene, integration=integration)
     p = scene.p
     subs = dict(substeps_contact=rig.substeps_contact, substeps_free=rig.substeps_free)
@@ -287,14 +293,36 @@ def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
         settle_velocity=float(p("trial.settle_velocity")), stick_velocity=float(p("arm.stick_velocity")),
         catch_delay=float(p("pendulum.catch_delay")), **subs,
     )
-    tree = record(rig, traj)
-    tree.attrs["integration_steps"] = int(traj.n_steps)
-    tree.attrs["integration_rhs_evaluations"] = int(traj.n_rhs)
-    return tree
+    trial = record_arrays(rig, traj)
+    trial.attrs["integration_steps"] = int(traj.n_steps)
+    trial.attrs["integration_rhs_evaluations"] = int(traj.n_rhs)
+    return trial
 
 
 def record(rig: Rig, traj) -> xr.DataTree:
     """Sample every channel of the trial (measured and truth) into a DataTree."""
+    return to_tree(record_arrays(rig, traj))
+
+
+def _clock(dim: str, values) -> ChannelArray:
+    """A clock's time coordinate [s] with the attributes :func:`_time` gives it."""
+    c = schema.CLOCKS[dim]
+    return ChannelArray((dim,), np.asarray(values, dtype=float),
+                        {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
+
+
+def _names(dim: str, labels) -> ChannelArray:
+    return ChannelArray((dim,), np.asarray(list(labels)), {})
+
+
+def _channels(data: dict, specs: dict) -> dict:
+    return {k: ChannelArray(specs[k].dims, x, {"units": specs[k].units, "long_name": specs[k].long_name})
+            for k, x in data.items()}
+
+
+def record_arrays(rig: Rig, traj) -> TrialArrays:
+    """Sample every channel of the trial (measured and truth) into plain arrays
+    (:func:`record` without building xarray objects; :func:`to_tree` makes the tree)."""
     scene, plant = rig.scene, rig.plant
     p = scene.p
     robot = plant.robot
@@ -369,9 +397,9 @@ def record(rig: Rig, traj) -> xr.DataTree:
     idx = np.clip(np.searchsorted(traj.servo_t, ts, side="right") - 1, 0, traj.servo_t.size - 1)
     tau = np.where((ts < traj.servo_t[0])[:, None], traj.tau_static[None, aq], traj.servo_tau[idx][:, aq])
 
-    coords = {"t_joint": _time("t_joint", tj), "t_pend": _time("t_pend", tp), "t_force": _time("t_force", tf),
-              "t_ft": _time("t_ft", tft), "t_servo": _time("t_servo", ts), "joint": _labels("joint", joints),
-              "axis": _labels("axis", "xyz")}
+    coords = {"t_joint": _clock("t_joint", tj), "t_pend": _clock("t_pend", tp), "t_force": _clock("t_force", tf),
+              "t_ft": _clock("t_ft", tft), "t_servo": _clock("t_servo", ts), "joint": _names("joint", joints),
+              "axis": _names("axis", "xyz")}
     measured = {
         "q_enc": q_meas,
         "theta_pend": theta,
@@ -419,7 +447,7 @@ def record(rig: Rig, traj) -> xr.DataTree:
         "peak_force": np.float64(peak),
         "e_contact": np.float64(rig.plant.contact.restitution),
     }
-    truth_coords = {"t_truth": _time("t_truth", tt), "joint": _labels("joint", joints)}
+    truth_coords = {"t_truth": _clock("t_truth", tt), "joint": _names("joint", joints)}
 
     if flexible:
         tb = sample_grid(float(p("ves.rate")), t_end)
@@ -445,28 +473,40 @@ def record(rig: Rig, traj) -> xr.DataTree:
             "base_com": np.asarray(body.com, float),
             "base_mount": np.asarray(body.mount.translation, float),
         })
-        coords["t_base"] = _time("t_base", tb)
-        coords["axis2"] = _labels("axis2", "xyz")
+        coords["t_base"] = _clock("t_base", tb)
+        coords["axis2"] = _names("axis2", "xyz")
         truth.update({
             "base_position": base_truth[:, 0:3],
             "base_rotation": base_truth[:, 3:6],
             "base_velocity": base_truth[:, 6:9],
             "base_omega": base_truth[:, 9:12],
         })
-        truth_coords["axis"] = _labels("axis", "xyz")
+        truth_coords["axis"] = _names("axis", "xyz")
 
     _check_finite((("measured", measured), ("truth", truth)))
-    # each group is built from its Variables and indexed coordinates in one constructor call,
-    # and attached to the root without the copies DataTree.from_dict makes
-    measured = xr.Dataset({k: _var(x, spec[k]) for k, x in measured.items()}, coords=_coords(coords))
-    truth = xr.Dataset({k: _var(x, tspec[k]) for k, x in truth.items()}, coords=_coords(truth_coords),
-                       attrs={"n_contacts": len(traj.contacts), "settled": int(traj.settled),
-                              "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
-                              "ves_mode": str(p("ves.mode")) if flexible else "none"})
-    tree = xr.DataTree(xr.Dataset(attrs={
+    measured = GroupArrays(_channels(measured, spec), coords)
+    truth = GroupArrays(_channels(truth, tspec), truth_coords,
+                        {"n_contacts": len(traj.contacts), "settled": int(traj.settled),
+                         "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
+                         "ves_mode": str(p("ves.mode")) if flexible else "none"})
+    return TrialArrays({
         "scene_json": scene.to_json(), "scene_sha256": scene.sha256, "seed": int(scene.seed), "base": scene.base,
         "config": int(scene.config), "gain": scene.gain, "speed": float(scene.speed), "repeat": int(scene.repeat),
         "robot": robot.name, "scene_name": scene.name,
-    }))
-    tree.children = {"measured": xr.DataTree(measured), "truth": xr.DataTree(truth)}
+    }, {"measured": measured, "truth": truth})
+
+
+def to_tree(trial: TrialArrays) -> xr.DataTree:
+    """The trial as an ``xarray.DataTree`` (what :func:`simulate` returns): each group is
+    built from its Variables and indexed coordinates in one constructor call, and attached
+    to the root without the copies ``DataTree.from_dict`` makes."""
+    children = {}
+    for name, group in trial.groups.items():
+        coords = {dim: _time(dim, c.values) if dim in schema.CLOCKS else _labels(dim, c.values.tolist())
+                  for dim, c in group.coords.items()}
+        ds = xr.Dataset({k: xr.Variable(v.dims, v.values, v.attrs) for k, v in group.data_vars.items()},
+                        coords=_coords(coords), attrs=group.attrs)
+        children[name] = xr.DataTree(ds)
+    tree = xr.DataTree(xr.Dataset(attrs=trial.attrs))
+    tree.children = children
     return tree
