@@ -384,3 +384,15 @@ def test_combined_arm_velocity_runs_on_a_rig_trial(puma):
     assert r.arm_velocity == "combined", r.arm_velocity_note
     m_true, _ = truth_m_e(measured, truth)
     assert abs(r.m_eff / m_true - 1) < 0.01
+
+
+def test_cross_gives_numpy_cross_bit_for_bit():
+    """The F/T momentum balance's cross product must not move an identified number."""
+    from campaign.identify import _cross
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        a, b = rng.normal(size=3) * 10.0 ** rng.integers(-6, 6), rng.normal(size=3)
+        assert np.array_equal(_cross(a, b), np.cross(a, b))
+    c, A = rng.normal(size=3), rng.normal(size=(3, 6))
+    assert np.array_equal(_cross(c[:, None], A), np.cross(c[:, None], A, axis=0))
