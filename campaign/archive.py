@@ -30,6 +30,13 @@ which took 5-8 times as long. The result is identical to ``xr.open_dataset(path,
 engine="h5netcdf", group=...)``; the section "reading" below lists what of the h5netcdf layer
 is reproduced and why, and the tests compare both readers on rig trials.
 
+**Without xarray.** Importing xarray (with pandas) costs each Snakemake job ~0.6 s, more than
+a job's trials take to simulate or identify. So the rig can hand :func:`write_trial` a trial
+as plain arrays (:class:`campaign.schema.TrialArrays`; the same file, byte for byte) and
+:func:`open_trial_arrays` reads a group into plain arrays with :func:`open_trial`'s values
+(:class:`campaign.schema.GroupArrays`): the campaign's simulation and identification jobs
+never import xarray. Users open trials with xarray as above.
+
 **Integrity.** Each group stores ``content_sha256``: a digest of its attributes and of every
 variable's bytes and attributes (:func:`_digest`). Readers recompute it, so a flipped byte
 anywhere in the content is reported even for a file outside any campaign. A campaign
