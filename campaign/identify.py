@@ -1010,12 +1010,14 @@ def _lti_kernels(a1: float, a0: float, x: np.ndarray):
     return h, hd
 
 
-def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool):
+def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool, velocity: bool = True):
     """Position and velocity responses of ``y'' + a1 y' + a0 y = input`` on ``cin.grid``.
 
     Inputs: the normalised contact force ``g`` (integral 1) and, with ``with_step``, a
     unit step from the contact start. Trapezoid-rule convolutions with the closed-form
-    impulse responses. Returns a list of (position, velocity) arrays.
+    impulse responses. Returns a list of (position, velocity) arrays; the force's velocity
+    response is None unless ``velocity`` (the fit's residuals need positions only, and each
+    convolution of a flexible-base trial's long grid costs ~0.5 ms).
     """
     dt = cin.dt
     x = cin.grid - cin.grid[0]
@@ -1023,7 +1025,9 @@ def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool):
     n = x.size
     out = []
     pos = np.convolve(cin.g, h)[:n] * dt                              # h(0) = 0
-    vel = np.convolve(cin.g, hd)[:n] * dt - 0.5 * dt * cin.g * hd[0]  # trapezoid end weight
+    vel = None
+    if velocity:
+        vel = np.convolve(cin.g, hd)[:n] * dt - 0.5 * dt * cin.g * hd[0]  # trapezoid end weight
     out.append((pos, vel))
     if with_step:
         # response to a unit step: the integrals of h and h' from 0 to t
@@ -1050,8 +1054,8 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: d
     u = t - t_s
     after = t >= t_s
 
-    def design(x):
-        resp = _lti_responses(cin, x[0], x[1], with_step)
+    def design(x, velocity=False):
+        resp = _lti_responses(cin, x[0], x[1], with_step, velocity)
         cols = [np.ones_like(u), u]
         for pos, _ in resp:
             col = np.zeros_like(u)
@@ -1059,8 +1063,8 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: d
             cols.append(col)
         return np.column_stack(cols), resp
 
-    def solve(x):
-        A, resp = design(x)
+    def solve(x, velocity=False):
+        A, resp = design(x, velocity)
         sc = np.abs(A).max(axis=0)
         sc[sc == 0] = 1.0
         p, *_ = np.linalg.lstsq(A / sc, s, rcond=None)
@@ -1075,7 +1079,7 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: d
         r = least_squares(resid, x0, bounds=([0.0, 0.0], [1000.0, 1e5]), x_scale=[10.0, 500.0], method="trf")
         if best is None or r.cost < best.cost:
             best = r
-    p, A, resp = solve(best.x)
+    p, A, resp = solve(best.x, velocity=True)
     g_end = [float(np.interp(t_e, cin.grid, vel)) for _, vel in resp]
     v_post = p[1] + sum(p[2 + i] * g for i, g in enumerate(g_end))
     if info is not None:
