@@ -16,6 +16,14 @@ def test_module_does_not_import_xarray_or_pandas(module):
     assert out.strip() == "[]", f"importing {module} imported {out.strip()}"
 
 
+def test_the_calibration_report_module_does_not_import_the_fitting_libraries():
+    """The campaign's calibration_report job only reads; the calibration fit imports scipy.optimize itself."""
+    code = ("import sys, campaign.calibrate; "
+            "print(sorted(m for m in ('xarray', 'pandas', 'scipy.optimize') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+
+
 def test_lazy_module_imports_on_first_attribute_access():
     code = ("import sys; from campaign._lazy import LazyModule; m = LazyModule('json'); "
             "sys.modules.pop('json', None); before = 'json' in sys.modules; "
