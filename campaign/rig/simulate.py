@@ -280,7 +280,7 @@ def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
 
 
 def simulate_arrays(scene: Scene, *, integration: dict | None = None) -> TrialArrays:
-    """:func:`simulate` returning the trial as plain arrays (``campaign.archive.TrialArrays``),
+    """:func:`simulate` returning the trial as plain arrays (``campaign.schema.TrialArrays``),
     which :func:`campaign.archive.write_trial` stores as the same file: the campaign's
     simulation jobs use it and never import xarray (~0.7 s per job, more than a fixed-base
     trial takes to simulate). :func:`to_tree` gives the DataTree :func:`simulate` returns."""
