@@ -1123,6 +1123,17 @@ def _store_classes() -> tuple[type, type]:
     return _Loaded, _GroupStore
 
 
+def _decoded(var: _StoredVar) -> np.ndarray:
+    """A variable's data as read, variable-length strings decoded as h5netcdf's
+    ``decode_vlen_strings`` does (h5py's ``asstr()`` with the dataset's character set)."""
+    info = h5py.check_string_dtype(var.dtype)
+    if info is None or info.length is not None:
+        return np.asarray(var.data)
+    raw = np.asarray(var.data, dtype=object)
+    return np.array([b.decode(info.encoding) if isinstance(b, bytes) else b for b in raw.ravel().tolist()],
+                    dtype=object).reshape(raw.shape)
+
+
 def _dataset(group: _StoredGroup, source: str) -> xr.Dataset:
     """One group as ``xr.open_dataset(path, engine="h5netcdf", group=...).load()`` returns it.
 
@@ -1136,16 +1147,8 @@ def _dataset(group: _StoredGroup, source: str) -> xr.Dataset:
     for var in group.variables:
         if not var.is_variable:
             continue
-        data = var.data
         dtype = var.dtype
-        info = h5py.check_string_dtype(dtype)
-        if info is not None and info.length is None:
-            # h5netcdf's decode_vlen_strings: h5py's asstr(), decoded with the dataset's character set
-            raw = np.asarray(data, dtype=object)
-            data = np.array([b.decode(info.encoding) if isinstance(b, bytes) else b for b in raw.ravel().tolist()],
-                            dtype=object).reshape(raw.shape)
-        else:
-            data = np.asarray(data)
+        data = _decoded(var)
         encoding = {**var.encoding, "source": source, "original_shape": data.shape}
         made[var.name] = xr.Variable(var.dims, xr_indexing.LazilyIndexedArray(_Loaded(data, dtype)),
                                      _xr_attrs(var.attrs, var.string_types), encoding)
@@ -1226,15 +1229,9 @@ def open_trial_arrays(path: str | os.PathLike, *, group: str = "measured") -> Gr
     for var in stored.variables:
         if not var.is_variable:
             continue
-        info = h5py.check_string_dtype(var.dtype)
-        if info is not None and info.length is None:   # variable-length strings: decoded as in _dataset
-            raw = np.asarray(var.data, dtype=object)
-            data = np.array([b.decode(info.encoding) if isinstance(b, bytes) else b for b in raw.ravel().tolist()],
-                            dtype=object).reshape(raw.shape)
-            if var.dims == (var.name,):
-                data = data.astype(str)   # a label coordinate: xarray's index holds str, not objects
-        else:
-            data = np.asarray(var.data)
+        data = _decoded(var)
+        if data.dtype == object and var.dims == (var.name,):
+            data = data.astype(str)   # a label coordinate: xarray's index holds str, not objects
         item = ChannelArray(tuple(var.dims), data, _xr_attrs(var.attrs, var.string_types))
         (coords if var.dims == (var.name,) else data_vars)[var.name] = item
     root = _xr_attrs(read.root, read.root_string_types)

@@ -212,12 +212,11 @@ def _offset():
     return np.asarray(load_paper()["offset_deg"], dtype=float)
 
 
-def _time(dim: str, values):
-    """A clock's time coordinate as ``(index, index variable)``: the ``PandasIndex`` and
-    the variable xarray's default index of the dimension coordinate would give it."""
-    c = schema.CLOCKS[dim]
-    var = xr.Variable((dim,), np.asarray(values, dtype=float),
-                      {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
+def _time(dim: str, clock: ChannelArray):
+    """A clock's time coordinate (:func:`_clock`) as ``(index, index variable)``: the
+    ``PandasIndex`` and the variable xarray's default index of the dimension coordinate
+    would give it."""
+    var = xr.Variable((dim,), clock.values, clock.attrs)
     index = xr.indexes.PandasIndex(pd.Index(var.values, name=dim), dim, coord_dtype=var.dtype)
     return index, index.create_variables({dim: var})[dim]
 
@@ -305,7 +304,7 @@ def record(rig: Rig, traj) -> xr.DataTree:
 
 
 def _clock(dim: str, values) -> ChannelArray:
-    """A clock's time coordinate [s] with the attributes :func:`_time` gives it."""
+    """A clock's time coordinate [s] with its CF attributes."""
     c = schema.CLOCKS[dim]
     return ChannelArray((dim,), np.asarray(values, dtype=float),
                         {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
@@ -502,7 +501,7 @@ def to_tree(trial: TrialArrays) -> xr.DataTree:
     to the root without the copies ``DataTree.from_dict`` makes."""
     children = {}
     for name, group in trial.groups.items():
-        coords = {dim: _time(dim, c.values) if dim in schema.CLOCKS else _labels(dim, c.values.tolist())
+        coords = {dim: _time(dim, c) if dim in schema.CLOCKS else _labels(dim, c.values.tolist())
                   for dim, c in group.coords.items()}
         ds = xr.Dataset({k: xr.Variable(v.dims, v.values, v.attrs) for k, v in group.data_vars.items()},
                         coords=_coords(coords), attrs=group.attrs)
