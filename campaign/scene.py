@@ -22,7 +22,7 @@ from typing import Any, Mapping
 from .errors import InputError
 from .paper import config_dir, load_paper, read_yaml
 
-__all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES"]
+__all__ = ["Scene", "load_rig", "load_structures", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES"]
 
 BASES = ("fixed", "flexible")
 GAINS = ("zero", "low", "high")
@@ -43,8 +43,10 @@ _NONNEGATIVE = (
     "gravity", "arm.coulomb_scale", "arm.viscous_scale", "controller.torque_per_unit", "pendulum.rod_mass",
     "sensors.joint_encoder_noise_counts", "sensors.piezo_noise", "sensors.piezo_resolution",
     "sensors.ft_noise_force", "sensors.ft_noise_torque", "trial.contact_jitter", "flexible.damping_ratio",
-    "ves.latency", "flexible.mount_height",
+    "ves.latency", "flexible.mount_height", "ves.stroke", "ves.stroke_rotation",
 )
+#: a named structure may set only the structure's and the emulator's parameters
+_STRUCTURE_PREFIXES = ("flexible.", "ves.")
 
 
 def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
@@ -61,15 +63,37 @@ def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, dict]]:
-    """Read a rig file: (flat parameter values, named scene overrides)."""
+def _read_rig(path):
     path = Path(path) if path is not None else config_dir() / "rig.yaml"
     if not path.is_file():
         raise InputError(f"rig parameter file {path} does not exist")
     tree = read_yaml(path)      # parsed once per file content; a fresh copy to modify
     scenes = tree.pop("scenes", {}) or {}
+    structures = tree.pop("structures", {}) or {}
     tree.pop("calibration", None)
+    return tree, scenes, structures
+
+
+def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, dict]]:
+    """Read a rig file: (flat parameter values, named scene overrides)."""
+    tree, scenes, _ = _read_rig(path)
     return _flatten(tree), {k: dict(v.get("overrides", {})) for k, v in scenes.items()}
+
+
+def load_structures(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """Named structures of a rig file: ``{name: {dotted key: value}}`` (the values a
+    structure sets over the ``flexible:`` leaves; ``{}`` for the leaves themselves)."""
+    _, _, structures = _read_rig(path)
+    out = {}
+    for name, node in structures.items():
+        over = {}
+        for key, leaf in ((node or {}).get("overrides") or {}).items():
+            if not str(key).startswith(_STRUCTURE_PREFIXES):
+                raise InputError(f"structure {name!r} sets {key!r}: a structure may set only flexible.* and ves.* "
+                                 "parameters")
+            over[str(key)] = leaf["value"] if isinstance(leaf, Mapping) and "value" in leaf else leaf
+        out[str(name)] = over
+    return out
 
 
 def derive_seed(*parts: Any) -> int:
@@ -138,6 +162,9 @@ class Scene:
         for k, v in (changes.pop("params", None) or {}).items():
             if k not in params:
                 raise InputError(f"unknown rig parameter {k!r}")
+            if k == "flexible.structure" and v != params[k]:
+                raise InputError("flexible.structure names a set of values: build the scene with make_scene("
+                                 f"params={{'flexible.structure': {v!r}}}) instead of replacing it")
             params[k] = v
         return dataclasses.replace(self, params=tuple(sorted(params.items())), **changes)
 
@@ -232,7 +259,8 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
     gains_counts : (P, D, I), optional
         Controller gains in counts; by default the paper's Table 1 row of ``gain``.
     params : mapping, optional
-        Dotted-key rig parameter overrides, applied last.
+        Dotted-key rig parameter overrides, applied last. ``flexible.structure`` names the
+        structure of the rig file's ``structures:`` whose values are applied before them.
     rig : path, optional
         Rig parameter file (default ``config/rig.yaml``).
     """
@@ -246,6 +274,16 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
         for k, v in over.items():
             if k not in values:
                 raise InputError(f"scene {scene!r} overrides unknown rig parameter {k!r}")
+            values[k] = v
+    # the named structure first, explicit overrides last (they win over the structure's values)
+    structure = (params or {}).get("flexible.structure", values.get("flexible.structure"))
+    if structure is not None:
+        structures = load_structures(rig)
+        if structure not in structures:
+            raise InputError(f"unknown flexible.structure {structure!r}; expected one of {sorted(structures)}")
+        for k, v in structures[structure].items():
+            if k not in values:
+                raise InputError(f"structure {structure!r} overrides unknown rig parameter {k!r}")
             values[k] = v
     for k, v in (params or {}).items():
         if k not in values:

@@ -28,7 +28,7 @@ from .pendulum import Pendulum
 from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
-__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "Rig"]
+__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "Rig"]
 
 # imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
 # the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
@@ -205,6 +205,21 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
     rig.m1 = m1
     return rig
+
+
+def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: str = "") -> None:
+    """Refuse a trial whose platform leaves the VES-II's stroke (``ves.stroke`` [m] per
+    translation axis, ``ves.stroke_rotation`` [rad] per rotation axis): the real rig could not
+    have emulated it. ``platform`` is the platform pose per sample (n, 6)."""
+    platform = np.asarray(platform, float)
+    for cols, limit, key, units in ((slice(0, 3), stroke, "ves.stroke", "m"),
+                                    (slice(3, 6), stroke_rotation, "ves.stroke_rotation", "rad")):
+        peak = float(np.max(np.abs(platform[:, cols]))) if platform.size else 0.0
+        if peak > limit:
+            raise InputError(
+                f"the emulated base moves {peak:.4g} {units} from rest, beyond the VES platform's stroke {key} = "
+                f"{limit:g} {units}" + (f" (structure {structure})" if structure else "")
+                + ": a slower hammer or a stiffer or heavier structure keeps the platform in range")
 
 
 def _offset():
@@ -460,6 +475,8 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
             structure = plant.base_state(Xb)[:, :6]
             platform = command = structure     # ideal coupling: the platform is the structure
             base_truth = plant.base_state(Xt)
+        check_stroke(platform, stroke=float(p("ves.stroke")), stroke_rotation=float(p("ves.stroke_rotation")),
+                     structure=str(scene.param_dict.get("flexible.structure", "")))
         measured.update({
             "base_position": structure[:, :3],
             "base_rotation": structure[:, 3:],
