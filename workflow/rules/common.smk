@@ -120,6 +120,31 @@ def _sweeps():
 
 SWEEPS = _sweeps()
 
+
+def _structure():
+    """The flexible sweep's named structure (bases.flexible.structure), checked against the
+    rig file's ``structures:``; None keeps the rig file's default."""
+    name = config["bases"].get("flexible", {}).get("structure")
+    if name is None:
+        return None
+    with open(RIG_FILE) as fh:
+        known = sorted((yaml.safe_load(fh).get("structures") or {}))
+    if name not in known:
+        _config_error("bases.flexible.structure", f"unknown structure {name!r}; the rig file {RIG_FILE} names {known}")
+    return name
+
+
+STRUCTURE = _structure()
+
+
+def sweep_params(base):
+    """Rig overrides of ``base``'s jobs: the campaign's rig_params, and for the flexible base
+    its named structure (rig_params may still override single values of it)."""
+    params = dict(config["rig_params"])
+    if base == "flexible" and STRUCTURE is not None:
+        params.setdefault("flexible.structure", STRUCTURE)
+    return params
+
 if SIMULATE:
     TRIAL_ROOT = ARCHIVE
 else:

@@ -94,7 +94,7 @@ rule fig8_flexible_setup:
     params:
         code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
         rig=config["rig"],
-        rig_params=config["rig_params"],
+        rig_params=sweep_params("flexible"),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
     log:
