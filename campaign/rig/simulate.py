@@ -28,7 +28,7 @@ from .pendulum import Pendulum
 from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
-__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "Rig"]
+__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "structure_modes", "Rig"]
 
 # imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
 # the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
@@ -102,11 +102,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
         beam = Beam.from_scene(scene)
         # a flexible trial records trial_periods periods of the structure's first mode with
         # the arm (locked) on top, for Figure 9
-        data = robot.model.createData()
-        import pinocchio as pin
-        pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
-        arm = beam.base_body().mount.act(data.oYcrb[0])
-        freqs = beam.modes(tip=arm)[0]
+        freqs, arm = _modes_with_arm(robot, q0, beam)
         f1 = float(freqs[0])
         min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
         if max_post > MAX_FLEXIBLE_RECORD:
@@ -205,6 +201,28 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
     rig.m1 = m1
     return rig
+
+
+def _modes_with_arm(robot, q0, beam):
+    """Natural frequencies [Hz] of the structure with the arm locked on top (ascending) and
+    the arm's composite inertia at the beam tip."""
+    import pinocchio as pin
+
+    data = robot.model.createData()
+    pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
+    arm = beam.base_body().mount.act(data.oYcrb[0])
+    return np.asarray(beam.modes(tip=arm)[0], float), arm
+
+
+def structure_modes(scene: Scene) -> np.ndarray:
+    """Natural frequencies [Hz] of a flexible scene's structure with its arm locked on top in
+    the scene's configuration, ascending: the first bending pair (its period T_1 sets the
+    recording and Figure 9's time axis), then the second pair, torsion, axial."""
+    from .beam import Beam
+
+    robot = load_robot(scene.p("robot"))
+    q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
+    return _modes_with_arm(robot, q0, Beam.from_scene(scene))[0]
 
 
 def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: str = "") -> None:
