@@ -138,7 +138,7 @@ def test_base_motion_is_larger_for_configuration_2_and_for_high_gains():
     ("flexible.beam_length=-1", "beam_length"),
     ("flexible.beam_mass=0", "beam_mass"),
     ("ves.latency=5", "latency"),
-    ("ves.rate=5", "rate"),      # below 10x the first mode (0.61 Hz with the arm on top)
+    ("ves.rate=5", "rate"),      # below 10x the first mode (0.70 Hz with the arm on top)
     ("ves.stroke=0.001", "ves.stroke"),    # the base moves ~3 mm at 1.5 m/s: beyond a 1 mm stroke
 ])
 def test_flexible_bad_input_exits_2_naming_the_cause_and_leaves_no_file(tmp_path, capsys, setting, needle):
