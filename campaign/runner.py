@@ -671,17 +671,20 @@ def load_fits(pickles: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
 
 def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike, *,
                ident_tables: Iterable[str | os.PathLike] = (), fits: Mapping[str, str | os.PathLike] | None = None,
-               timer: Timer | None = None):
-    """Write Table 2, 3 or 4 (:mod:`campaign.tables`) as CSV and Markdown, each atomically.
+               source: str | os.PathLike | None = None, timer: Timer | None = None):
+    """Write Table 2, 3, 4 or Table 4 under both structures (:mod:`campaign.tables`) as CSV
+    and Markdown, each atomically.
 
     Parameters
     ----------
-    name : {"table2", "table3", "table4"}
+    name : {"table2", "table3", "table4", "table4_structures"}
     out_csv, out_md : path-like
     ident_tables : iterable of path-like
         Identification CSVs: fixed-base ones for Table 2, flexible-base ones for Table 4.
     fits : mapping, optional
         ``{gain class: pickle of fit_lambda}`` for Tables 3 and 4, in the paper's order.
+    source : path-like, optional
+        For ``table4_structures``: the CSV ``benchmarks/space_structure.py`` writes.
     timer : Timer, optional
 
     Returns
@@ -700,8 +703,10 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
             table = tables.table3(loaded)
         elif name == "table4":
             table = tables.table4(records, loaded)
+        elif name == "table4_structures":
+            table = tables.structures_table(source)
         else:
-            raise ValueError(f"unknown table {name!r}; expected table2, table3 or table4")
+            raise ValueError(f"unknown table {name!r}; expected table2, table3, table4 or table4_structures")
         _write_atomic(out_csv, table.to_csv())
         _write_atomic(out_md, table.to_markdown())
     print(table.to_markdown())

@@ -57,7 +57,7 @@ def draw_validity(rows: Iterable[Mapping], *, tolerance: float = 0.05):
     Table 4 cell and per passive configuration, the +-tolerance band shaded, and the ratio
     below which every calibrated (and every passive) point is inside it marked."""
     rows = list(rows)
-    fig, axes = style.new_figure(1, 1, width=6.5, height=3.6, squeeze=False)
+    fig, axes = style.new_figure(1, 1, width=7.5, height=3.6, squeeze=False)
     ax = axes[0, 0]
     ax.axhspan(-100 * tolerance, 100 * tolerance, color="#dddddd", zorder=0,
                label=f"eq 8 within {100 * tolerance:.0f} %")
@@ -79,7 +79,7 @@ def draw_validity(rows: Iterable[Mapping], *, tolerance: float = 0.05):
     ax.axhline(0.0, color=style.PAPER_COLOR, lw=0.5)
     ax.set_xlabel("contact duration / first-mode period T_c / T_1")
     ax.set_ylabel("identified m* / eq 8 - 1 [%]")
-    ax.legend(fontsize=6.5, ncol=2, loc="upper left")
+    ax.legend(fontsize=6.5, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.suptitle("Where eq 8 (flexible base as a free body) predicts the identified m*", fontsize=9.5)
     return fig
 

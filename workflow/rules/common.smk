@@ -49,6 +49,11 @@ GAIN_ORDER = ("zero", "low", "high")
 # the files every trial depends on: the rig parameters and the paper's tables (configurations, gains)
 RIG_FILE = config["rig"] if config.get("rig") else str(runner.package_file("rig.yaml"))
 PAPER_FILE = str(runner.package_file("paper.yaml"))
+# data the report takes from the repository's benchmarks (both structures; eq 8's validity map):
+# the campaign simulates one structure, the sweep behind these runs beside it
+BENCH_DIR = Path(runner.__file__).resolve().parents[1] / "benchmarks"
+VALIDITY_CSV = str(BENCH_DIR / "eq8_validity.csv")
+STRUCTURES_CSV = str(BENCH_DIR / "table4_structures.csv")
 
 
 def source_files(*patterns):
@@ -271,8 +276,8 @@ def all_trials():
 # ----------------------------------------------------------------------------------------
 # products and what each needs
 # ----------------------------------------------------------------------------------------
-FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9")
-TABLES = ("table2", "table3", "table4")
+FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "eq8_validity")
+TABLES = ("table2", "table3", "table4", "table4_structures")
 
 
 def figure_files(name):
@@ -296,6 +301,9 @@ def missing_requirement(product):
     fixed = SWEEPS.get("fixed")
     if product in ("fig4", "fig8"):
         return ""
+    if product in ("eq8_validity", "table4_structures"):
+        data = VALIDITY_CSV if product == "eq8_validity" else STRUCTURES_CSV
+        return "" if Path(data).is_file() else f"needs the benchmark data {data} (benchmarks/space_structure.py)"
     if product == "fig5":
         return "" if ("fixed", 1, "zero") in cells("fixed") else "needs bases.fixed with configuration 1 and gain zero"
     if product in ("fig6", "fig7"):
@@ -314,7 +322,7 @@ def missing_requirement(product):
 
 
 def product_files(product):
-    return figure_files(product) if product.startswith("fig") else table_files(product)
+    return figure_files(product) if product in FIGURES else table_files(product)
 
 
 def requires(product):

@@ -117,7 +117,8 @@ rule fig9_base_motion:
         png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig9.pdf",
     params:
-        code=figure_code("fig9", "archive.py", "identify.py"),
+        code=figure_code("fig9", "archive.py", "identify.py", "scene.py", "rig/simulate.py", "rig/beam.py",
+                         "robot/*.py", "robot/*/*"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
@@ -130,3 +131,23 @@ rule fig9_base_motion:
         "../envs/campaign.yaml"
     script:
         "../scripts/fig9.py"
+
+
+rule eq8_validity_figure:
+    input:
+        data=VALIDITY_CSV,
+    output:
+        png=report(f"{RESULTS}/figures/eq8_validity.png", caption="../report/eq8_validity.rst", category="Figures"),
+        pdf=f"{RESULTS}/figures/eq8_validity.pdf",
+    params:
+        code=figure_code("validity"),
+    priority: 1
+    log:
+        log_file("eq8_validity"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/eq8_validity.py"
