@@ -17,7 +17,7 @@ xr = LazyModule("xarray")
 
 
 # ----------------------------------------------------------------------------------------
-# the trial
+# measured channels
 # ----------------------------------------------------------------------------------------
 def _check_channels(ds: xr.Dataset, names: Mapping[str, tuple], where: str) -> None:
     for name, dims in names.items():
