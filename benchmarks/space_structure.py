@@ -498,7 +498,7 @@ def format_report(lam, a, b, vmap, cost, fit, seconds) -> str:
           + ", ".join(f"{100 * w:.1f} % ({n})" for n, w in worst.items() if n != "space_class")
           + " at worst over the fitted cells and drift to unphysical values (a bound-limited inertia or mass), "
           "because 2-low asks for a less mobile base and 2-high for a more mobile one. The space-class base is "
-          "kept as chosen from the published structure, not refitted.", ""]
+          "kept as chosen from the published structure, not refitted."]
     L += ["", f"Machine: {platform.machine()}; Python {platform.python_version()}; {datetime.date.today()}; "
           f"{seconds:.0f} s. Rerun: see the script's docstring."]
     return "\n".join(L)
