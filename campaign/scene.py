@@ -43,8 +43,10 @@ _NONNEGATIVE = (
     "gravity", "arm.coulomb_scale", "arm.viscous_scale", "controller.torque_per_unit", "pendulum.rod_mass",
     "sensors.joint_encoder_noise_counts", "sensors.piezo_noise", "sensors.piezo_resolution",
     "sensors.ft_noise_force", "sensors.ft_noise_torque", "trial.contact_jitter", "flexible.damping_ratio",
-    "ves.latency", "flexible.mount_height", "ves.stroke", "ves.stroke_rotation",
+    "ves.latency", "flexible.mount_height",
 )
+#: checked (> 0) where present: trials stored before the rig stated them carry no such key
+_OPTIONAL_POSITIVE = ("ves.stroke", "ves.stroke_rotation")
 #: a named structure may set only the structure's and the emulator's parameters
 _STRUCTURE_PREFIXES = ("flexible.", "ves.")
 
@@ -227,6 +229,11 @@ class Scene:
                 raise InputError(f"rig parameter {key!r} is missing")
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"rig parameter {key} must be >= 0, got {v!r}")
+        for key in _OPTIONAL_POSITIVE:
+            v = params.get(key)
+            if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0
+                                      and (math.isfinite(v) or v == math.inf)):
+                raise InputError(f"rig parameter {key} must be > 0, got {v!r}")
         e = params.get("contact.restitution")
         if not (isinstance(e, (int, float)) and 0 < e <= 1):
             raise InputError(f"contact.restitution must be in (0, 1], got {e!r}")

@@ -493,7 +493,9 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
             structure = plant.base_state(Xb)[:, :6]
             platform = command = structure     # ideal coupling: the platform is the structure
             base_truth = plant.base_state(Xt)
-        check_stroke(platform, stroke=float(p("ves.stroke")), stroke_rotation=float(p("ves.stroke_rotation")),
+        # a scene stored before the rig stated the platform's stroke has none: no limit then
+        check_stroke(platform, stroke=float(scene.param_dict.get("ves.stroke", math.inf)),
+                     stroke_rotation=float(scene.param_dict.get("ves.stroke_rotation", math.inf)),
                      structure=str(scene.param_dict.get("flexible.structure", "")))
         measured.update({
             "base_position": structure[:, :3],
