@@ -442,3 +442,92 @@ class ImpactPlanner:
                            structure_peak=float(P.structure_peak[i, g, d]))
             out.append(row)
         return out
+
+
+def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
+                  restitution: float, direction, y: float, x_range=(-1.0, 1.0), z_range=(-1.0, 1.0),
+                  resolution: float = 0.05, beam=None) -> dict:
+    """m* (eq 7) and, on a flexible base, the structure's peak displacement over a vertical plane.
+
+    The plane ``y = const`` of the arm's base frame is sampled every ``resolution`` metres;
+    at each point every IK branch is evaluated, and the best (smallest) and worst branch of
+    each quantity are kept per gain class. Unreachable points hold NaN (they are masked in
+    the figures, never stored as numbers).
+
+    Returns
+    -------
+    dict
+        ``x``, ``z`` [m] (grid axes), ``n_branches`` (nz, nx), ``gain_classes``; per quantity
+        ``m_eff`` (fixed base, eq 7) and, with ``beam``, ``m_eff_flexible`` (eq 8) and
+        ``structure_peak`` [m]: ``<q>_best`` and ``<q>_worst`` of shape (G, nz, nx).
+    """
+    from .robot.ik import position_branches
+
+    res = float(resolution)
+    if not (math.isfinite(res) and res > 0):
+        raise InputError(f"map resolution = {resolution!r} m must be > 0")
+    x = np.arange(x_range[0], x_range[1] + 0.5 * res, res)
+    z = np.arange(z_range[0], z_range[1] + 0.5 * res, res)
+    if x.size < 2 or z.size < 2:
+        raise InputError(f"map range x {list(x_range)}, z {list(z_range)} m holds fewer than 2 points per axis")
+    n = _unit_rows(direction)
+    names = list(lambdas)
+    lams = [lambdas[k] for k in names]
+    G = len(names)
+    nb = np.zeros((z.size, x.size), dtype=int)
+    owner, Q = [], []
+    data = robot.model.createData()
+    for iz, zz in enumerate(z):
+        for ix, xx in enumerate(x):
+            ik = position_branches(robot, [xx, y, zz], data=data)
+            nb[iz, ix] = ik.n_branches
+            for q in ik.q:
+                owner.append((iz, ix))
+                Q.append(q)
+    out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0]}
+    if not Q:
+        raise InputError(f"no point of the plane y = {y:g} m within x {list(x_range)}, z {list(z_range)} m is reachable")
+    Q = np.array(Q)
+    owner = np.array(owner)
+    quantities = {"m_eff": predict(pose_terms(robot, Q), lams, n, mass=mass, speed=speed,
+                                   restitution=restitution, contact=contact).m_eff[:, :, 0]}
+    if beam is not None:
+        P = predict(pose_terms(robot, Q, beam=beam), lams, n, mass=mass, speed=speed, restitution=restitution,
+                    contact=contact)
+        quantities["m_eff_flexible"] = P.m_eff[:, :, 0]
+        quantities["structure_peak"] = P.structure_peak[:, :, 0]
+    for name, vals in quantities.items():
+        best = np.full((G, z.size, x.size), np.inf)
+        worst = np.full((G, z.size, x.size), -np.inf)
+        for g in range(G):
+            np.minimum.at(best[g], (owner[:, 0], owner[:, 1]), vals[:, g])
+            np.maximum.at(worst[g], (owner[:, 0], owner[:, 1]), vals[:, g])
+        best[:, nb == 0] = np.nan
+        worst[:, nb == 0] = np.nan
+        out[f"{name}_best"], out[f"{name}_worst"] = best, worst
+    return out
+
+
+def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
+                  restitution: float, count: int = 72, beam=None) -> dict:
+    """m* and the structure's peak displacement against the horizontal impact direction at a pose.
+
+    Returns
+    -------
+    dict
+        ``azimuth`` [rad] (from +x towards +y, ``count`` values), ``gain_classes``,
+        ``m_eff`` (G, count) on the fixed base (eq 7); with ``beam`` also ``m_eff_flexible``
+        (eq 8) and ``structure_peak`` [m].
+    """
+    q = np.asarray(q, dtype=float)
+    n = horizontal_directions(count, start_deg=0.0)
+    names = list(lambdas)
+    lams = [lambdas[k] for k in names]
+    kw = dict(mass=mass, speed=speed, restitution=restitution, contact=contact)
+    out = {"azimuth": np.arctan2(n[:, 1], n[:, 0]) % (2 * np.pi), "gain_classes": names, "q": q,
+           "m_eff": predict(pose_terms(robot, q[None]), lams, n, **kw).m_eff[0]}
+    if beam is not None:
+        P = predict(pose_terms(robot, q[None], beam=beam), lams, n, **kw)
+        out["m_eff_flexible"] = P.m_eff[0]
+        out["structure_peak"] = P.structure_peak[0]
+    return out

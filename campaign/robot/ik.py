@@ -33,6 +33,8 @@ __all__ = ["IKResult", "position_branches", "impact_point", "reach_starts"]
 
 #: Newton stops for a start when its position error is below this [m]
 _CONVERGED = 1e-12
+#: iterations over which a start must lower its error by 0.1 % to go on
+_STALL_WINDOW = 6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -66,7 +68,7 @@ def impact_point(robot: Robot, q, *, data: pin.Data | None = None) -> np.ndarray
     return np.array(data.oMf[robot.impact_frame_id].translation)
 
 
-def reach_starts(robot: Robot, *, per_joint: int = 4) -> np.ndarray:
+def reach_starts(robot: Robot, *, per_joint: int = 3) -> np.ndarray:
     """Start poses of the Newton search, relative to the target's azimuth for joint 1.
 
     Joint 1 starts at offsets of 0, 90, 180 and 270 deg from the target's azimuth (both
@@ -96,7 +98,7 @@ def _wrap_into_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, tol: 
 
 
 def position_branches(robot: Robot, target, *, tol: float = 1e-9, dedup_tol: float = 1e-5,
-                      max_iter: int = 60, starts: np.ndarray | None = None,
+                      max_iter: int = 30, starts: np.ndarray | None = None,
                       data: pin.Data | None = None) -> IKResult:
     """Every pose within the joint limits that puts the impact point at ``target``.
 
@@ -144,8 +146,13 @@ def position_branches(robot: Robot, target, *, tol: float = 1e-9, dedup_tol: flo
     evaluate(range(S))
     cost = np.einsum("ij,ij->i", err, err)
     eye = np.eye(nq)
-    for _ in range(max_iter):
+    history = [cost.copy()]
+    for it in range(max_iter):
         active &= cost > _CONVERGED**2
+        if it >= _STALL_WINDOW:
+            # a start whose error no longer falls is stuck at a non-zero minimum (the point is
+            # beyond its reach from there): stop iterating it
+            active &= cost < (1.0 - 1e-3) * history[-_STALL_WINDOW]
         rows = np.flatnonzero(active)
         if rows.size == 0:
             break
@@ -165,6 +172,7 @@ def position_branches(robot: Robot, target, *, tol: float = 1e-9, dedup_tol: flo
         bad = rows[~better]
         Q[bad], J[bad], err[bad] = Q_old[~better], J_old[~better], err_old[~better]
         cost[rows] = np.where(better, new, cost_old)
+        history.append(cost.copy())
 
     hit = np.sqrt(cost) <= tol
     if not np.any(hit):
