@@ -132,8 +132,7 @@ rule fig9_base_motion:
         "../scripts/fig9.py"
 
 
-
-rule plan_maps:
+rule planner_maps:
     input:
         unpack(lambda wc: fit_jsons()),
         rig=RIG_FILE,
