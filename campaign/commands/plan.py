@@ -187,7 +187,8 @@ def _directions(args):
 
 
 def _fmt(v, spec=".1f"):
-    return "[" + ", ".join(format(float(x), spec) for x in v) + "]"
+    # + 0.0 turns a negative zero into zero, so "-0.0" is never printed
+    return "[" + ", ".join(format(float(x) + 0.0, spec) for x in v) + "]"
 
 
 def run(args) -> int:
@@ -240,7 +241,8 @@ def run(args) -> int:
     print("-" * len(head))
     for r in shown:
         n = np.asarray(r["direction"])
-        az, el = np.degrees(np.arctan2(n[1], n[0])), np.degrees(np.arcsin(np.clip(n[2], -1, 1)))
+        az = float(np.round(np.degrees(np.arctan2(n[1], n[0])), 6)) + 0.0
+        el = float(np.round(np.degrees(np.arcsin(np.clip(n[2], -1, 1))), 6)) + 0.0
         m = "inf" if r["m_eff"] is None else f"{r['m_eff']:.3f}"
         line = (f"{r['rank']:>4} {r['branch']:>2} {r['gain_class'][:9]:>9} {az:6.1f} {el:5.1f} {m:>8} "
                 f"{r['impulse']:7.4f} {r['peak_force']:6.2f} {np.linalg.norm(r['dq']):8.4f}")
