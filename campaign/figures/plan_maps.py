@@ -85,14 +85,24 @@ def draw_directions(d: dict, *, title: str = ""):
     fig = style.plt.figure(figsize=(6.5 if has_structure else 3.6, 3.4), layout="constrained")
     ax1 = fig.add_subplot(1, 2 if has_structure else 1, 1, projection="polar")
     az = np.append(d["azimuth"], d["azimuth"][0])
+    # m* spans decades over the directions (it grows without bound where n nears the edge of
+    # the range of G*): the radius is log10(m*), labelled in kg
+    curves = [d["m_eff"]] + ([d["m_eff_flexible"]] if has_structure else [])
+    finite = np.concatenate([c[np.isfinite(c)] for c in curves])
+    lo, hi = np.floor(np.log10(finite.min())), np.ceil(np.log10(finite.max()))
+    hi = max(hi, lo + 1)
     for g, name in enumerate(d["gain_classes"]):
         color = _CLASS_COLOR[g % len(_CLASS_COLOR)]
-        ax1.plot(az, np.append(d["m_eff"][g], d["m_eff"][g][0]), color=color, label=f"{name}, fixed (eq 7)")
+        ax1.plot(az, np.log10(np.append(d["m_eff"][g], d["m_eff"][g][0])), color=color, label=f"{name}, fixed (eq 7)")
         if has_structure:
-            ax1.plot(az, np.append(d["m_eff_flexible"][g], d["m_eff_flexible"][g][0]), color=color, ls="--",
-                     label=f"{name}, flexible (eq 8)")
-    ax1.set_title("m* [kg] against the direction of n", fontsize=8.5)
-    ax1.set_rlabel_position(112.5)
+            ax1.plot(az, np.log10(np.append(d["m_eff_flexible"][g], d["m_eff_flexible"][g][0])), color=color,
+                     ls="--", label=f"{name}, flexible (eq 8)")
+    ax1.set_rorigin(lo - 0.3 * (hi - lo))
+    ax1.set_rlim(lo, hi)
+    ticks = np.arange(lo, hi + 0.5)
+    ax1.set_rticks(ticks, [f"{10 ** t:g}" for t in ticks])
+    ax1.set_title("m* [kg, log radius] against the direction of n", fontsize=8.5)
+    ax1.set_rlabel_position(157.5)
     ax1.legend(loc="upper left", bbox_to_anchor=(-0.35, -0.05), fontsize=6.5, ncol=1)
     if has_structure:
         ax2 = fig.add_subplot(1, 2, 2, projection="polar")
@@ -100,7 +110,7 @@ def draw_directions(d: dict, *, title: str = ""):
             v = 1e3 * d["structure_peak"][g]
             ax2.plot(az, np.append(v, v[0]), color=_CLASS_COLOR[g % len(_CLASS_COLOR)], label=name)
         ax2.set_title("predicted peak base displacement [mm]", fontsize=8.5)
-        ax2.set_rlabel_position(112.5)
+        ax2.set_rlabel_position(157.5)
         ax2.legend(loc="upper left", bbox_to_anchor=(0.85, -0.05), fontsize=6.5)
     q = np.degrees(d["q"])
     fig.suptitle(f"{title}q = ({q[0]:.0f}, {q[1]:.0f}, {q[2]:.0f}) deg (DH); azimuth from +x towards +y",
