@@ -1,0 +1,244 @@
+"""The impact planner checked on the rig: predicted against simulated peak force and base displacement.
+
+For each contact point, every candidate of the planner (every IK branch x gain set x impact
+direction) is simulated on the VES-II rig (``campaign.rig.simulate.simulate_arrays``) at one
+impact speed, and the rig's peak contact force (fixed base, simulator truth ``f_contact``)
+and peak base displacement (flexible base, truth ``base_position``, translation) are set
+beside the planner's predictions (``campaign.plan``: the peak force of the contact law at
+the reduced mass of m*, and the structure's first bending pair released with eq 8's base
+velocity change). Gain sets map to the paper's gain classes (zero and low: zero_low; high:
+high) with the paper's Table 3 lambda, as the rig is calibrated to reproduce Table 2 with
+them. Reported per point and base: Spearman's rank correlation of predicted and measured
+values, and the measured value of the planner's best candidate over the worst measured one.
+
+Directions: the paper's n only, unless :func:`campaign.scene.make_scene` takes a
+``direction`` (the rig striking along any horizontal direction); then ``--directions``
+horizontal ones. Candidates the rig refuses (the pendulum cannot strike the pose, the hammer
+would not rebound) are counted and left out.
+
+Usage::
+
+    python benchmarks/plan_rig_check.py                                  # print the tables
+    python benchmarks/plan_rig_check.py --readme benchmarks/README.md    # also record them
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import inspect
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HEADING = "## Impact planner on the rig"
+#: contact points [m]: the paper's configuration 1 (two branches within the limits) and a
+#: point beside the arm reached by four branches
+POINTS = {"config 1 wrist centre": None, "side point": (30.0, 60.0, -60.0)}
+GAIN_CLASS = {"zero": "zero_low", "low": "zero_low", "high": "high"}
+
+
+def contact_points():
+    from campaign.paper import configuration_q
+    from campaign.robot import load_robot
+    from campaign.robot.ik import impact_point
+
+    robot = load_robot("puma560")
+    out = {}
+    for name, q_deg in POINTS.items():
+        q = configuration_q(1) if q_deg is None else np.radians(q_deg)
+        out[name] = impact_point(robot, q)
+    return out
+
+
+def rig_takes_directions() -> bool:
+    from campaign.scene import make_scene
+    return "direction" in inspect.signature(make_scene).parameters
+
+
+def measure(base: str, q_dh, gain: str, n, speed: float, params=None):
+    """(measured peak, refusal reason) of one rig trial."""
+    from campaign.errors import InputError
+    from campaign.paper import impact_direction, load_paper
+    from campaign.rig.simulate import simulate_arrays
+    from campaign.scene import make_scene
+
+    q_paper = np.degrees(q_dh) - np.asarray(load_paper()["offset_deg"], dtype=float)
+    kw = dict(base=base, config=None, gain=gain, speed=speed, q_paper_deg=[float(x) for x in q_paper],
+              params=params)
+    if not np.allclose(n, impact_direction()):
+        kw["direction"] = [float(x) for x in n]
+    try:
+        trial = simulate_arrays(make_scene(**kw))
+    except InputError as exc:
+        return None, str(exc)
+    truth = trial["truth"] if not hasattr(trial, "groups") else trial.groups["truth"]
+    if base == "fixed":
+        return float(np.max(truth["f_contact"].values)), None
+    return float(np.max(np.linalg.norm(truth["base_position"].values, axis=1))), None
+
+
+def hammer_mass(params=None) -> float:
+    """Effective mass m_b of the rig's hammer [kg] with the parameter overrides."""
+    from campaign.rig.pendulum import Pendulum
+    from campaign.scene import make_scene
+
+    p = make_scene(params=params).p
+    return Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
+                    float(p("gravity"))).m_b
+
+
+def check_point(name: str, point, *, directions, speed: float, params=None) -> list[dict]:
+    from scipy.stats import spearmanr
+
+    from campaign.commands.plan import build_planner
+    from campaign.paper import load_paper
+
+    table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
+    rows = []
+    for base in ("fixed", "flexible"):
+        planner = build_planner(base=base, lambdas=table3, speed=speed, mass=hammer_mass(params),
+                                objective="force" if base == "fixed" else "displacement")
+        planner.fit(point, directions)
+        P = planner.predictions_
+        predicted_all = P.peak_force if base == "fixed" else P.structure_peak
+        cands = []
+        refused = []
+        t0 = time.perf_counter()
+        for i, q in enumerate(planner.q_):
+            for gain, cls in GAIN_CLASS.items():
+                g = planner.gain_classes_.index(cls)
+                for d, n in enumerate(planner.directions_):
+                    measured, why = measure(base, q, gain, n, speed, params)
+                    if why is not None:
+                        refused.append(why)
+                        continue
+                    cands.append({"branch": i + 1, "gain": gain, "d": d,
+                                  "predicted": float(predicted_all[i, g, d]), "measured": measured})
+        wall = time.perf_counter() - t0
+        pred = np.array([c["predicted"] for c in cands])
+        meas = np.array([c["measured"] for c in cands])
+        rho = float(spearmanr(pred, meas).statistic) if len(cands) >= 3 else float("nan")
+        best = cands[int(np.argmin(pred))] if cands else None
+        rows.append({
+            "point": name, "base": base, "branches": int(planner.q_.shape[0]), "candidates": len(cands),
+            "refused": len(refused), "refusals": sorted(set(refused)), "spearman": rho,
+            "best_over_worst": (best["measured"] / meas.max()) if cands else float("nan"),
+            "pred_range": (pred.min(), pred.max()) if cands else (np.nan, np.nan),
+            "meas_range": (meas.min(), meas.max()) if cands else (np.nan, np.nan),
+            "frequency": float(np.mean(planner.frequency_)) if planner.frequency_ is not None else None,
+            "wall": wall, "cands": cands,
+        })
+    return rows
+
+
+def format_rows(rows: list[dict]) -> str:
+    head = ("| point | base | branches | candidates (refused) | quantity | predicted range | measured range | "
+            "Spearman | best / worst measured |")
+    lines = [head, "|" + "|".join("---" for _ in head.split("|")[1:-1]) + "|"]
+    for r in rows:
+        unit, scale, q = ("N", 1.0, "peak contact force") if r["base"] == "fixed" else \
+            ("mm", 1e3, "peak base displacement")
+        pr, mr = r["pred_range"], r["meas_range"]
+        lines.append(f"| {r['point']} | {r['base']} | {r['branches']} | {r['candidates']} ({r['refused']}) | {q} | "
+                     f"{scale * pr[0]:.3g}-{scale * pr[1]:.3g} {unit} | {scale * mr[0]:.3g}-{scale * mr[1]:.3g} {unit} | "
+                     f"{r['spearman']:.2f} | {r['best_over_worst']:.2f} |")
+    return "\n".join(lines)
+
+
+def make_head(params=None) -> float:
+    from campaign.scene import make_scene
+    return float(make_scene(params=params).p("pendulum.head_mass"))
+
+
+def write_section(readme: Path, body: str) -> None:
+    """Replace this script's section of ``readme`` (from its heading to the next ``## ``), or append it."""
+    text = readme.read_text(encoding="utf-8") if readme.exists() else ""
+    lines = text.splitlines()
+    try:
+        start = lines.index(HEADING)
+    except ValueError:
+        new = text.rstrip("\n") + "\n\n" + HEADING + "\n\n" + body.strip("\n") + "\n"
+    else:
+        end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
+        new = "\n".join(lines[:start + 1] + ["", body.strip("\n"), ""] + lines[end:]) + "\n"
+    tmp = readme.with_name(f".{readme.name}.tmp")
+    tmp.write_text(new, encoding="utf-8")
+    os.replace(tmp, readme)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--directions", type=int, default=4, help="horizontal directions (default 4)")
+    parser.add_argument("--speed", type=float, default=2.0, help="impact speed [m/s] (default 2.0)")
+    parser.add_argument("--head-masses", default="",
+                        help="also run with these pendulum head masses [kg], comma-separated (a heavier object)")
+    parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
+    args = parser.parse_args(argv)
+
+    from campaign import __version__
+    from campaign.paper import impact_direction
+    from campaign.plan import horizontal_directions
+
+    any_direction = rig_takes_directions()
+    directions = horizontal_directions(args.directions) if any_direction else impact_direction()[None]
+    variants = [None] + [{"pendulum.head_mass": float(x)} for x in args.head_masses.split(",") if x.strip()]
+    tables = []
+    rows = []
+    for params in variants:
+        part = []
+        for name, point in contact_points().items():
+            part += check_point(name, point, directions=directions, speed=args.speed, params=params)
+        m_b = hammer_mass(params)
+        tables += ["", f"Object: the rig's hammer{'' if params is None else ' with a heavier head'}, "
+                       f"m_b = {m_b:.3g} kg (pendulum.head_mass = {make_head(params):.3g} kg).", "",
+                   format_rows(part)]
+        spread = max(r["pred_range"][1] / r["pred_range"][0] for r in part if r["base"] == "fixed")
+        tables += ["", f"Largest predicted spread of the peak force over one point's candidates: x{spread:.3f}."]
+        rows += part
+    refusals = sorted({w for r in rows for w in r["refusals"]})
+    f1 = next(r["frequency"] for r in rows if r["frequency"])
+    body = "\n".join([
+        f"The planner's candidates at two contact points simulated on the rig at {args.speed:g} m/s with the "
+        "rig's hammer, the paper's Table 3 lambda for the predictions (zero and low gains: zero_low; high: high): "
+        "every IK branch x gain set x "
+        + (f"{len(directions)} horizontal directions" if any_direction else
+           "the paper's direction only (the rig strikes along the paper's n only in this version)")
+        + ". Measured: the simulator truth's peak contact force (fixed base) and peak translational base "
+        "displacement (flexible base, the VES-II loop). `best / worst measured`: the measured value of the "
+        "planner's best candidate over the largest measured value.",
+        *tables,
+        "",
+        "The peak force depends on the candidate only through the reduced mass m* m_b / (m* + m_b): with a "
+        "hammer far lighter than m* (5-75 kg along the paper's n) it is close to m_b for every candidate, so no "
+        "pose, gain set or direction can change the peak force much; only an object of mass comparable to m* "
+        "makes the choice matter (the heavier-head rows, where the rig accepts them: a hammer heavier than the "
+        "arm's free m* at a pose is refused, it would not rebound).",
+        "",
+        f"The flexible base's first bending pair is at {f1:.2f} Hz with the arm on top; against a contact of "
+        "~45 ms that is not impulsive (contact / period ~0.2), which eq 8 assumes (see *Flexible-base "
+        "validation*).",
+        *([""] + ["Refused by the rig: " + "; ".join(refusals)] if refusals else []),
+        "",
+        f"Python {platform.python_version()}, numpy {np.__version__}, campaign {__version__}; "
+        f"{datetime.date.today().isoformat()}. Record: `.venv/bin/python benchmarks/plan_rig_check.py --readme "
+        "benchmarks/README.md`.",
+    ])
+    print(body)
+    for r in rows:
+        print(f"\n{r['point']}, {r['base']} ({r['wall']:.1f} s):")
+        for c in sorted(r["cands"], key=lambda c: c["predicted"]):
+            print(f"  branch {c['branch']} {c['gain']:>4} dir {c['d']}: predicted {c['predicted']:.5g}, "
+                  f"measured {c['measured']:.5g}")
+    if args.readme is not None:
+        write_section(args.readme, body)
+        print(f"\nwrote the section '{HEADING}' of {args.readme}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
