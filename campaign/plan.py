@@ -461,7 +461,7 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
         ``m_eff`` (fixed base, eq 7) and, with ``beam``, ``m_eff_flexible`` (eq 8) and
         ``structure_peak`` [m]: ``<q>_best`` and ``<q>_worst`` of shape (G, nz, nx).
     """
-    from .robot.ik import position_branches
+    from .robot.ik import position_branches_many
 
     res = float(resolution)
     if not (math.isfinite(res) and res > 0):
@@ -476,14 +476,14 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
     G = len(names)
     nb = np.zeros((z.size, x.size), dtype=int)
     owner, Q = [], []
-    data = robot.model.createData()
-    for iz, zz in enumerate(z):
-        for ix, xx in enumerate(x):
-            ik = position_branches(robot, [xx, y, zz], data=data)
-            nb[iz, ix] = ik.n_branches
-            for q in ik.q:
-                owner.append((iz, ix))
-                Q.append(q)
+    ZZ, XX = np.meshgrid(z, x, indexing="ij")
+    points = np.stack([XX.ravel(), np.full(XX.size, float(y)), ZZ.ravel()], axis=1)
+    for k, ik in enumerate(position_branches_many(robot, points)):
+        iz, ix = divmod(k, x.size)
+        nb[iz, ix] = ik.n_branches
+        for q in ik.q:
+            owner.append((iz, ix))
+            Q.append(q)
     out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0]}
     if not Q:
         raise InputError(f"no point of the plane y = {y:g} m within x {list(x_range)}, z {list(z_range)} m is reachable")

@@ -29,7 +29,7 @@ import pinocchio as pin
 from ..errors import InputError
 from . import Robot
 
-__all__ = ["IKResult", "position_branches", "impact_point", "reach_starts"]
+__all__ = ["IKResult", "position_branches", "position_branches_many", "impact_point", "reach_starts"]
 
 #: Newton stops for a start when its position error is below this [m]
 _CONVERGED = 1e-12
@@ -125,25 +125,44 @@ def position_branches(robot: Robot, target, *, tol: float = 1e-9, dedup_tol: flo
     p = np.asarray(target, dtype=float)
     if p.shape != (3,) or not np.all(np.isfinite(p)):
         raise InputError(f"target point must be 3 finite numbers [m], got {np.asarray(target).tolist()}")
+    return position_branches_many(robot, p[None], tol=tol, dedup_tol=dedup_tol, max_iter=max_iter,
+                                  starts=starts, data=data)[0]
+
+
+def position_branches_many(robot: Robot, targets, *, tol: float = 1e-9, dedup_tol: float = 1e-5,
+                           max_iter: int = 30, starts: np.ndarray | None = None,
+                           data: pin.Data | None = None) -> list[IKResult]:
+    """:func:`position_branches` of many targets (M, 3) [m] at once.
+
+    The Newton iterations of every (target, start) pair run together, so the NumPy work of
+    an iteration is paid once for all targets (a map's grid), not once per target.
+    """
+    P = np.asarray(targets, dtype=float)
+    if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
+        raise InputError(f"target points must be finite 3-vectors, got shape {np.shape(targets)}")
     model = robot.model
     data = model.createData() if data is None else data
     fid = robot.impact_frame_id
     S0 = reach_starts(robot) if starts is None else np.asarray(starts, dtype=float)
-    Q = S0.copy()
-    Q[:, 0] += np.arctan2(p[1], p[0])
-    S, nq = Q.shape
-    err = np.empty((S, 3))
-    J = np.empty((S, 3, nq))
-    mu = np.full(S, 1e-3)               # Levenberg-Marquardt damping, per start
-    active = np.ones(S, dtype=bool)
+    M, S, nq = P.shape[0], S0.shape[0], S0.shape[1]
+    Q = np.tile(S0, (M, 1))
+    Q[:, 0] += np.repeat(np.arctan2(P[:, 1], P[:, 0]), S)
+    goal = np.repeat(P, S, axis=0)           # the target of each row
+    R = M * S
+    err = np.empty((R, 3))
+    J = np.empty((R, 3, nq))
+    mu = np.full(R, 1e-3)                    # Levenberg-Marquardt damping, per row
+    active = np.ones(R, dtype=bool)
     jac, lwa = pin.computeFrameJacobian, pin.LOCAL_WORLD_ALIGNED
+    oMf = data.oMf
 
     def evaluate(rows):
         for i in rows:
             J[i] = jac(model, data, Q[i], fid, lwa)[:3]    # also places oMf[fid] at Q[i]
-            err[i] = data.oMf[fid].translation - p
+            err[i] = oMf[fid].translation
+        err[rows] -= goal[rows]
 
-    evaluate(range(S))
+    evaluate(np.arange(R))
     cost = np.einsum("ij,ij->i", err, err)
     eye = np.eye(nq)
     history = [cost.copy()]
@@ -175,17 +194,21 @@ def position_branches(robot: Robot, target, *, tol: float = 1e-9, dedup_tol: flo
         history.append(cost.copy())
 
     hit = np.sqrt(cost) <= tol
-    if not np.any(hit):
-        return IKResult(np.empty((0, nq)), np.empty(0), False)
-    wrapped, inside = _wrap_into_limits(Q[hit], robot.q_lower, robot.q_upper, 1e-9)
-    cand = wrapped[inside]
-    kept: list[np.ndarray] = []
-    for q in cand[np.lexsort(cand.T[::-1])]:
-        if not any(np.all(np.abs(q - k) <= dedup_tol) for k in kept):
-            kept.append(q)
-    if not kept:
-        return IKResult(np.empty((0, nq)), np.empty(0), True)
-    q_out = np.array(kept)
-    res = np.array([np.linalg.norm(impact_point(robot, q, data=data) - p) for q in q_out])
-    good = res <= tol
-    return IKResult(q_out[good], res[good], False)
+    wrapped, inside = _wrap_into_limits(Q, robot.q_lower, robot.q_upper, 1e-9)
+    out = []
+    for m in range(M):
+        sl = slice(m * S, (m + 1) * S)
+        h, ins = hit[sl], inside[sl]
+        cand = wrapped[sl][h & ins]
+        kept: list[np.ndarray] = []
+        for q in cand[np.lexsort(cand.T[::-1])] if cand.size else ():
+            if not any(np.all(np.abs(q - k) <= dedup_tol) for k in kept):
+                kept.append(q)
+        if not kept:
+            out.append(IKResult(np.empty((0, nq)), np.empty(0), bool(np.any(h))))
+            continue
+        q_out = np.array(kept)
+        res = np.array([np.linalg.norm(impact_point(robot, q, data=data) - P[m]) for q in q_out])
+        good = res <= tol
+        out.append(IKResult(q_out[good], res[good], False))
+    return out
