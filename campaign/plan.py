@@ -15,7 +15,7 @@ every gain class (its Virtual Rotor Inertia lambda) and every allowed impact dir
   ``m* m_b / (m* + m_b)`` (:meth:`campaign.rig.contact.Contact.peak_force`);
 * on the flexible base, the base's velocity change (the free base of eq 8 under the
   impulse), the momentum of the structure's tip body, and the predicted peak displacement
-  of the structure's first bending pair (see :func:`structure_terms`).
+  of the structure's first bending pair (modal data from :func:`pose_terms`).
 
 Everything per pose is one Pinocchio pass (:func:`pose_terms`); the rest is NumPy over the
 (pose, gain, direction) axes (:func:`predict`). :class:`ImpactPlanner` wraps the search and
