@@ -145,19 +145,10 @@ def format_table(rows: list[dict]) -> str:
 
 
 def write_section(readme: Path, body: str) -> None:
-    """Replace this script's section of ``readme`` (from its heading to the next ``## ``), or append it."""
-    text = readme.read_text(encoding="utf-8") if readme.exists() else ""
-    lines = text.splitlines()
-    try:
-        start = lines.index(HEADING)
-    except ValueError:
-        new = text.rstrip("\n") + "\n\n" + HEADING + "\n\n" + body.strip("\n") + "\n"
-    else:
-        end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
-        new = "\n".join(lines[:start + 1] + ["", body.strip("\n"), ""] + lines[end:]) + "\n"
-    tmp = readme.with_name(f".{readme.name}.tmp")
-    tmp.write_text(new, encoding="utf-8")
-    os.replace(tmp, readme)
+    """Replace (or append) this script's section of ``readme`` (campaign.bench.write_section)."""
+    from campaign.bench import write_section as _write_section
+
+    _write_section(readme, HEADING, body)
 
 
 def main(argv: list[str] | None = None) -> int:
