@@ -255,7 +255,7 @@ def main(argv: list[str] | None = None) -> int:
         *([""] + ["Refused by the rig: " + "; ".join(refusals)] if refusals else []),
         "",
         f"Python {platform.python_version()}, numpy {np.__version__}, campaign {__version__}; "
-        f"{datetime.date.today().isoformat()}. Record: `.venv/bin/python benchmarks/plan_rig_check.py --readme "
+        f"{datetime.date.today().isoformat()}. Record: `.venv/bin/python benchmarks/plan_rig_check.py --head-masses 3 --readme "
         "benchmarks/README.md`.",
     ])
     print(body)
