@@ -144,7 +144,8 @@ def format_rows(rows: list[dict]) -> str:
             ("mm", 1e3, "peak base displacement")
         pr, mr = r["pred_range"], r["meas_range"]
         lines.append(f"| {r['point']} | {r['base']} | {r['branches']} | {r['candidates']} ({r['refused']}) | {q} | "
-                     f"{scale * pr[0]:.3g}-{scale * pr[1]:.3g} {unit} | {scale * mr[0]:.3g}-{scale * mr[1]:.3g} {unit} | "
+                     f"{scale * pr[0]:.3g}-{scale * pr[1]:.3g} {unit} | "
+                     f"{scale * mr[0]:.3g}-{scale * mr[1]:.3g} {unit} | "
                      f"{r['spearman']:.2f} | {r['best_over_worst']:.2f} |")
     return "\n".join(lines)
 
@@ -255,8 +256,8 @@ def main(argv: list[str] | None = None) -> int:
         *([""] + ["Refused by the rig: " + "; ".join(refusals)] if refusals else []),
         "",
         f"Python {platform.python_version()}, numpy {np.__version__}, campaign {__version__}; "
-        f"{datetime.date.today().isoformat()}. Record: `.venv/bin/python benchmarks/plan_rig_check.py --head-masses 3 --readme "
-        "benchmarks/README.md`.",
+        f"{datetime.date.today().isoformat()}. Record: `.venv/bin/python benchmarks/plan_rig_check.py "
+        "--head-masses 3 --readme benchmarks/README.md`.",
     ])
     print(body)
     for r in rows:

@@ -486,7 +486,8 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
             Q.append(q)
     out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0]}
     if not Q:
-        raise InputError(f"no point of the plane y = {y:g} m within x {list(x_range)}, z {list(z_range)} m is reachable")
+        raise InputError(f"no point of the plane y = {y:g} m within x {list(x_range)}, z {list(z_range)} m "
+                         "is reachable")
     Q = np.array(Q)
     owner = np.array(owner)
     quantities = {"m_eff": predict(pose_terms(robot, Q), lams, n, mass=mass, speed=speed,

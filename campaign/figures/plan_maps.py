@@ -156,4 +156,5 @@ def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None
     q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
     d = direction_map(planner.robot, q, count=count, **kw)
     style.save(draw_directions(d, title=title), png, pdf)
-    return f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base) over {count} directions"
+    return (f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base) "
+            f"over {count} directions")
