@@ -261,3 +261,23 @@ def test_structure_peak_matches_the_rig_in_the_impulsive_limit(puma):
     P = predict(pose_terms(puma, configuration_q(1)[None], beam=Beam.from_scene(sc)), [[0.0, 0.0, 0.0]],
                 [[-1.0, 0.0, 0.0]], mass=m_b, speed=2.0, restitution=float(p("contact.restitution")), contact=contact)
     assert P.structure_peak[0, 0, 0] == pytest.approx(measured, rel=0.06)
+
+
+def test_cli_reads_a_campaign_fit_and_ranks_by_a_weighted_objective(capsys, tmp_path, puma):
+    fit = tmp_path / "lambda_high.json"
+    fit.write_text(json.dumps({"gain_class": "high", "gains": ["high"], "lambda": [40.0, 9.0, 3.0],
+                               "units": {"lambda": "kg m^2"}}))
+    p = impact_point(puma, configuration_q(2))
+    status, out, err = run(capsys, "--point", ",".join(f"{x:.12f}" for x in p), "--cone", "-1,0,0,20",
+                           "--count", "5", "--fit", str(fit), "--base", "flexible", "--objective", "weighted",
+                           "--weights", "0,1,2", "--json")
+    assert status == 0, err
+    d = json.loads(out)
+    assert d["lambdas"] == {"high": [40.0, 9.0, 3.0]}
+    cands = d["candidates"]
+    assert len(cands) == len(d["branches_dh_deg"]) * 5
+    f = np.array([c["peak_force"] for c in cands])
+    x = np.array([c["structure_peak"] for c in cands])
+    score = f / f.max() + 2.0 * x / x.max()
+    np.testing.assert_allclose([c["score"] for c in cands], score, rtol=1e-12)
+    assert np.all(np.diff(score) >= 0)
