@@ -191,8 +191,8 @@ def main(argv: list[str] | None = None) -> int:
         + "; the predictions count each reachable branch x gain class.",
         "",
         f"Machine: {cpu_name()}; Python {platform.python_version()}, numpy {np.__version__}, "
-        f"pin {pin.__version__}, campaign {__version__}; {datetime.date.today().isoformat()}. "
-        "Record: `.venv/bin/python benchmarks/bench_plan.py --readme benchmarks/README.md`.",
+        f"pin {pin.__version__}, campaign {__version__}; {datetime.date.today().isoformat()}; the machine's "
+        "two cores were shared with other jobs, hence the spread. Record: `.venv/bin/python benchmarks/bench_plan.py --readme benchmarks/README.md`.",
     ])
     print(summary)
     if args.readme is not None:
