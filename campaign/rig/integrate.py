@@ -28,7 +28,7 @@ from ..errors import SimulationError
 from .controller import PID
 from .plant import FixedBasePlant
 
-__all__ = ["Trajectory", "integrate_trial"]
+__all__ = ["Lane", "Trajectory", "integrate_trial", "trial_steps"]
 
 #: more events than this inside one servo tick is chattering (Zeno), not physics
 _MAX_EVENTS_PER_TICK = 50
@@ -79,17 +79,46 @@ def _hermite(x0, f0, x1, f1, h, s):
     return h00 * x0 + h10 * h * f0 + h01 * x1 + h11 * h * f1
 
 
+class Lane:
+    """A trial's integration state where a caller may take over its plain steps.
+
+    :func:`trial_steps` with ``lane=True`` yields this object at the top of every step
+    iteration in which the trial is free of events that only its own loop handles: a
+    fixed-base arm (``plant.batchable``) out of contact, hammer caught, no joint stuck.
+    There the next iteration is one RK4 step of the slipping arm, the stop-event check
+    (``-mode v`` crossing zero) and possibly a servo tick, which :mod:`.batch` evaluates
+    for many trials at once. The caller either sends ``False`` (the generator takes the
+    step itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
+    lists and updating ``pid``), sets ``ticked`` if a servo tick passed, ``k1_cached`` if
+    the last thing it did was the stick-slip consistency evaluation at the current state
+    (which also serves the next step's first stage), and sends ``True``.
+    """
+
+    __slots__ = ("plant", "pid", "ts", "xs", "xds", "servo_t", "servo_tau", "T", "sub", "t_min_end",
+                 "t_max_end", "settle_velocity", "friction_events", "x", "t", "k_tick", "tau", "fs",
+                 "n_steps", "n_rhs", "ticked", "k1_cached")
+
+
 def integrate_trial(plant, pid, **kwargs) -> Trajectory:
-    """Integrate one trial (see :func:`_integrate`); a diverging state is reported as a
+    """Integrate one trial (see :func:`trial_steps`); a diverging state is reported as a
     :class:`SimulationError` by the per-step finiteness check, not as NumPy warnings."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return _integrate(plant, pid, **kwargs)
+        steps = trial_steps(plant, pid, **kwargs)
+        try:
+            next(steps)     # without ``lane`` it never yields: it returns the trajectory
+        except StopIteration as done:
+            return done.value
+        raise AssertionError("trial_steps yielded without lane=True")
 
 
-def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
-                    substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
-                    settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf) -> Trajectory:
-    """Integrate one trial from the first touch at ``t_contact`` until its outputs are recorded.
+def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
+                substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
+                settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf,
+                lane: bool = False):
+    """Integrate one trial from the first touch at ``t_contact`` until its outputs are
+    recorded; a generator whose return value (``StopIteration.value``) is the
+    :class:`Trajectory`. With ``lane`` it yields a :class:`Lane` wherever a caller may take
+    over plain steps (the batched integrator, :mod:`.batch`); without it, it never yields.
 
     The hammer is caught (held still) at the top of its rebound or ``catch_delay`` after it
     leaves the arm, whichever comes first, so it cannot strike twice.
@@ -247,6 +276,15 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     if friction_events:
         settle_modes(x)
 
+    handoff = None
+    if lane and getattr(plant, "batchable", False) and T_emu is None:
+        handoff = Lane()
+        handoff.plant, handoff.pid = plant, pid
+        handoff.ts, handoff.xs, handoff.xds, handoff.servo_t, handoff.servo_tau = ts, xs, xds, servo_t, servo_tau
+        handoff.T, handoff.sub = T, substeps_free
+        handoff.t_min_end, handoff.t_max_end = t_min_end, t_max_end
+        handoff.settle_velocity, handoff.friction_events = settle_velocity, friction_events
+
     while True:
         # -- stop? ---------------------------------------------------------------------------
         if contact_v0 is None:
@@ -263,6 +301,24 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             if t >= t_min_end - 1e-12 and (static or t >= t_max_end - 1e-12):
                 settled = static
                 break
+            if handoff is not None and caught and fs.none_stuck:
+                # a plain step: offer it to the caller (see Lane)
+                c = last
+                handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, k_tick, tau, fs
+                handoff.n_steps, handoff.n_rhs, handoff.ticked = n_steps, n_rhs, False
+                handoff.k1_cached = (c is not None and c[0] is x and c[1] is tau and c[2] is fs
+                                     and c[3] is None and c[4] and c[5] == t)
+                if (yield handoff):
+                    x, t, k_tick, tau = handoff.x, handoff.t, handoff.k_tick, handoff.tau
+                    n_steps, n_rhs = handoff.n_steps, handoff.n_rhs
+                    if handoff.ticked:
+                        tick_events = 0
+                    if handoff.k1_cached:
+                        # the caller evaluated the next step's first stage and counted it;
+                        # that evaluation does not cross over, so it is made (and counted) again
+                        n_rhs -= 1
+                    last = None
+                    continue
 
         # -- one step to the next boundary (a servo tick or a substep) -------------------------
         sub = substeps_contact if contact_v0 is not None else substeps_free

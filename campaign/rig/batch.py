@@ -1,0 +1,301 @@
+"""Lock-step batched integration: a job's trials advance together through Pinocchio's batch API.
+
+The cost of a trial is the Python around Pinocchio, not Pinocchio (a servo tick is ~100 us
+of interpreter around ~3 us of ABA). This module pays the interpreter once per step for
+many trials instead of once per trial: every trial runs its own one-trial loop
+(:func:`.integrate.trial_steps`, the reference), and wherever that loop reaches a *plain*
+step -- fixed-base arm out of contact, hammer caught, no joint stuck -- it hands the trial
+over (:class:`.integrate.Lane`). All handed-over trials then take their steps together:
+
+* one ``pinocchio.abaInParallel`` call per RK4 stage over the batch (a
+  ``pinocchio.ModelPool`` of the shared arm model), the rest of the right-hand side
+  (held servo torque, Coulomb and viscous friction) as NumPy over the batch axis;
+* the stop-event check (a slipping joint's velocity crossing zero), the servo tick (the
+  counts PID of :class:`.controller.PID`, vectorised) and the end-of-recording check as
+  NumPy too.
+
+A trial whose step would hold an event (a joint stopping, a non-finite state, a new servo
+torque with a joint exactly at rest) is not stepped here: it goes back to its own loop at
+the state before that step, which locates and applies the event as the one-trial path
+does, and rejoins the batch at its next plain step. A finished trial leaves the batch; a
+failing one (:class:`~campaign.errors.SimulationError`) leaves it with its error and the
+others go on.
+
+Every operation here is the one-trial path's, element for element, in the same order
+(``abaInParallel`` evaluates ABA in the world convention, which the one-trial path uses
+too), so a batched trial's trajectory equals its one-trial trajectory bit for bit
+(``tests/test_batched.py``); only the count of right-hand-side evaluations is bookkeeping.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import SimulationError
+from .integrate import Lane, trial_steps
+
+__all__ = ["integrate_batch", "simulate_batch"]
+
+
+class _Batch:
+    """The plain steps of the trials sharing one arm model, as arrays over the batch axis
+    (one row per trial in the lane)."""
+
+    def __init__(self, model, threads: int):
+        self.model = model
+        self.threads = int(threads)
+        self.pool = pin.ModelPool(model, max(1, self.threads))
+        self.nv = model.nv
+        self.ids: list[int] = []
+        self.lanes: list[Lane] = []
+        self._arrays = None
+
+    # -- membership -------------------------------------------------------------------
+    def add(self, i: int, ln: Lane) -> None:
+        """Take trial ``i`` over at the state its loop handed over."""
+        plant, pid = ln.plant, ln.pid
+        fs = ln.fs
+        res, ref, gc, lo, hi = (np.array(c, dtype=float) for c in zip(*pid._joints))
+        row = {
+            "X": np.array(ln.x, dtype=float), "t": ln.t, "k": ln.k_tick, "T": ln.T, "hmax": ln.T / ln.sub,
+            "tmin": ln.t_min_end, "tmax": ln.t_max_end, "settle": ln.settle_velocity, "fric": ln.friction_events,
+            "tau": np.array(ln.tau, dtype=float), "coul": np.asarray(fs.coulomb, dtype=float),
+            "visc": np.asarray(plant.viscous, dtype=float),
+            "modes": fs.modes.astype(float), "slip": np.asarray(plant.sticky, dtype=bool) & (fs.modes != 0),
+            "res": res, "ref": ref, "gc": gc, "lo": lo, "hi": hi,
+            "kP": pid._kP, "kD": pid._kD, "kI": pid._kI, "quant": bool(pid.quantize), "active": pid.active,
+            "clipgc": np.minimum(np.maximum(pid.tau_gc, pid._lo), pid.tau_max),
+            "eprev": np.array(pid._e_prev, dtype=float), "esum": np.array(pid._e_sum, dtype=float),
+            "nsteps": ln.n_steps, "nrhs": ln.n_rhs, "k1c": ln.k1_cached, "ticked": False,
+        }
+        a = self._arrays
+        if a is None:
+            self._arrays = {k: np.array([v]) for k, v in row.items()}
+        else:
+            for k, v in row.items():
+                a[k] = np.concatenate([a[k], np.array([v], dtype=a[k].dtype)])
+        # the torque the loop starts from, less the Coulomb torque of the slipping joints
+        # (FixedBasePlant._loads' constant part)
+        self._arrays["C2"] = self._arrays["tau"] - self._arrays["coul"]
+        self.ids.append(i)
+        self.lanes.append(ln)
+
+    def release(self, rows) -> list[tuple[int, Lane]]:
+        """Write the rows' states back into their lanes and drop them from the batch."""
+        a = self._arrays
+        out = []
+        for r in rows:
+            ln = self.lanes[r]
+            ln.x = a["X"][r].copy()
+            ln.t = float(a["t"][r])
+            ln.k_tick = int(a["k"][r])
+            if not np.array_equal(a["tau"][r], ln.tau):
+                ln.tau = a["tau"][r].copy()
+            ln.pid.e_prev = a["eprev"][r]
+            ln.pid.e_sum = a["esum"][r]
+            ln.n_steps, ln.n_rhs = int(a["nsteps"][r]), int(a["nrhs"][r])
+            ln.ticked, ln.k1_cached = bool(a["ticked"][r]), bool(a["k1c"][r])
+            out.append((self.ids[r], ln))
+        keep = np.ones(len(self.ids), dtype=bool)
+        keep[list(rows)] = False
+        if keep.any():
+            self._arrays = {k: v[keep] for k, v in a.items()}
+        else:
+            self._arrays = None
+        self.ids = [i for i, k in zip(self.ids, keep) if k]
+        self.lanes = [ln for ln, k in zip(self.lanes, keep) if k]
+        return out
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    # -- dynamics ---------------------------------------------------------------------
+    def _f(self, X, C2, visc):
+        """State derivatives of the rows (FixedBasePlant.rhs with no joint stuck, out of
+        contact, hammer caught): ``q' = v``, ``theta' = thetadot``, ``v' = aba(q, v, tau)``,
+        ``thetadot' = 0``, ``P' = F = 0``."""
+        nv = self.nv
+        V = X[:, nv + 1:2 * nv + 1]
+        tau = C2 - visc * V
+        A = np.empty((X.shape[0], nv)).T          # (nv, m), column-major: Pinocchio writes it in place
+        pin.abaInParallel(self.threads, self.pool, X[:, :nv].T, V.T, tau.T, A)
+        XD = np.empty_like(X)
+        XD[:, :nv + 1] = X[:, nv + 1:2 * nv + 2]
+        XD[:, nv + 1:2 * nv + 1] = A.T
+        XD[:, 2 * nv + 1] = 0.0
+        XD[:, 2 * nv + 2] = 0.0
+        return XD
+
+    def step(self) -> list[int]:
+        """One plain iteration of every trial in the batch (an RK4 step to the next substep
+        or servo tick, the stop-event check, the tick); returns the rows to hand back to
+        their loops: those whose step held an event (state left before the step) and those
+        whose recording may end (state after it)."""
+        a = self._arrays
+        nv = self.nv
+        X, t, k, T = a["X"], a["t"], a["k"], a["T"]
+        # -- the step's length and end (integrate.trial_steps, operation for operation) ----
+        t_tick = k * T
+        h = np.minimum(a["hmax"], t_tick - t)
+        t_new = t + h
+        t_new = np.where(np.abs(t_new - t_tick) <= 1e-12, t_tick, t_new)
+        H = h[:, None]
+        C2, visc = a["C2"], a["visc"]
+        k1 = self._f(X, C2, visc)
+        k2 = self._f(X + (0.5 * H) * k1, C2, visc)
+        k3 = self._f(X + (0.5 * H) * k2, C2, visc)
+        k4 = self._f(X + H * k3, C2, visc)
+        Xn = X + (H / 6.0) * (k1 + k4 + 2.0 * (k2 + k3))
+        Vn = Xn[:, nv + 1:2 * nv + 1]
+        # -- events this loop does not handle: left to the trial's own loop ---------------
+        event = ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
+        event |= (a["slip"] & (a["modes"] * Vn < 0)).any(axis=1)        # a joint stops
+        # -- servo tick (controller.PID.update on the batch axis) --------------------------
+        ticked = (k * T - t_new) <= 1e-12
+        t_fin = np.where(ticked, t_tick, t_new)
+        c = Xn[:, :nv] / a["res"]
+        e = a["ref"] - np.where(a["quant"][:, None], np.rint(c), c)
+        s = a["esum"] + e
+        u = a["kP"][:, None] * e + a["kD"][:, None] * (e - a["eprev"]) + a["kI"][:, None] * s + a["gc"]
+        act = a["active"][:, None]
+        tau_new = np.where(act, np.minimum(np.maximum(u, a["lo"]), a["hi"]), a["clipgc"])
+        changed = ticked & (tau_new != a["tau"]).any(axis=1)
+        settle = changed & a["fric"]
+        # a new torque with a slipping joint exactly at rest needs the loop's mode search
+        event |= settle & (a["slip"] & (Vn == 0.0)).any(axis=1)
+        ok = ~event
+        # -- commit the rows without events ----------------------------------------------
+        upd = ok & ticked
+        act_upd = upd & a["active"]
+        a["eprev"][act_upd] = e[act_upd]
+        a["esum"][act_upd] = s[act_upd]
+        ch = ok & changed
+        a["tau"][ch] = tau_new[ch]
+        a["C2"][ch] = tau_new[ch] - a["coul"][ch]
+        X[ok] = Xn[ok]
+        t[ok] = t_fin[ok]
+        k[upd] += 1
+        a["ticked"] |= upd
+        a["nsteps"][ok] += 1
+        a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + settle[ok]
+        a["k1c"][ok] = settle[ok]
+        tl = t_fin.tolist()
+        for r in np.flatnonzero(ok).tolist():
+            ln = self.lanes[r]
+            ln.xds.append(k1[r])
+            ln.xs.append(Xn[r])
+            ln.ts.append(tl[r])
+            if upd[r]:
+                ln.servo_t.append(tl[r])
+                ln.servo_tau.append(a["tau"][r].copy())
+        # -- the end-of-recording check (integrate.trial_steps' stop test) -----------------
+        static = ~a["fric"] & (np.max(np.abs(X[:, nv + 1:2 * nv + 1]), axis=1) < a["settle"])
+        ends = static | ((t >= a["tmin"] - 1e-12) & (t >= a["tmax"] - 1e-12))
+        return np.flatnonzero(event | (ok & ends)).tolist()
+
+
+def integrate_batch(jobs, *, threads: int = 1, on_done=None) -> list:
+    """Integrate many trials in lock-step (module docstring).
+
+    Parameters
+    ----------
+    jobs : sequence of (plant, pid, dict)
+        Per trial, what :func:`.integrate.integrate_trial` takes: the plant, its PID and the
+        integration keyword arguments.
+    threads : int
+        OpenMP threads of each batched Pinocchio call (one by default: the workflow runs
+        jobs side by side).
+    on_done : callable, optional
+        Called as ``on_done(i, result)`` when trial ``i`` has finished or failed.
+
+    Returns
+    -------
+    list
+        Per trial, its :class:`.integrate.Trajectory`, or the
+        :class:`~campaign.errors.SimulationError` that ended it (the others are unaffected).
+    """
+    n = len(jobs)
+    results: list = [None] * n
+    gens = []
+    batches: list[_Batch] = []
+
+    def finish(i, value):
+        results[i] = value
+        if on_done is not None:
+            on_done(i, value)
+
+    def resume(i, msg):
+        """Run trial ``i``'s loop to its next hand-over (returned) or to its end (None)."""
+        try:
+            return gens[i].send(msg)
+        except StopIteration as done:
+            finish(i, done.value)
+        except SimulationError as err:
+            finish(i, err)
+        return None
+
+    def enter(i, ln):
+        for b in batches:
+            if b.model == ln.plant.model:
+                b.add(i, ln)
+                return
+        b = _Batch(ln.plant.model, threads)
+        b.add(i, ln)
+        batches.append(b)
+
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for i, (plant, pid, kwargs) in enumerate(jobs):
+            gens.append(trial_steps(plant, pid, lane=True, **kwargs))
+            ln = resume(i, None)
+            if ln is not None:
+                enter(i, ln)
+        while any(len(b) for b in batches):
+            for b in batches:
+                if not len(b):
+                    continue
+                rows = b.step()
+                if not rows:
+                    continue
+                for i, ln in b.release(rows):
+                    # back in its loop: it offers the same state again at once; decline, so
+                    # it takes that step (and any that follow) itself until its next plain one
+                    ln = resume(i, True)
+                    if ln is not None:
+                        ln = resume(i, False)
+                    if ln is not None:
+                        enter(i, ln)
+    return results
+
+
+def simulate_batch(scenes, *, integration: dict | None = None, threads: int = 1, on_done=None) -> list:
+    """Simulate many trials through :func:`integrate_batch`; per scene what
+    :func:`.simulate.simulate_arrays` returns (the same arrays), or the
+    :class:`~campaign.errors.SimulationError` that ended that trial.
+
+    Every scene is built and checked first (:func:`.simulate.build`), so a bad input raises
+    its :class:`~campaign.errors.InputError` before any trial is integrated.
+    ``on_done(i, result)`` is called as each trial is recorded or fails.
+    """
+    from .simulate import build, integration_args, record_arrays
+
+    rigs = [build(scene, integration=integration) for scene in scenes]
+    jobs = [(rig.plant, rig.pid, integration_args(rig)) for rig in rigs]
+    out: list = [None] * len(rigs)
+
+    def recorded(i, traj):
+        # record as each trial ends: its trajectory is not kept past its own recording
+        if not isinstance(traj, SimulationError):
+            try:
+                trial = record_arrays(rigs[i], traj)
+                trial.attrs["integration_steps"] = int(traj.n_steps)
+                trial.attrs["integration_rhs_evaluations"] = int(traj.n_rhs)
+                traj = trial
+            except SimulationError as err:
+                traj = err
+        out[i] = traj
+        if on_done is not None:
+            on_done(i, traj)
+
+    integrate_batch(jobs, threads=threads, on_done=recorded)
+    return out
