@@ -1,0 +1,116 @@
+"""CPU per trial of the batched rig against the one-trial path, amortised over a sweep job.
+
+One sweep job of the full campaign (``config/config.yaml``, ``job_unit: sweep``): one base
+and one gain set, configurations 1-3 x 6 speeds x 2 repeats = 36 trials. Each round
+simulates the job both ways in the same process, one after the other (build, integrate and
+record every trial: what the workflow's simulation job does before writing), and times
+each with ``time.process_time`` (CPU of this process). The table gives the medians over
+the rounds [ms per trial], the batched path's split into build / integrate / record, the
+share of RK4 steps the batch took (the rest are its trials' own event loops), and the
+ratio. ``--threads`` also times the batched integration of a 3x larger job (108 trials)
+with 1 and 2 OpenMP threads per batched Pinocchio call.
+
+Usage::
+
+    python benchmarks/bench_batched.py                 # fixed and flexible, 3 rounds
+    python benchmarks/bench_batched.py --bases fixed --rounds 5
+    python benchmarks/bench_batched.py --threads       # adds the 1-vs-2-thread comparison
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+from campaign.rig import batch
+from campaign.rig.simulate import build, integration_args, record_arrays, simulate_arrays
+from campaign.runner import gain_counts
+from campaign.scene import make_scene
+
+SPEEDS = (1.0, 1.3, 1.6, 1.9, 2.2, 2.5)
+
+
+def sweep(base: str, gain: str, repeats: int = 2) -> list:
+    """The scenes of one sweep job of the full campaign."""
+    return [make_scene(base=base, config=c, gain=gain, speed=v, repeat=r, gains_counts=gain_counts(gain),
+                       campaign_seed=1996)
+            for c in (1, 2, 3) for v in SPEEDS for r in range(repeats)]
+
+
+def one_trial(scenes) -> float:
+    c0 = time.process_time()
+    for s in scenes:
+        simulate_arrays(s)
+    return time.process_time() - c0
+
+
+def batched(scenes, threads: int = 1) -> dict:
+    """CPU [s] of the batched job by stage, and the share of steps the batch took."""
+    taken = [0]
+    step = batch._Batch.step
+
+    def counting(self):
+        taken[0] += len(self)
+        return step(self)
+
+    c0 = time.process_time()
+    rigs = [build(s) for s in scenes]
+    c1 = time.process_time()
+    batch._Batch.step = counting
+    try:
+        trajs = batch.integrate_batch([(r.plant, r.pid, integration_args(r)) for r in rigs], threads=threads)
+    finally:
+        batch._Batch.step = step
+    c2 = time.process_time()
+    for r, t in zip(rigs, trajs):
+        record_arrays(r, t)
+    c3 = time.process_time()
+    # the batch's steps taken and then handed back (an event inside) are redone by the loop,
+    # so the share counts the batch's accepted steps: total minus the loops' own
+    total = sum(t.n_steps for t in trajs)
+    return {"build": c1 - c0, "integrate": c2 - c1, "record": c3 - c2, "total": c3 - c0,
+            "share": min(1.0, taken[0] / total) if total else 0.0}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--bases", nargs="+", default=["fixed", "flexible"])
+    ap.add_argument("--gain", default="high")
+    ap.add_argument("--threads", action="store_true", help="also time 1 vs 2 threads on a 108-trial job")
+    args = ap.parse_args(argv)
+    print(f"{'job (36 trials)':<22}{'one-trial':>10}{'batched':>9}{'build':>7}{'integ.':>8}{'record':>8}"
+          f"{'steps in batch':>16}{'ratio':>7}   [CPU ms per trial, median of {args.rounds}]")
+    for base in args.bases:
+        scenes = sweep(base, args.gain)
+        n = len(scenes)
+        simulate_arrays(scenes[0])   # warm-up: imports and caches
+        ones, bats = [], []
+        for _ in range(args.rounds):
+            ones.append(one_trial(scenes))
+            bats.append(batched(scenes))
+        one = statistics.median(ones) / n * 1e3
+        med = {k: statistics.median(b[k] for b in bats) for k in bats[0]}
+        tot = med["total"] / n * 1e3
+        print(f"{base + ', ' + args.gain:<22}{one:>10.1f}{tot:>9.1f}{med['build'] / n * 1e3:>7.1f}"
+              f"{med['integrate'] / n * 1e3:>8.1f}{med['record'] / n * 1e3:>8.1f}{100 * med['share']:>15.0f}%"
+              f"{one / tot:>7.2f}x")
+    if args.threads:
+        scenes = sweep("fixed", args.gain, repeats=6)
+        for threads in (1, 2):
+            runs = []
+            for _ in range(args.rounds):
+                rigs = [build(s) for s in scenes]
+                jobs = [(r.plant, r.pid, integration_args(r)) for r in rigs]
+                w0, c0 = time.perf_counter(), time.process_time()
+                batch.integrate_batch(jobs, threads=threads)
+                runs.append((time.perf_counter() - w0, time.process_time() - c0))
+            wall = statistics.median(r[0] for r in runs)
+            cpu = statistics.median(r[1] for r in runs)
+            print(f"fixed, {len(scenes)} trials, {threads} thread(s): integrate {wall:.2f} s wall, {cpu:.2f} s CPU")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
