@@ -34,6 +34,7 @@ import pinocchio as pin
 
 from ..errors import SimulationError
 from .integrate import Lane, trial_steps
+from .plant import stuck_solve
 
 __all__ = ["integrate_batch", "simulate_batch"]
 
@@ -46,6 +47,8 @@ class _Batch:
         self.model = model
         self.threads = int(threads)
         self.pool = pin.ModelPool(model, max(1, self.threads))
+        self.pool0 = None      # of the arm without gravity (columns of M^-1), made when needed
+        self.model0 = None
         self.nv = model.nv
         self.ids: list[int] = []
         self.lanes: list[Lane] = []
@@ -63,12 +66,17 @@ class _Batch:
             "tau": np.array(ln.tau, dtype=float), "coul": np.asarray(fs.coulomb, dtype=float),
             "visc": np.asarray(plant.viscous, dtype=float),
             "modes": fs.modes.astype(float), "slip": np.asarray(plant.sticky, dtype=bool) & (fs.modes != 0),
+            "stuck": fs.stuck_mask.copy(), "tcp": np.asarray(plant.tc_pos, dtype=float),
+            "tcn": np.asarray(plant.tc_neg, dtype=float),
             "res": res, "ref": ref, "gc": gc, "lo": lo, "hi": hi,
             "kP": pid._kP, "kD": pid._kD, "kI": pid._kI, "quant": bool(pid.quantize), "active": pid.active,
             "clipgc": np.minimum(np.maximum(pid.tau_gc, pid._lo), pid.tau_max),
             "eprev": np.array(pid._e_prev, dtype=float), "esum": np.array(pid._e_sum, dtype=float),
             "nsteps": ln.n_steps, "nrhs": ln.n_rhs, "k1c": ln.k1_cached, "ticked": False,
         }
+        if self.pool0 is None and not fs.none_stuck:
+            self.model0 = plant.model0
+            self.pool0 = pin.ModelPool(plant.model0, max(1, self.threads))
         a = self._arrays
         if a is None:
             self._arrays = {k: np.array([v]) for k, v in row.items()}
@@ -111,21 +119,45 @@ class _Batch:
         return len(self.ids)
 
     # -- dynamics ---------------------------------------------------------------------
-    def _f(self, X, C2, visc):
-        """State derivatives of the rows (FixedBasePlant.rhs with no joint stuck, out of
-        contact, hammer caught): ``q' = v``, ``theta' = thetadot``, ``v' = aba(q, v, tau)``,
-        ``thetadot' = 0``, ``P' = F = 0``."""
+    def _f(self, X, C2, visc, stuck):
+        """State derivatives of the rows and the stuck joints' holding torques
+        (FixedBasePlant.evaluate out of contact with the hammer caught): ``q' = v``,
+        ``theta' = thetadot``, ``v' = a``, ``thetadot' = 0``, ``P' = F = 0``, with ``a`` the
+        accelerations of the constrained dynamics (:func:`.plant.stuck_solve` on batched ABA
+        and the stuck columns of ``M^-1``)."""
         nv = self.nv
+        m = X.shape[0]
+        Q = X[:, :nv].T
         V = X[:, nv + 1:2 * nv + 1]
         tau = C2 - visc * V
-        A = np.empty((X.shape[0], nv)).T          # (nv, m), column-major: Pinocchio writes it in place
-        pin.abaInParallel(self.threads, self.pool, X[:, :nv].T, V.T, tau.T, A)
+        A = np.empty((m, nv)).T          # (nv, m), column-major: Pinocchio writes it in place
+        pin.abaInParallel(self.threads, self.pool, Q, V.T, tau.T, A)
+        a = A.T
+        lam = None
+        if stuck.any():
+            minv = np.zeros((m, nv, nv))
+            rest = np.zeros((nv, m), order="F")
+            for j in np.flatnonzero(stuck.any(axis=0)).tolist():
+                unit = np.zeros((nv, m), order="F")
+                unit[j] = 1.0
+                col = np.empty((m, nv)).T
+                pin.abaInParallel(self.threads, self.pool0, Q, rest, unit, col)
+                minv[:, :, j] = col.T
+            lam, a = stuck_solve(a, minv, stuck)
         XD = np.empty_like(X)
         XD[:, :nv + 1] = X[:, nv + 1:2 * nv + 2]
-        XD[:, nv + 1:2 * nv + 1] = A.T
+        XD[:, nv + 1:2 * nv + 1] = a
         XD[:, 2 * nv + 1] = 0.0
         XD[:, 2 * nv + 2] = 0.0
-        return XD
+        return XD, lam
+
+    def _violations(self, lam, scale=1.0):
+        """Per row: does a stuck joint's holding torque exceed its static limit (times
+        ``scale``)? (FrictionState.violations and the consistency check of trial_steps)"""
+        a = self._arrays
+        tp, tn = (a["tcp"], a["tcn"]) if scale == 1.0 else (a["tcp"] * scale, a["tcn"] * scale)
+        over = np.where(lam < 0, -lam - tp, lam - tn) > 0
+        return (over & a["stuck"]).any(axis=1)
 
     def step(self) -> list[int]:
         """One plain iteration of every trial in the batch (an RK4 step to the next substep
@@ -141,16 +173,20 @@ class _Batch:
         t_new = t + h
         t_new = np.where(np.abs(t_new - t_tick) <= 1e-12, t_tick, t_new)
         H = h[:, None]
-        C2, visc = a["C2"], a["visc"]
-        k1 = self._f(X, C2, visc)
-        k2 = self._f(X + (0.5 * H) * k1, C2, visc)
-        k3 = self._f(X + (0.5 * H) * k2, C2, visc)
-        k4 = self._f(X + H * k3, C2, visc)
+        C2, visc, stuck = a["C2"], a["visc"], a["stuck"]
+        some_stuck = stuck.any(axis=1)
+        k1 = self._f(X, C2, visc, stuck)[0]
+        k2 = self._f(X + (0.5 * H) * k1, C2, visc, stuck)[0]
+        k3 = self._f(X + (0.5 * H) * k2, C2, visc, stuck)[0]
+        k4 = self._f(X + H * k3, C2, visc, stuck)[0]
         Xn = X + (H / 6.0) * (k1 + k4 + 2.0 * (k2 + k3))
         Vn = Xn[:, nv + 1:2 * nv + 1]
         # -- events this loop does not handle: left to the trial's own loop ---------------
         event = ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
         event |= (a["slip"] & (a["modes"] * Vn < 0)).any(axis=1)        # a joint stops
+        if some_stuck.any():
+            # a stuck joint's holding torque at the step's end reaches its static limit
+            event |= self._violations(self._f(Xn, C2, visc, stuck)[1])
         # -- servo tick (controller.PID.update on the batch axis) --------------------------
         ticked = (k * T - t_new) <= 1e-12
         t_fin = np.where(ticked, t_tick, t_new)
@@ -162,8 +198,14 @@ class _Batch:
         tau_new = np.where(act, np.minimum(np.maximum(u, a["lo"]), a["hi"]), a["clipgc"])
         changed = ticked & (tau_new != a["tau"]).any(axis=1)
         settle = changed & a["fric"]
-        # a new torque with a slipping joint exactly at rest needs the loop's mode search
+        # a new torque with a slipping joint exactly at rest, or a stuck one it breaks loose,
+        # needs the loop's mode search
         event |= settle & (a["slip"] & (Vn == 0.0)).any(axis=1)
+        check = settle & some_stuck & ~event
+        if check.any():
+            C2_new = np.where(changed[:, None], tau_new - a["coul"], C2)
+            lam = self._f(Xn, C2_new, visc, stuck)[1]
+            event |= check & self._violations(lam, 1 + 1e-12)
         ok = ~event
         # -- commit the rows without events ----------------------------------------------
         upd = ok & ticked
@@ -178,8 +220,12 @@ class _Batch:
         k[upd] += 1
         a["ticked"] |= upd
         a["nsteps"][ok] += 1
-        a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + settle[ok]
-        a["k1c"][ok] = settle[ok]
+        # counted as the loop counts them: k1 unless its last evaluation was at this state,
+        # three stages, the step end's evaluation where holding torques are checked, the
+        # consistency evaluation after a new torque; either of the last two serves as the
+        # next step's k1
+        a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + some_stuck[ok] + settle[ok]
+        a["k1c"][ok] = settle[ok] | some_stuck[ok]
         tl = t_fin.tolist()
         for r in np.flatnonzero(ok).tolist():
             ln = self.lanes[r]

@@ -84,10 +84,10 @@ class Lane:
 
     :func:`trial_steps` with ``lane=True`` yields this object at the top of every step
     iteration in which the trial is free of events that only its own loop handles: a
-    fixed-base arm (``plant.batchable``) out of contact, hammer caught, no joint stuck.
-    There the next iteration is one RK4 step of the slipping arm, the stop-event check
-    (``-mode v`` crossing zero) and possibly a servo tick, which :mod:`.batch` evaluates
-    for many trials at once. The caller either sends ``False`` (the generator takes the
+    fixed-base arm (``plant.batchable``) out of contact, hammer caught, not every joint
+    stuck. There the next iteration is one RK4 step of the arm, the stick-slip event checks
+    (a slipping joint's velocity or a stuck joint's holding torque crossing its threshold)
+    and possibly a servo tick, which :mod:`.batch` evaluates for many trials at once. The caller either sends ``False`` (the generator takes the
     step itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
     lists and updating ``pid``), sets ``ticked`` if a servo tick passed, ``k1_cached`` if
     the last thing it did was the stick-slip consistency evaluation at the current state
@@ -301,7 +301,7 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
             if t >= t_min_end - 1e-12 and (static or t >= t_max_end - 1e-12):
                 settled = static
                 break
-            if handoff is not None and caught and fs.none_stuck:
+            if handoff is not None and caught and not fs.all_stuck:
                 # a plain step: offer it to the caller (see Lane)
                 c = last
                 handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, k_tick, tau, fs
