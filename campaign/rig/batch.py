@@ -4,18 +4,19 @@ The cost of a trial is the Python around Pinocchio, not Pinocchio (a servo tick 
 of interpreter around ~3 us of ABA). This module pays the interpreter once per step for
 many trials instead of once per trial: every trial runs its own one-trial loop
 (:func:`.integrate.trial_steps`, the reference), and wherever that loop reaches a *plain*
-step -- fixed-base arm out of contact, hammer caught, no joint stuck -- it hands the trial
+step -- fixed-base arm out of contact, not every joint stuck -- it hands the trial
 over (:class:`.integrate.Lane`). All handed-over trials then take their steps together:
 
 * one ``pinocchio.abaInParallel`` call per RK4 stage over the batch (a
   ``pinocchio.ModelPool`` of the shared arm model), the rest of the right-hand side
   (held servo torque, Coulomb and viscous friction) as NumPy over the batch axis;
-* the stop-event check (a slipping joint's velocity crossing zero), the servo tick (the
-  counts PID of :class:`.controller.PID`, vectorised) and the end-of-recording check as
-  NumPy too.
+* the event checks (a slipping joint's velocity crossing zero, a stuck joint's holding
+  torque reaching its static limit, the rebounding hammer's top; only a swinging
+  hammer's gap takes a kinematics call per trial), the servo tick (the counts PID of
+  :class:`.controller.PID`, vectorised) and the end-of-recording check as NumPy too.
 
-A trial whose step would hold an event (a joint stopping, a non-finite state, a new servo
-torque with a joint exactly at rest) is not stepped here: it goes back to its own loop at
+A trial whose step would hold an event (a joint stopping or breaking loose, the hammer
+touching again or caught, a non-finite state) is not stepped here: it goes back to its own loop at
 the state before that step, which locates and applies the event as the one-trial path
 does, and rejoins the batch at its next plain step. A finished trial leaves the batch; a
 failing one (:class:`~campaign.errors.SimulationError`) leaves it with its error and the
@@ -73,6 +74,8 @@ class _Batch:
             "clipgc": np.minimum(np.maximum(pid.tau_gc, pid._lo), pid.tau_max),
             "eprev": np.array(pid._e_prev, dtype=float), "esum": np.array(pid._e_sum, dtype=float),
             "nsteps": ln.n_steps, "nrhs": ln.n_rhs, "k1c": ln.k1_cached, "ticked": False,
+            "caught": ln.caught, "tcatch": ln.t_catch, "reuse": ln.reuse_eval,
+            "r": plant._r, "mgl": plant._mgl, "Ip": plant._Ip,
         }
         if self.pool0 is None and not fs.none_stuck:
             self.model0 = plant.model0
@@ -121,10 +124,10 @@ class _Batch:
     # -- dynamics ---------------------------------------------------------------------
     def _f(self, X, C2, visc, stuck):
         """State derivatives of the rows and the stuck joints' holding torques
-        (FixedBasePlant.evaluate out of contact with the hammer caught): ``q' = v``,
-        ``theta' = thetadot``, ``v' = a``, ``thetadot' = 0``, ``P' = F = 0``, with ``a`` the
-        accelerations of the constrained dynamics (:func:`.plant.stuck_solve` on batched ABA
-        and the stuck columns of ``M^-1``)."""
+        (FixedBasePlant.evaluate out of contact): ``q' = v``, ``theta' = thetadot``,
+        ``v' = a``, ``thetadot'`` the pendulum's swing (zero once caught), ``P' = F = 0``,
+        with ``a`` the accelerations of the constrained dynamics
+        (:func:`.plant.stuck_solve` on batched ABA and the stuck columns of ``M^-1``)."""
         nv = self.nv
         m = X.shape[0]
         Q = X[:, :nv].T
@@ -147,7 +150,11 @@ class _Batch:
         XD = np.empty_like(X)
         XD[:, :nv + 1] = X[:, nv + 1:2 * nv + 2]
         XD[:, nv + 1:2 * nv + 1] = a
-        XD[:, 2 * nv + 1] = 0.0
+        c = self._arrays
+        th = X[:, nv]
+        # FixedBasePlant._derivative with F = 0.0, operation for operation
+        XD[:, 2 * nv + 1] = np.where(c["caught"], 0.0,
+                                     ((-c["mgl"]) * np.sin(th) - (0.0 * c["r"]) * np.cos(th)) / c["Ip"])
         XD[:, 2 * nv + 2] = 0.0
         return XD, lam
 
@@ -170,6 +177,11 @@ class _Batch:
         # -- the step's length and end (integrate.trial_steps, operation for operation) ----
         t_tick = k * T
         h = np.minimum(a["hmax"], t_tick - t)
+        # a swinging hammer's catch (trial_steps): the step ends there; the catch itself is
+        # the loop's (handed back below)
+        to_catch = a["tcatch"] - t
+        catch_now = ~a["caught"] & (to_catch <= h) & (to_catch <= 1e-15)
+        h = np.where(~a["caught"] & (to_catch <= h), to_catch, h)
         t_new = t + h
         t_new = np.where(np.abs(t_new - t_tick) <= 1e-12, t_tick, t_new)
         H = h[:, None]
@@ -182,8 +194,15 @@ class _Batch:
         Xn = X + (H / 6.0) * (k1 + k4 + 2.0 * (k2 + k3))
         Vn = Xn[:, nv + 1:2 * nv + 1]
         # -- events this loop does not handle: left to the trial's own loop ---------------
-        event = ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
+        event = catch_now | ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
         event |= (a["slip"] & (a["modes"] * Vn < 0)).any(axis=1)        # a joint stops
+        flying = ~a["caught"]
+        # the rebounding hammer reaches its top (thetadot crosses zero upward)
+        event |= flying & (Xn[:, 2 * nv + 1] > 0)
+        for r in np.flatnonzero(flying & ~event).tolist():
+            # ... or touches the arm again: the gap from the plant's own kinematics
+            if self.lanes[r].plant.gap(Xn[r])[0] > 0:
+                event[r] = True
         if some_stuck.any():
             # a stuck joint's holding torque at the step's end reaches its static limit
             event |= self._violations(self._f(Xn, C2, visc, stuck)[1])
@@ -224,8 +243,9 @@ class _Batch:
         # three stages, the step end's evaluation where holding torques are checked, the
         # consistency evaluation after a new torque; either of the last two serves as the
         # next step's k1
-        a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + some_stuck[ok] + settle[ok]
-        a["k1c"][ok] = settle[ok] | some_stuck[ok]
+        at_end = some_stuck | (flying & a["reuse"])
+        a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + at_end[ok] + settle[ok]
+        a["k1c"][ok] = settle[ok] | at_end[ok]
         tl = t_fin.tolist()
         for r in np.flatnonzero(ok).tolist():
             ln = self.lanes[r]
@@ -237,7 +257,7 @@ class _Batch:
                 ln.servo_tau.append(a["tau"][r].copy())
         # -- the end-of-recording check (integrate.trial_steps' stop test) -----------------
         static = ~a["fric"] & (np.max(np.abs(X[:, nv + 1:2 * nv + 1]), axis=1) < a["settle"])
-        ends = static | ((t >= a["tmin"] - 1e-12) & (t >= a["tmax"] - 1e-12))
+        ends = (static & a["caught"]) | ((t >= a["tmin"] - 1e-12) & (static | (t >= a["tmax"] - 1e-12)))
         return np.flatnonzero(event | (ok & ends)).tolist()
 
 

@@ -84,10 +84,11 @@ class Lane:
 
     :func:`trial_steps` with ``lane=True`` yields this object at the top of every step
     iteration in which the trial is free of events that only its own loop handles: a
-    fixed-base arm (``plant.batchable``) out of contact, hammer caught, not every joint
-    stuck. There the next iteration is one RK4 step of the arm, the stick-slip event checks
-    (a slipping joint's velocity or a stuck joint's holding torque crossing its threshold)
-    and possibly a servo tick, which :mod:`.batch` evaluates for many trials at once. The caller either sends ``False`` (the generator takes the
+    fixed-base arm (``plant.batchable``) out of contact, not every joint stuck. There the
+    next iteration is one RK4 step of the arm and the swinging (or caught) hammer, the
+    event checks (a slipping joint's velocity or a stuck joint's holding torque crossing
+    its threshold, the hammer touching again or reaching the top of its rebound) and
+    possibly a servo tick, which :mod:`.batch` evaluates for many trials at once. The caller either sends ``False`` (the generator takes the
     step itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
     lists and updating ``pid``), sets ``ticked`` if a servo tick passed, ``k1_cached`` if
     the last thing it did was the stick-slip consistency evaluation at the current state
@@ -96,7 +97,7 @@ class Lane:
 
     __slots__ = ("plant", "pid", "ts", "xs", "xds", "servo_t", "servo_tau", "T", "sub", "t_min_end",
                  "t_max_end", "settle_velocity", "friction_events", "x", "t", "k_tick", "tau", "fs",
-                 "n_steps", "n_rhs", "ticked", "k1_cached")
+                 "n_steps", "n_rhs", "ticked", "k1_cached", "caught", "t_catch", "reuse_eval")
 
 
 def integrate_trial(plant, pid, **kwargs) -> Trajectory:
@@ -186,9 +187,13 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
         c = last
         if (c is not None and c[0] is xx and c[1] is tau and c[2] is f and c[3] == contact_v0
                 and c[4] == caught and c[5] == tt):
-            return c[6]
-        out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
-        n_rhs += 1
+            if c[6] is not None:
+                return c[6]
+            # evaluated and counted by the caller the steps were handed to (Lane), not kept
+            out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
+        else:
+            out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
+            n_rhs += 1
         last = (xx, tau, f, contact_v0, caught, tt, out)
         return out
 
@@ -301,23 +306,23 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
             if t >= t_min_end - 1e-12 and (static or t >= t_max_end - 1e-12):
                 settled = static
                 break
-            if handoff is not None and caught and not fs.all_stuck:
+            if handoff is not None and not fs.all_stuck:
                 # a plain step: offer it to the caller (see Lane)
                 c = last
                 handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, k_tick, tau, fs
                 handoff.n_steps, handoff.n_rhs, handoff.ticked = n_steps, n_rhs, False
+                handoff.caught, handoff.t_catch = caught, (math.inf if t_catch is None else t_catch)
+                handoff.reuse_eval = reuse_eval
                 handoff.k1_cached = (c is not None and c[0] is x and c[1] is tau and c[2] is fs
-                                     and c[3] is None and c[4] and c[5] == t)
+                                     and c[3] is None and c[4] == caught and c[5] == t)
                 if (yield handoff):
                     x, t, k_tick, tau = handoff.x, handoff.t, handoff.k_tick, handoff.tau
                     n_steps, n_rhs = handoff.n_steps, handoff.n_rhs
                     if handoff.ticked:
                         tick_events = 0
-                    if handoff.k1_cached:
-                        # the caller evaluated the next step's first stage and counted it;
-                        # that evaluation does not cross over, so it is made (and counted) again
-                        n_rhs -= 1
-                    last = None
+                    # the caller's last evaluation at this state (counted there) does not
+                    # cross over: ev() makes it again without counting it twice
+                    last = (x, tau, fs, None, caught, t, None) if handoff.k1_cached else None
                     continue
 
         # -- one step to the next boundary (a servo tick or a substep) -------------------------
