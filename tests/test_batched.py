@@ -139,3 +139,34 @@ def test_the_batch_refuses_a_bad_scene_before_simulating_any():
     with pytest.raises(InputError, match="contact.stiffness"):
         simulate_batch([good, bad], on_done=lambda i, v: done.append(i))
     assert done == []
+
+
+def test_a_failing_trial_of_a_job_is_named_and_the_others_are_written(tmp_path, monkeypatch):
+    import importlib
+
+    from campaign import archive, runner
+
+    simulate_module = importlib.import_module("campaign.rig.simulate")   # the module, not the function
+
+    real_build = simulate_module.build
+
+    def build_destabilised(scene, **kwargs):
+        rig = real_build(scene, **kwargs)
+        if scene.speed == 2.5:      # the job's second trial: negative joint damping (see above)
+            rig.plant.viscous = -1e2 * np.abs(rig.plant.viscous)
+        return rig
+
+    monkeypatch.setattr(simulate_module, "build", build_destabilised)
+    with pytest.raises(SimulationError, match=r"1 of 2 trials failed.*fixed/config1/high/v2\.500/r00: the integration "
+                                              r"blew up"):
+        runner.run_cells([("fixed", 1, "high")], archive_dir=tmp_path, speeds=[1.5, 2.5], repeats=1,
+                         campaign_seed=1996)
+    monkeypatch.setattr(simulate_module, "build", real_build)
+    good = tmp_path / runner.trial_relpath("fixed", 1, "high", 1.5, 0)
+    assert not (tmp_path / runner.trial_relpath("fixed", 1, "high", 2.5, 0)).exists()
+    one = simulate_arrays(make_scene(config=1, gain="high", speed=1.5, gains_counts=gain_counts("high"),
+                                     campaign_seed=1996))
+    for group in ("measured", "truth"):
+        stored = archive.open_trial_arrays(good, group=group)
+        for name, var in one[group].data_vars.items():
+            np.testing.assert_array_equal(stored.data_vars[name].values, var.values, err_msg=f"{group}/{name}")
