@@ -170,3 +170,23 @@ def test_a_failing_trial_of_a_job_is_named_and_the_others_are_written(tmp_path, 
         stored = archive.open_trial_arrays(good, group=group)
         for name, var in one[group].data_vars.items():
             np.testing.assert_array_equal(stored.data_vars[name].values, var.values, err_msg=f"{group}/{name}")
+
+
+def test_campaign_sweep_writes_each_trial_as_campaign_trial_would_and_refuses_bad_input(tmp_path, capsys):
+    from campaign import archive
+    from campaign.cli import main
+
+    assert main(["sweep", "--configs", "2", "--gains", "low", "--speeds", "1.5,2.5", "--campaign-seed", "7",
+                 "--out", str(tmp_path), "--quiet"]) == 0
+    files = sorted(tmp_path.rglob("*.nc"))
+    assert [f.relative_to(tmp_path).as_posix() for f in files] == [
+        "fixed/config2/low/v1.500/r00.nc", "fixed/config2/low/v2.500/r00.nc"]
+    one = simulate_arrays(make_scene(config=2, gain="low", speed=2.5, gains_counts=gain_counts("low"), campaign_seed=7))
+    stored = archive.open_trial_arrays(files[1], group="truth")
+    for name, var in one["truth"].data_vars.items():
+        np.testing.assert_array_equal(stored.data_vars[name].values, var.values, err_msg=name)
+    capsys.readouterr()
+    assert main(["sweep", "--speeds", "1.5,25", "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "25" in err[0] and "pendulum" in err[0]
+    assert not (tmp_path / "bad").exists()
