@@ -34,7 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import SimulationError
-from .integrate import Lane, trial_steps
+from .integrate import _END_SCALE, EDGE_SUBSTEPS, Lane, trial_steps
 from .plant import stuck_solve
 
 __all__ = ["integrate_batch", "simulate_batch"]
@@ -62,7 +62,7 @@ class _Batch:
         fs = ln.fs
         res, ref, gc, lo, hi = (np.array(c, dtype=float) for c in zip(*pid._joints))
         row = {
-            "X": np.array(ln.x, dtype=float), "t": ln.t, "k": ln.k_tick, "T": ln.T, "hmax": ln.T / ln.sub,
+            "X": np.array(ln.x, dtype=float), "t": ln.t, "k": ln.k_tick, "T": ln.T,
             "tmin": ln.t_min_end, "tmax": ln.t_max_end, "settle": ln.settle_velocity, "fric": ln.friction_events,
             "tau": np.array(ln.tau, dtype=float), "coul": np.asarray(fs.coulomb, dtype=float),
             "visc": np.asarray(plant.viscous, dtype=float),
@@ -75,6 +75,9 @@ class _Batch:
             "eprev": np.array(pid._e_prev, dtype=float), "esum": np.array(pid._e_sum, dtype=float),
             "nsteps": ln.n_steps, "nrhs": ln.n_rhs, "k1c": ln.k1_cached, "ticked": False,
             "caught": ln.caught, "tcatch": ln.t_catch, "reuse": ln.reuse_eval,
+            "v0": np.nan if ln.contact_v0 is None else ln.contact_v0, "inc": ln.contact_v0 is not None,
+            "t0c": ln.contact_t0, "subc": ln.sub_contact, "subf": ln.sub,
+            "ge0": ln.gap_end[0], "ge1": ln.gap_end[1], "ge2": ln.gap_end[2],
             "r": plant._r, "mgl": plant._mgl, "Ip": plant._Ip,
         }
         if self.pool0 is None and not fs.none_stuck:
@@ -107,6 +110,7 @@ class _Batch:
             ln.pid.e_sum = a["esum"][r]
             ln.n_steps, ln.n_rhs = int(a["nsteps"][r]), int(a["nrhs"][r])
             ln.ticked, ln.k1_cached = bool(a["ticked"][r]), bool(a["k1c"][r])
+            ln.gap_end[:] = [float(a["ge0"][r]), float(a["ge1"][r]), float(a["ge2"][r])]
             out.append((self.ids[r], ln))
         keep = np.ones(len(self.ids), dtype=bool)
         keep[list(rows)] = False
@@ -124,15 +128,29 @@ class _Batch:
     # -- dynamics ---------------------------------------------------------------------
     def _f(self, X, C2, visc, stuck):
         """State derivatives of the rows and the stuck joints' holding torques
-        (FixedBasePlant.evaluate out of contact): ``q' = v``, ``theta' = thetadot``,
-        ``v' = a``, ``thetadot'`` the pendulum's swing (zero once caught), ``P' = F = 0``,
-        with ``a`` the accelerations of the constrained dynamics
-        (:func:`.plant.stuck_solve` on batched ABA and the stuck columns of ``M^-1``)."""
+        (FixedBasePlant.evaluate): ``q' = v``, ``theta' = thetadot``, ``v' = a``,
+        ``thetadot'`` the pendulum's swing under the contact force (zero once caught),
+        ``P' = F``, with ``a`` the accelerations of the constrained dynamics
+        (:func:`.plant.stuck_solve` on batched ABA and the stuck columns of ``M^-1``) under
+        the servo, friction and contact torques."""
         nv = self.nv
         m = X.shape[0]
         Q = X[:, :nv].T
         V = X[:, nv + 1:2 * nv + 1]
         tau = C2 - visc * V
+        c = self._arrays
+        F = np.zeros(m)
+        inc = c["inc"]
+        if inc.any():
+            # the contact force and its Jacobian: the plant's own kinematics, per trial
+            Jn = np.zeros((m, nv))
+            v0 = c["v0"].tolist()
+            for r in np.flatnonzero(inc).tolist():
+                plant = self.lanes[r].plant
+                d, dd, J = plant.gap(X[r])
+                F[r] = plant.contact_force(d, dd, v0[r])
+                Jn[r] = J
+            tau = np.where((F > 0.0)[:, None], tau + Jn * F[:, None], tau)
         A = np.empty((m, nv)).T          # (nv, m), column-major: Pinocchio writes it in place
         pin.abaInParallel(self.threads, self.pool, Q, V.T, tau.T, A)
         a = A.T
@@ -150,12 +168,10 @@ class _Batch:
         XD = np.empty_like(X)
         XD[:, :nv + 1] = X[:, nv + 1:2 * nv + 2]
         XD[:, nv + 1:2 * nv + 1] = a
-        c = self._arrays
         th = X[:, nv]
-        # FixedBasePlant._derivative with F = 0.0, operation for operation
-        XD[:, 2 * nv + 1] = np.where(c["caught"], 0.0,
-                                     ((-c["mgl"]) * np.sin(th) - (0.0 * c["r"]) * np.cos(th)) / c["Ip"])
-        XD[:, 2 * nv + 2] = 0.0
+        # FixedBasePlant._derivative, operation for operation
+        XD[:, 2 * nv + 1] = np.where(c["caught"], 0.0, ((-c["mgl"]) * np.sin(th) - (F * c["r"]) * np.cos(th)) / c["Ip"])
+        XD[:, 2 * nv + 2] = F
         return XD, lam
 
     def _violations(self, lam, scale=1.0):
@@ -176,7 +192,12 @@ class _Batch:
         X, t, k, T = a["X"], a["t"], a["k"], a["T"]
         # -- the step's length and end (integrate.trial_steps, operation for operation) ----
         t_tick = k * T
-        h = np.minimum(a["hmax"], t_tick - t)
+        inc = a["inc"]
+        # substeps: the contact's own, finer at its edges (trial_steps)
+        edge = inc & ((t < a["t0c"] + T) | ((a["ge1"] < 0) & (a["ge0"] < 0.25 * a["ge2"])))
+        sub = np.where(inc, a["subc"], a["subf"])
+        sub = np.where(edge, np.maximum(sub, EDGE_SUBSTEPS), sub)
+        h = np.minimum(T / sub, t_tick - t)
         # a swinging hammer's catch (trial_steps): the step ends there; the catch itself is
         # the loop's (handed back below)
         to_catch = a["tcatch"] - t
@@ -196,12 +217,21 @@ class _Batch:
         # -- events this loop does not handle: left to the trial's own loop ---------------
         event = catch_now | ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
         event |= (a["slip"] & (a["modes"] * Vn < 0)).any(axis=1)        # a joint stops
-        flying = ~a["caught"]
+        flying = ~a["caught"] & ~inc
         # the rebounding hammer reaches its top (thetadot crosses zero upward)
         event |= flying & (Xn[:, 2 * nv + 1] > 0)
-        for r in np.flatnonzero(flying & ~event).tolist():
-            # ... or touches the arm again: the gap from the plant's own kinematics
-            if self.lanes[r].plant.gap(Xn[r])[0] > 0:
+        d1, dd1 = np.zeros(len(t)), np.zeros(len(t))
+        v0 = a["v0"].tolist()
+        for r in np.flatnonzero((flying | inc) & ~event).tolist():
+            # ... or touches the arm again, or the contact ends: the gap from the plant's own
+            # kinematics, the event values trial_steps computes
+            plant = self.lanes[r].plant
+            d, dd, _ = plant.gap(Xn[r])
+            if inc[r]:
+                if -min(d, _END_SCALE * (1.0 + plant._d * dd / v0[r])) > 0:
+                    event[r] = True
+                d1[r], dd1[r] = d, dd
+            elif d > 0:
                 event[r] = True
         if some_stuck.any():
             # a stuck joint's holding torque at the step's end reaches its static limit
@@ -243,7 +273,11 @@ class _Batch:
         # three stages, the step end's evaluation where holding torques are checked, the
         # consistency evaluation after a new torque; either of the last two serves as the
         # next step's k1
-        at_end = some_stuck | (flying & a["reuse"])
+        # the contact's overlap at accepted steps, for the edge refinement
+        acc_c = ok & inc
+        a["ge2"][acc_c] = np.maximum(a["ge2"][acc_c], d1[acc_c])
+        a["ge0"][acc_c], a["ge1"][acc_c] = d1[acc_c], dd1[acc_c]
+        at_end = some_stuck | ((flying | inc) & a["reuse"])
         a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + at_end[ok] + settle[ok]
         a["k1c"][ok] = settle[ok] | at_end[ok]
         tl = t_fin.tolist()
@@ -257,7 +291,7 @@ class _Batch:
                 ln.servo_tau.append(a["tau"][r].copy())
         # -- the end-of-recording check (integrate.trial_steps' stop test) -----------------
         static = ~a["fric"] & (np.max(np.abs(X[:, nv + 1:2 * nv + 1]), axis=1) < a["settle"])
-        ends = (static & a["caught"]) | ((t >= a["tmin"] - 1e-12) & (static | (t >= a["tmax"] - 1e-12)))
+        ends = ~inc & ((static & a["caught"]) | ((t >= a["tmin"] - 1e-12) & (static | (t >= a["tmax"] - 1e-12))))
         return np.flatnonzero(event | (ok & ends)).tolist()
 
 

@@ -83,21 +83,22 @@ class Lane:
     """A trial's integration state where a caller may take over its plain steps.
 
     :func:`trial_steps` with ``lane=True`` yields this object at the top of every step
-    iteration in which the trial is free of events that only its own loop handles: a
-    fixed-base arm (``plant.batchable``) out of contact, not every joint stuck. There the
-    next iteration is one RK4 step of the arm and the swinging (or caught) hammer, the
-    event checks (a slipping joint's velocity or a stuck joint's holding torque crossing
-    its threshold, the hammer touching again or reaching the top of its rebound) and
-    possibly a servo tick, which :mod:`.batch` evaluates for many trials at once. The caller either sends ``False`` (the generator takes the
-    step itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
-    lists and updating ``pid``), sets ``ticked`` if a servo tick passed, ``k1_cached`` if
-    the last thing it did was the stick-slip consistency evaluation at the current state
-    (which also serves the next step's first stage), and sends ``True``.
+    iteration of a fixed-base arm (``plant.batchable``) with not every joint stuck. There
+    the next iteration is one RK4 step of the arm, the hammer (swinging, in contact or
+    caught) and the contact, the event checks (a slipping joint's velocity or a stuck
+    joint's holding torque crossing its threshold, the contact's start or end, the
+    rebounding hammer's top) and possibly a servo tick, which :mod:`.batch` evaluates for
+    many trials at once. The caller either sends ``False`` (the generator takes the step
+    itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
+    lists, updating ``pid`` and ``gap_end`` in place), sets ``ticked`` if a servo tick
+    passed, ``k1_cached`` if its last evaluation was at the current state (the loop's
+    cache would have served the next step's first stage from it), and sends ``True``.
     """
 
     __slots__ = ("plant", "pid", "ts", "xs", "xds", "servo_t", "servo_tau", "T", "sub", "t_min_end",
                  "t_max_end", "settle_velocity", "friction_events", "x", "t", "k_tick", "tau", "fs",
-                 "n_steps", "n_rhs", "ticked", "k1_cached", "caught", "t_catch", "reuse_eval")
+                 "n_steps", "n_rhs", "ticked", "k1_cached", "caught", "t_catch", "reuse_eval", "sub_contact",
+                 "gap_end", "contact_v0", "contact_t0")
 
 
 def integrate_trial(plant, pid, **kwargs) -> Trajectory:
@@ -286,7 +287,8 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
         handoff = Lane()
         handoff.plant, handoff.pid = plant, pid
         handoff.ts, handoff.xs, handoff.xds, handoff.servo_t, handoff.servo_tau = ts, xs, xds, servo_t, servo_tau
-        handoff.T, handoff.sub = T, substeps_free
+        handoff.T, handoff.sub, handoff.sub_contact = T, substeps_free, substeps_contact
+        handoff.reuse_eval, handoff.gap_end = reuse_eval, gap_end
         handoff.t_min_end, handoff.t_max_end = t_min_end, t_max_end
         handoff.settle_velocity, handoff.friction_events = settle_velocity, friction_events
 
@@ -306,24 +308,24 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
             if t >= t_min_end - 1e-12 and (static or t >= t_max_end - 1e-12):
                 settled = static
                 break
-            if handoff is not None and not fs.all_stuck:
-                # a plain step: offer it to the caller (see Lane)
-                c = last
-                handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, k_tick, tau, fs
-                handoff.n_steps, handoff.n_rhs, handoff.ticked = n_steps, n_rhs, False
-                handoff.caught, handoff.t_catch = caught, (math.inf if t_catch is None else t_catch)
-                handoff.reuse_eval = reuse_eval
-                handoff.k1_cached = (c is not None and c[0] is x and c[1] is tau and c[2] is fs
-                                     and c[3] is None and c[4] == caught and c[5] == t)
-                if (yield handoff):
-                    x, t, k_tick, tau = handoff.x, handoff.t, handoff.k_tick, handoff.tau
-                    n_steps, n_rhs = handoff.n_steps, handoff.n_rhs
-                    if handoff.ticked:
-                        tick_events = 0
-                    # the caller's last evaluation at this state (counted there) does not
-                    # cross over: ev() makes it again without counting it twice
-                    last = (x, tau, fs, None, caught, t, None) if handoff.k1_cached else None
-                    continue
+        if handoff is not None and not fs.all_stuck:
+            # a step the caller may take (see Lane)
+            c = last
+            handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, k_tick, tau, fs
+            handoff.n_steps, handoff.n_rhs, handoff.ticked = n_steps, n_rhs, False
+            handoff.caught, handoff.t_catch = caught, (math.inf if t_catch is None else t_catch)
+            handoff.contact_v0, handoff.contact_t0 = contact_v0, contacts[-1][0]
+            handoff.k1_cached = (c is not None and c[0] is x and c[1] is tau and c[2] is fs
+                                 and c[3] == contact_v0 and c[4] == caught and c[5] == t)
+            if (yield handoff):
+                x, t, k_tick, tau = handoff.x, handoff.t, handoff.k_tick, handoff.tau
+                n_steps, n_rhs = handoff.n_steps, handoff.n_rhs
+                if handoff.ticked:
+                    tick_events = 0
+                # the caller's last evaluation at this state (counted there) does not
+                # cross over: ev() makes it again without counting it twice
+                last = (x, tau, fs, contact_v0, caught, t, None) if handoff.k1_cached else None
+                continue
 
         # -- one step to the next boundary (a servo tick or a substep) -------------------------
         sub = substeps_contact if contact_v0 is not None else substeps_free
