@@ -78,6 +78,7 @@ class _Batch:
             "v0": np.nan if ln.contact_v0 is None else ln.contact_v0, "inc": ln.contact_v0 is not None,
             "t0c": ln.contact_t0, "subc": ln.sub_contact, "subf": ln.sub,
             "ge0": ln.gap_end[0], "ge1": ln.gap_end[1], "ge2": ln.gap_end[2],
+            "K1": np.zeros(len(ln.x)), "k1ok": False,
             "r": plant._r, "mgl": plant._mgl, "Ip": plant._Ip,
         }
         if self.pool0 is None and not fs.none_stuck:
@@ -126,45 +127,58 @@ class _Batch:
         return len(self.ids)
 
     # -- dynamics ---------------------------------------------------------------------
-    def _f(self, X, C2, visc, stuck):
-        """State derivatives of the rows and the stuck joints' holding torques
-        (FixedBasePlant.evaluate): ``q' = v``, ``theta' = thetadot``, ``v' = a``,
-        ``thetadot'`` the pendulum's swing under the contact force (zero once caught),
-        ``P' = F``, with ``a`` the accelerations of the constrained dynamics
+    def _f(self, X, C2, rows=None):
+        """State derivatives and the stuck joints' holding torques of batch rows ``rows``
+        (all by default) at states ``X`` with held torques less Coulomb ``C2`` (one row
+        each), as FixedBasePlant.evaluate gives them: ``q' = v``, ``theta' = thetadot``,
+        ``v' = a``, ``thetadot'`` the pendulum's swing under the contact force (zero once
+        caught), ``P' = F``; ``a`` the accelerations of the constrained dynamics
         (:func:`.plant.stuck_solve` on batched ABA and the stuck columns of ``M^-1``) under
         the servo, friction and contact torques."""
+        c = self._arrays
+        if rows is not None:
+            c = {k: c[k][rows] for k in ("visc", "stuck", "inc", "v0", "caught", "mgl", "r", "Ip")}
         nv = self.nv
         m = X.shape[0]
         Q = X[:, :nv].T
         V = X[:, nv + 1:2 * nv + 1]
-        tau = C2 - visc * V
-        c = self._arrays
+        tau = C2 - c["visc"] * V
         F = np.zeros(m)
         inc = c["inc"]
         if inc.any():
             # the contact force and its Jacobian: the plant's own kinematics, per trial
             Jn = np.zeros((m, nv))
             v0 = c["v0"].tolist()
-            for r in np.flatnonzero(inc).tolist():
-                plant = self.lanes[r].plant
-                d, dd, J = plant.gap(X[r])
-                F[r] = plant.contact_force(d, dd, v0[r])
-                Jn[r] = J
+            for i in np.flatnonzero(inc).tolist():
+                plant = self.lanes[i if rows is None else rows[i]].plant
+                d, dd, J = plant.gap(X[i])
+                F[i] = plant.contact_force(d, dd, v0[i])
+                Jn[i] = J
             tau = np.where((F > 0.0)[:, None], tau + Jn * F[:, None], tau)
         A = np.empty((m, nv)).T          # (nv, m), column-major: Pinocchio writes it in place
         pin.abaInParallel(self.threads, self.pool, Q, V.T, tau.T, A)
         a = A.T
         lam = None
-        if stuck.any():
-            minv = np.zeros((m, nv, nv))
-            rest = np.zeros((nv, m), order="F")
-            for j in np.flatnonzero(stuck.any(axis=0)).tolist():
-                unit = np.zeros((nv, m), order="F")
+        stuck = c["stuck"]
+        some = stuck.any(axis=1)
+        if some.any():
+            # columns of M^-1 (ABA at rest without gravity, unit torques), only for the rows
+            # with stuck joints and only the columns some of them need
+            sr = np.flatnonzero(some)
+            Qs = np.ascontiguousarray(X[sr, :nv]).T
+            n = sr.size
+            minv = np.zeros((n, nv, nv))
+            rest = np.zeros((nv, n), order="F")
+            for j in np.flatnonzero(stuck[sr].any(axis=0)).tolist():
+                unit = np.zeros((nv, n), order="F")
                 unit[j] = 1.0
-                col = np.empty((m, nv)).T
-                pin.abaInParallel(self.threads, self.pool0, Q, rest, unit, col)
+                col = np.empty((n, nv)).T
+                pin.abaInParallel(self.threads, self.pool0, Qs, rest, unit, col)
                 minv[:, :, j] = col.T
-            lam, a = stuck_solve(a, minv, stuck)
+            lam = np.zeros((m, nv))
+            lam[sr], a_s = stuck_solve(a[sr], minv, stuck[sr])
+            a = a.copy()
+            a[sr] = a_s
         XD = np.empty_like(X)
         XD[:, :nv + 1] = X[:, nv + 1:2 * nv + 2]
         XD[:, nv + 1:2 * nv + 1] = a
@@ -174,13 +188,15 @@ class _Batch:
         XD[:, 2 * nv + 2] = F
         return XD, lam
 
-    def _violations(self, lam, scale=1.0):
-        """Per row: does a stuck joint's holding torque exceed its static limit (times
-        ``scale``)? (FrictionState.violations and the consistency check of trial_steps)"""
+    def _violations(self, lam, rows, scale=1.0):
+        """Per row of ``rows``: does a stuck joint's holding torque exceed its static limit
+        (times ``scale``)? (FrictionState.violations and the consistency check of trial_steps)"""
         a = self._arrays
-        tp, tn = (a["tcp"], a["tcn"]) if scale == 1.0 else (a["tcp"] * scale, a["tcn"] * scale)
+        tp, tn = a["tcp"][rows], a["tcn"][rows]
+        if scale != 1.0:
+            tp, tn = tp * scale, tn * scale
         over = np.where(lam < 0, -lam - tp, lam - tn) > 0
-        return (over & a["stuck"]).any(axis=1)
+        return (over & a["stuck"][rows]).any(axis=1)
 
     def step(self) -> list[int]:
         """One plain iteration of every trial in the batch (an RK4 step to the next substep
@@ -206,12 +222,20 @@ class _Batch:
         t_new = t + h
         t_new = np.where(np.abs(t_new - t_tick) <= 1e-12, t_tick, t_new)
         H = h[:, None]
-        C2, visc, stuck = a["C2"], a["visc"], a["stuck"]
+        C2, stuck = a["C2"], a["stuck"]
         some_stuck = stuck.any(axis=1)
-        k1 = self._f(X, C2, visc, stuck)[0]
-        k2 = self._f(X + (0.5 * H) * k1, C2, visc, stuck)[0]
-        k3 = self._f(X + (0.5 * H) * k2, C2, visc, stuck)[0]
-        k4 = self._f(X + H * k3, C2, visc, stuck)[0]
+        # k1: an evaluation at this state made at the last step's end, where there is one
+        # (the same inputs, so the same numbers), else made now
+        fresh = np.flatnonzero(~a["k1ok"])
+        if fresh.size == len(t):
+            k1 = self._f(X, C2)[0]
+        else:
+            k1 = a["K1"].copy()
+            if fresh.size:
+                k1[fresh] = self._f(X[fresh], C2[fresh], fresh)[0]
+        k2 = self._f(X + (0.5 * H) * k1, C2)[0]
+        k3 = self._f(X + (0.5 * H) * k2, C2)[0]
+        k4 = self._f(X + H * k3, C2)[0]
         Xn = X + (H / 6.0) * (k1 + k4 + 2.0 * (k2 + k3))
         Vn = Xn[:, nv + 1:2 * nv + 1]
         # -- events this loop does not handle: left to the trial's own loop ---------------
@@ -233,9 +257,14 @@ class _Batch:
                 d1[r], dd1[r] = d, dd
             elif d > 0:
                 event[r] = True
-        if some_stuck.any():
+        K1 = np.zeros_like(Xn)           # the next step's k1, where evaluated below
+        k1ok = np.zeros(len(t), dtype=bool)
+        sr = np.flatnonzero(some_stuck & ~event)
+        if sr.size:
             # a stuck joint's holding torque at the step's end reaches its static limit
-            event |= self._violations(self._f(Xn, C2, visc, stuck)[1])
+            K1[sr], lam = self._f(Xn[sr], C2[sr], sr)
+            k1ok[sr] = True
+            event[sr] |= self._violations(lam, sr)
         # -- servo tick (controller.PID.update on the batch axis) --------------------------
         ticked = (k * T - t_new) <= 1e-12
         t_fin = np.where(ticked, t_tick, t_new)
@@ -250,11 +279,12 @@ class _Batch:
         # a new torque with a slipping joint exactly at rest, or a stuck one it breaks loose,
         # needs the loop's mode search
         event |= settle & (a["slip"] & (Vn == 0.0)).any(axis=1)
-        check = settle & some_stuck & ~event
-        if check.any():
-            C2_new = np.where(changed[:, None], tau_new - a["coul"], C2)
-            lam = self._f(Xn, C2_new, visc, stuck)[1]
-            event |= check & self._violations(lam, 1 + 1e-12)
+        k1ok &= ~changed                 # evaluated with the torque held before the tick
+        cr = np.flatnonzero(settle & some_stuck & ~event)
+        if cr.size:
+            K1[cr], lam = self._f(Xn[cr], tau_new[cr] - a["coul"][cr], cr)
+            k1ok[cr] = True
+            event[cr] |= self._violations(lam, cr, 1 + 1e-12)
         ok = ~event
         # -- commit the rows without events ----------------------------------------------
         upd = ok & ticked
@@ -280,6 +310,8 @@ class _Batch:
         at_end = some_stuck | ((flying | inc) & a["reuse"])
         a["nrhs"][ok] += np.where(a["k1c"][ok], 3, 4) + at_end[ok] + settle[ok]
         a["k1c"][ok] = settle[ok] | at_end[ok]
+        a["K1"][ok] = K1[ok]
+        a["k1ok"][ok] = k1ok[ok]
         tl = t_fin.tolist()
         for r in np.flatnonzero(ok).tolist():
             ln = self.lanes[r]

@@ -89,7 +89,7 @@ def stuck_solve(a0, minv, stuck):
     lam = np.zeros((m, nv))
     a = a0.copy()
     codes = stuck @ (1 << np.arange(nv)) if m > 1 else None
-    for code in (np.unique(codes).tolist() if m > 1 else [None]):
+    for code in (sorted(set(codes.tolist())) if m > 1 else [None]):
         rows = np.flatnonzero(codes == code) if m > 1 else slice(None)
         S = np.flatnonzero(stuck[0] if m == 1 else stuck[rows[0]]).tolist()
         k = len(S)
