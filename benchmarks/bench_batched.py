@@ -15,6 +15,7 @@ Usage::
     python benchmarks/bench_batched.py                 # fixed and flexible, 3 rounds
     python benchmarks/bench_batched.py --bases fixed --rounds 5
     python benchmarks/bench_batched.py --threads       # adds the 1-vs-2-thread comparison
+    python benchmarks/bench_batched.py --profile       # adds where the batched integration's CPU goes
 """
 
 from __future__ import annotations
@@ -47,30 +48,75 @@ def one_trial(scenes) -> float:
 
 def batched(scenes, threads: int = 1) -> dict:
     """CPU [s] of the batched job by stage, and the share of steps the batch took."""
-    taken = [0]
-    step = batch._Batch.step
+    init = batch._Batch.__init__
+    made: list = []
 
-    def counting(self):
-        taken[0] += len(self)
-        return step(self)
+    def counting(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        made.append(self)
 
     c0 = time.process_time()
     rigs = [build(s) for s in scenes]
     c1 = time.process_time()
-    batch._Batch.step = counting
+    batch._Batch.__init__ = counting
     try:
         trajs = batch.integrate_batch([(r.plant, r.pid, integration_args(r)) for r in rigs], threads=threads)
     finally:
-        batch._Batch.step = step
+        batch._Batch.__init__ = init
     c2 = time.process_time()
+    taken = sum(b.accepted for b in made)
     for r, t in zip(rigs, trajs):
         record_arrays(r, t)
     c3 = time.process_time()
-    # the batch's steps taken and then handed back (an event inside) are redone by the loop,
-    # so the share counts the batch's accepted steps: total minus the loops' own
+    # steps the batch took; the rest (event steps) were the trials' own loops'
     total = sum(t.n_steps for t in trajs)
     return {"build": c1 - c0, "integrate": c2 - c1, "record": c3 - c2, "total": c3 - c0,
-            "share": min(1.0, taken[0] / total) if total else 0.0}
+            "share": taken / total if total else 0.0}
+
+
+def profile(scenes) -> dict:
+    """Where the batched integration's CPU goes [s]: Pinocchio's batched ABA, the stuck
+    joints' solve, the rest of the batch's steps (NumPy, per-trial contact kinematics), and
+    the trials' own loops (event steps, hand-overs)."""
+    import pinocchio as pin
+
+    spent = {"aba": 0.0, "stuck_solve": 0.0, "batch steps": 0.0}
+
+    class Timed:
+        def __getattr__(self, name):
+            return getattr(pin, name)
+
+        @staticmethod
+        def abaInParallel(*args):
+            c = time.process_time()
+            pin.abaInParallel(*args)
+            spent["aba"] += time.process_time() - c
+
+    solve, step = batch.stuck_solve, batch._Batch.step
+
+    def timed_solve(*args):
+        c = time.process_time()
+        out = solve(*args)
+        spent["stuck_solve"] += time.process_time() - c
+        return out
+
+    def timed_step(self):
+        c = time.process_time()
+        out = step(self)
+        spent["batch steps"] += time.process_time() - c
+        return out
+
+    rigs = [build(s) for s in scenes]
+    batch.pin, batch.stuck_solve, batch._Batch.step = Timed(), timed_solve, timed_step
+    try:
+        c0 = time.process_time()
+        batch.integrate_batch([(r.plant, r.pid, integration_args(r)) for r in rigs])
+        total = time.process_time() - c0
+    finally:
+        batch.pin, batch.stuck_solve, batch._Batch.step = pin, solve, step
+    return {"ABA (abaInParallel)": spent["aba"], "stuck_solve": spent["stuck_solve"],
+            "rest of the batch's steps": spent["batch steps"] - spent["aba"] - spent["stuck_solve"],
+            "trials' own loops": total - spent["batch steps"], "total": total}
 
 
 def main(argv=None) -> int:
@@ -79,6 +125,7 @@ def main(argv=None) -> int:
     ap.add_argument("--bases", nargs="+", default=["fixed", "flexible"])
     ap.add_argument("--gain", default="high")
     ap.add_argument("--threads", action="store_true", help="also time 1 vs 2 threads on a 108-trial job")
+    ap.add_argument("--profile", action="store_true", help="also split the batched integration's CPU by part")
     args = ap.parse_args(argv)
     print(f"{'job (36 trials)':<22}{'one-trial':>10}{'batched':>9}{'build':>7}{'integ.':>8}{'record':>8}"
           f"{'steps in batch':>16}{'ratio':>7}   [CPU ms per trial, median of {args.rounds}]")
@@ -96,6 +143,12 @@ def main(argv=None) -> int:
         print(f"{base + ', ' + args.gain:<22}{one:>10.1f}{tot:>9.1f}{med['build'] / n * 1e3:>7.1f}"
               f"{med['integrate'] / n * 1e3:>8.1f}{med['record'] / n * 1e3:>8.1f}{100 * med['share']:>15.0f}%"
               f"{one / tot:>7.2f}x")
+    if args.profile:
+        for base in args.bases:
+            n = len(sweep(base, args.gain))
+            runs = [profile(sweep(base, args.gain)) for _ in range(args.rounds)]
+            parts = "; ".join(f"{k} {statistics.median(r[k] for r in runs) / n * 1e3:.1f}" for k in runs[0])
+            print(f"{base}, batched integration [CPU ms per trial]: {parts}")
     if args.threads:
         scenes = sweep("fixed", args.gain, repeats=6)
         for threads in (1, 2):

@@ -53,6 +53,7 @@ class _Batch:
         self.nv = model.nv
         self.ids: list[int] = []
         self.lanes: list[Lane] = []
+        self.accepted = 0      # steps taken here (the benchmark's share of the batch)
         self._arrays = None
 
     # -- membership -------------------------------------------------------------------
@@ -295,6 +296,7 @@ class _Batch:
         a["tau"][ch] = tau_new[ch]
         a["C2"][ch] = tau_new[ch] - a["coul"][ch]
         X[ok] = Xn[ok]
+        self.accepted += int(ok.sum())
         t[ok] = t_fin[ok]
         k[upd] += 1
         a["ticked"] |= upd
