@@ -41,20 +41,20 @@ __all__ = ["integrate_batch", "simulate_batch"]
 
 
 class _Batch:
-    """The plain steps of the trials sharing one arm model, as arrays over the batch axis
-    (one row per trial in the lane)."""
+    """The steps of the trials sharing one arm model, as arrays over the batch axis (one row
+    per trial handed over)."""
 
     def __init__(self, model, threads: int):
         self.model = model
         self.threads = int(threads)
         self.pool = pin.ModelPool(model, max(1, self.threads))
         self.pool0 = None      # of the arm without gravity (columns of M^-1), made when needed
-        self.model0 = None
         self.nv = model.nv
         self.ids: list[int] = []
         self.lanes: list[Lane] = []
         self.accepted = 0      # steps taken here (the benchmark's share of the batch)
         self._arrays = None
+        self._pending: list[dict] = []   # rows handed over since the last step, joined at the next
 
     # -- membership -------------------------------------------------------------------
     def add(self, i: int, ln: Lane) -> None:
@@ -83,22 +83,27 @@ class _Batch:
             "r": plant._r, "mgl": plant._mgl, "Ip": plant._Ip,
         }
         if self.pool0 is None and not fs.none_stuck:
-            self.model0 = plant.model0
             self.pool0 = pin.ModelPool(plant.model0, max(1, self.threads))
-        a = self._arrays
-        if a is None:
-            self._arrays = {k: np.array([v]) for k, v in row.items()}
-        else:
-            for k, v in row.items():
-                a[k] = np.concatenate([a[k], np.array([v], dtype=a[k].dtype)])
-        # the torque the loop starts from, less the Coulomb torque of the slipping joints
-        # (FixedBasePlant._loads' constant part)
-        self._arrays["C2"] = self._arrays["tau"] - self._arrays["coul"]
+        self._pending.append(row)
         self.ids.append(i)
         self.lanes.append(ln)
 
+    def _join(self) -> None:
+        """Append the rows handed over since the last step to the arrays (one
+        concatenation per array for all of them)."""
+        rows, self._pending = self._pending, []
+        if not rows:
+            return
+        new = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        a = self._arrays
+        self._arrays = new if a is None else {k: np.concatenate([a[k], v.astype(a[k].dtype)]) for k, v in new.items()}
+        # the held torque less the Coulomb torque of the slipping joints (the constant part
+        # of FixedBasePlant._loads)
+        self._arrays["C2"] = self._arrays["tau"] - self._arrays["coul"]
+
     def release(self, rows) -> list[tuple[int, Lane]]:
         """Write the rows' states back into their lanes and drop them from the batch."""
+        self._join()
         a = self._arrays
         out = []
         for r in rows:
@@ -204,6 +209,7 @@ class _Batch:
         or servo tick, the stop-event check, the tick); returns the rows to hand back to
         their loops: those whose step held an event (state left before the step) and those
         whose recording may end (state after it)."""
+        self._join()
         a = self._arrays
         nv = self.nv
         X, t, k, T = a["X"], a["t"], a["k"], a["T"]
