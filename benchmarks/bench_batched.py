@@ -75,30 +75,29 @@ def batched(scenes, threads: int = 1) -> dict:
 
 
 def profile(scenes) -> dict:
-    """Where the batched integration's CPU goes [s]: Pinocchio's batched ABA, the stuck
-    joints' solve, the rest of the batch's steps (NumPy, per-trial contact kinematics), and
-    the trials' own loops (event steps, hand-overs)."""
+    """Where the batched integration's CPU goes [s]: Pinocchio's batched calls
+    (``abaInParallel``, ``rneaInParallel``), the rest of the batch's steps (NumPy, the
+    per-trial contact kinematics and reduced-model ABA of partly stuck arms), and the
+    trials' own loops (event steps, hand-overs)."""
     import pinocchio as pin
 
-    spent = {"aba": 0.0, "stuck_solve": 0.0, "batch steps": 0.0}
+    spent = {"batched": 0.0, "batch steps": 0.0}
+
+    def timed(fn):
+        def call(*args):
+            c = time.process_time()
+            fn(*args)
+            spent["batched"] += time.process_time() - c
+        return call
 
     class Timed:
+        abaInParallel = staticmethod(timed(pin.abaInParallel))
+        rneaInParallel = staticmethod(timed(pin.rneaInParallel))
+
         def __getattr__(self, name):
             return getattr(pin, name)
 
-        @staticmethod
-        def abaInParallel(*args):
-            c = time.process_time()
-            pin.abaInParallel(*args)
-            spent["aba"] += time.process_time() - c
-
-    solve, step = batch.stuck_solve, batch._Batch.step
-
-    def timed_solve(*args):
-        c = time.process_time()
-        out = solve(*args)
-        spent["stuck_solve"] += time.process_time() - c
-        return out
+    step = batch._Batch.step
 
     def timed_step(self):
         c = time.process_time()
@@ -107,15 +106,15 @@ def profile(scenes) -> dict:
         return out
 
     rigs = [build(s) for s in scenes]
-    batch.pin, batch.stuck_solve, batch._Batch.step = Timed(), timed_solve, timed_step
+    batch.pin, batch._Batch.step = Timed(), timed_step
     try:
         c0 = time.process_time()
         batch.integrate_batch([(r.plant, r.pid, integration_args(r)) for r in rigs])
         total = time.process_time() - c0
     finally:
-        batch.pin, batch.stuck_solve, batch._Batch.step = pin, solve, step
-    return {"ABA (abaInParallel)": spent["aba"], "stuck_solve": spent["stuck_solve"],
-            "rest of the batch's steps": spent["batch steps"] - spent["aba"] - spent["stuck_solve"],
+        batch.pin, batch._Batch.step = pin, step
+    return {"abaInParallel + rneaInParallel": spent["batched"],
+            "rest of the batch's steps": spent["batch steps"] - spent["batched"],
             "trials' own loops": total - spent["batch steps"], "total": total}
 
 

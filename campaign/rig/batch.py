@@ -35,7 +35,6 @@ import pinocchio as pin
 
 from ..errors import SimulationError
 from .integrate import _END_SCALE, EDGE_SUBSTEPS, Lane, trial_steps
-from .plant import stuck_solve
 
 __all__ = ["integrate_batch", "simulate_batch"]
 
@@ -48,7 +47,6 @@ class _Batch:
         self.model = model
         self.threads = int(threads)
         self.pool = pin.ModelPool(model, max(1, self.threads))
-        self.pool0 = None      # of the arm without gravity (columns of M^-1), made when needed
         self.nv = model.nv
         self.ids: list[int] = []
         self.lanes: list[Lane] = []
@@ -82,8 +80,6 @@ class _Batch:
             "K1": np.zeros(len(ln.x)), "k1ok": False,
             "r": plant._r, "mgl": plant._mgl, "Ip": plant._Ip,
         }
-        if self.pool0 is None and not fs.none_stuck:
-            self.pool0 = pin.ModelPool(plant.model0, max(1, self.threads))
         self._pending.append(row)
         self.ids.append(i)
         self.lanes.append(ln)
@@ -133,14 +129,15 @@ class _Batch:
         return len(self.ids)
 
     # -- dynamics ---------------------------------------------------------------------
-    def _f(self, X, C2, rows=None):
+    def _f(self, X, C2, rows=None, with_lam=False):
         """State derivatives and the stuck joints' holding torques of batch rows ``rows``
         (all by default) at states ``X`` with held torques less Coulomb ``C2`` (one row
         each), as FixedBasePlant.evaluate gives them: ``q' = v``, ``theta' = thetadot``,
         ``v' = a``, ``thetadot'`` the pendulum's swing under the contact force (zero once
-        caught), ``P' = F``; ``a`` the accelerations of the constrained dynamics
-        (:func:`.plant.stuck_solve` on batched ABA and the stuck columns of ``M^-1``) under
-        the servo, friction and contact torques."""
+        caught), ``P' = F``; ``a`` the accelerations of the constrained dynamics under the
+        servo, friction and contact torques (batched ABA; with joints stuck, the reduced
+        model's ABA per trial), and with ``with_lam`` the stuck joints' holding torques
+        (batched RNEA)."""
         c = self._arrays
         if rows is not None:
             c = {k: c[k][rows] for k in ("visc", "stuck", "inc", "v0", "caught", "mgl", "r", "Ip")}
@@ -161,30 +158,28 @@ class _Batch:
                 F[i] = plant.contact_force(d, dd, v0[i])
                 Jn[i] = J
             tau = np.where((F > 0.0)[:, None], tau + Jn * F[:, None], tau)
+        stuck = c["stuck"]
+        some = stuck.any(axis=1)
         A = np.empty((m, nv)).T          # (nv, m), column-major: Pinocchio writes it in place
         pin.abaInParallel(self.threads, self.pool, Q, V.T, tau.T, A)
         a = A.T
         lam = None
-        stuck = c["stuck"]
-        some = stuck.any(axis=1)
         if some.any():
-            # columns of M^-1 (ABA at rest without gravity, unit torques), only for the rows
-            # with stuck joints and only the columns some of them need
-            sr = np.flatnonzero(some)
-            Qs = np.ascontiguousarray(X[sr, :nv]).T
-            n = sr.size
-            minv = np.zeros((n, nv, nv))
-            rest = np.zeros((nv, n), order="F")
-            for j in np.flatnonzero(stuck[sr].any(axis=0)).tolist():
-                unit = np.zeros((nv, n), order="F")
-                unit[j] = 1.0
-                col = np.empty((n, nv)).T
-                pin.abaInParallel(self.threads, self.pool0, Qs, rest, unit, col)
-                minv[:, :, j] = col.T
-            lam = np.zeros((m, nv))
-            lam[sr], a_s = stuck_solve(a[sr], minv, stuck[sr])
+            # a partly stuck arm: ABA of the free joints on its reduced model (the stuck
+            # joints locked at their angles), trial by trial as FixedBasePlant._accel does
             a = a.copy()
-            a[sr] = a_s
+            for i in np.flatnonzero(some).tolist():
+                fs = self.lanes[i if rows is None else rows[i]].fs
+                rm, rd = fs.reduced
+                free = fs.free
+                ai = np.zeros(nv)
+                ai[free] = pin.aba(rm, rd, Q[:, i][free], V[i][free], tau[i][free])
+                a[i] = ai
+            if with_lam:
+                # holding torques (FixedBasePlant.constrained): rnea(q, v, a)_S - tau_S
+                R = np.empty((m, nv)).T
+                pin.rneaInParallel(self.threads, self.pool, Q, V.T, np.ascontiguousarray(a).T, R)
+                lam = np.where(stuck, R.T - tau, 0.0)
         XD = np.empty_like(X)
         XD[:, :nv + 1] = X[:, nv + 1:2 * nv + 2]
         XD[:, nv + 1:2 * nv + 1] = a
@@ -269,7 +264,7 @@ class _Batch:
         sr = np.flatnonzero(some_stuck & ~event)
         if sr.size:
             # a stuck joint's holding torque at the step's end reaches its static limit
-            K1[sr], lam = self._f(Xn[sr], C2[sr], sr)
+            K1[sr], lam = self._f(Xn[sr], C2[sr], sr, with_lam=True)
             k1ok[sr] = True
             event[sr] |= self._violations(lam, sr)
         # -- servo tick (controller.PID.update on the batch axis) --------------------------
@@ -289,7 +284,7 @@ class _Batch:
         k1ok &= ~changed                 # evaluated with the torque held before the tick
         cr = np.flatnonzero(settle & some_stuck & ~event)
         if cr.size:
-            K1[cr], lam = self._f(Xn[cr], tau_new[cr] - a["coul"][cr], cr)
+            K1[cr], lam = self._f(Xn[cr], tau_new[cr] - a["coul"][cr], cr, with_lam=True)
             k1ok[cr] = True
             event[cr] |= self._violations(lam, cr, 1 + 1e-12)
         ok = ~event

@@ -339,9 +339,6 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     acceleration at any instant come from the emulator (:class:`.ves.VesLoop`).
     """
 
-    #: a partly stuck arm's free joints from ABA on a reduced model (see _free_accel)
-    _locks_stuck_joints = True
-
     def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float, rate: float, latency: float,
                  bandwidth: float, duration: float):

@@ -32,7 +32,7 @@ from ..robot import Robot
 from .contact import Contact
 from .pendulum import Pendulum
 
-__all__ = ["FixedBasePlant", "FrictionState", "stuck_solve"]
+__all__ = ["FixedBasePlant", "FrictionState"]
 
 _EMPTY = np.zeros(0)
 _LWA = pin.LOCAL_WORLD_ALIGNED
@@ -53,71 +53,6 @@ def unit_axis(n) -> tuple[int, float] | None:
     return None
 
 
-def stuck_solve(a0, minv, stuck):
-    """Constrained accelerations and holding torques of arms with stuck joints, batched.
-
-    ``H a + c + g = tau + S^T lam`` with ``a_S = 0`` gives ``a = a0 + M^-1 S^T lam`` with
-    ``a0 = M^-1 (tau - c - g)`` (ABA) and ``lam`` from the stuck block of the inverse mass
-    matrix (a Schur complement): ``(M^-1)_SS lam = -a0_S``.
-
-    Parameters
-    ----------
-    a0 : ndarray, (m, nv)
-        Unconstrained accelerations (ABA) of ``m`` arms.
-    minv : ndarray, (m, nv, nv)
-        Columns ``j`` of ``M^-1`` (ABA at rest, no gravity, unit torque ``e_j``) where
-        ``stuck[:, j]``; other columns are not read.
-    stuck : ndarray of bool, (m, nv)
-
-    Returns
-    -------
-    lam : ndarray, (m, nv)
-        Holding torques, zero on the free joints [N m].
-    a : ndarray, (m, nv)
-        Accelerations, exactly zero on the stuck joints.
-
-    Notes
-    -----
-    The one-trial path calls this with ``m = 1`` and the batched integrator with its whole
-    batch; rows are grouped by their stuck set and every operation is elementwise over a
-    group, in a fixed order, so a row gets the same bits either way. ``(M^-1)_SS`` is
-    symmetric positive definite (a principal block of ``M^-1``): Gaussian elimination
-    needs no pivoting, and on the 1-2 stuck joints of a 3-joint arm costs a few divisions
-    where a LAPACK call would cost its ~10 us of overhead.
-    """
-    m, nv = a0.shape
-    lam = np.zeros((m, nv))
-    a = a0.copy()
-    codes = stuck @ (1 << np.arange(nv)) if m > 1 else None
-    for code in (sorted(set(codes.tolist())) if m > 1 else [None]):
-        rows = np.flatnonzero(codes == code) if m > 1 else slice(None)
-        S = np.flatnonzero(stuck[0] if m == 1 else stuck[rows[0]]).tolist()
-        k = len(S)
-        if k == 0:
-            continue
-        W = [[minv[rows, i, j] for j in S] for i in S]
-        b = [-a0[rows, i] for i in S]
-        for i in range(k):                 # forward elimination
-            for r in range(i + 1, k):
-                f = W[r][i] / W[i][i]
-                for c in range(i + 1, k):
-                    W[r][c] = W[r][c] - f * W[i][c]
-                b[r] = b[r] - f * b[i]
-        x = [None] * k
-        for i in reversed(range(k)):       # back substitution
-            acc = b[i]
-            for c in range(i + 1, k):
-                acc = acc - W[i][c] * x[c]
-            x[i] = acc / W[i][i]
-        ar = a[rows]
-        for i, j in enumerate(S):          # a0 + sum over the stuck j of M^-1 e_j lam_j
-            lam[rows, j] = x[i]
-            ar = ar + minv[rows, :, j] * x[i][:, None]
-        ar[:, S] = 0.0
-        a[rows] = ar
-    return lam, a
-
-
 class FrictionState:
     """A stick/slip mode assignment and what the right-hand side needs of it, computed once
     per mode change instead of at every evaluation.
@@ -135,8 +70,8 @@ class FrictionState:
         ``modes == 0``.
     reduced : tuple or None
         ``(model, data)`` of the arm with the stuck joints locked at their angles (Pinocchio
-        ``buildReducedModel``), for a plant whose constrained dynamics use it (the arm on
-        the VES platform): its ABA gives the free joints' accelerations directly.
+        ``buildReducedModel``), for a partly stuck arm: its ABA gives the free joints'
+        accelerations of the constrained dynamics directly.
     """
 
     __slots__ = ("modes", "stuck", "free", "coulomb", "all_stuck", "none_stuck", "reduced", "iv_free", "key",
@@ -241,13 +176,6 @@ class FixedBasePlant:
         self._jid_of_dof = {self.model.joints[j].idx_v: j for j in range(1, self.model.njoints)}
         self._reduced_cache = {}
         self._lock_model = self.model    # reduced models lock stuck joints of this model
-        # the arm without gravity, at rest: its ABA of a unit torque e_j is column j of M^-1
-        # (stuck_solve); model0 is what the batched integrator's second ModelPool copies
-        self.model0 = self.model.copy()
-        self.model0.gravity.linear = np.zeros(3)
-        self._data0 = self.model0.createData()
-        self._unit = np.eye(nv)
-        self._rest = np.zeros(nv)
 
     # -- kinematics ---------------------------------------------------------------------
     def tip(self, q):
@@ -309,9 +237,8 @@ class FixedBasePlant:
             fs.reduced = red
         return fs
 
-    #: whether :meth:`friction_state` builds reduced models with the stuck joints locked (the
-    #: fixed-base arm's constrained dynamics use :func:`stuck_solve` instead)
-    _locks_stuck_joints = False
+    #: a fixed-base arm's constrained dynamics use reduced models (see :meth:`constrained`)
+    _locks_stuck_joints = True
     #: its plain steps (no joint stuck, out of contact) are the batched integrator's
     #: (:mod:`.batch`): the right-hand side there is :meth:`rhs` with ``fs.none_stuck``
     batchable = True
@@ -319,28 +246,19 @@ class FixedBasePlant:
     def constrained(self, q, v, tau, fs: FrictionState):
         """Friction ``lam`` holding the stuck joints and the accelerations ``a`` of the
         constrained dynamics (``H a + c + g = tau + S^T lam``, ``a_S = 0``) for the modes
-        ``fs``: with some joints free, :func:`stuck_solve` on ABA and the stuck columns of
-        ``M^-1`` (ABA at rest without gravity), the same arithmetic as the batched
-        integrator's; with all stuck, ``a = 0`` and ``lam = rnea(q, v, 0)_S - tau_S``. Same
-        solution as :meth:`holding_torque` (CRBA and a block solve), its reference."""
+        ``fs``: the free joints from ABA on the model with the stuck ones locked, then
+        ``lam = rnea(q, v, a)_S - tau_S``. Same solution as :meth:`holding_torque`, with
+        two Pinocchio calls instead of a CRBA, the bias terms and a small solve."""
         model, data = self.model, self.data
         if fs.none_stuck:
             return _EMPTY, pin.aba(model, data, q, v, tau, _WORLD)
+        a = np.zeros(self.nv)
+        if not fs.all_stuck:
+            rm, rd = fs.reduced
+            free = fs.free
+            a[free] = pin.aba(rm, rd, q[free], v[free], tau[free])
         stuck = fs.stuck
-        if fs.all_stuck:
-            a = np.zeros(self.nv)
-            return pin.rnea(model, data, q, v, a)[stuck] - tau[stuck], a
-        lam, a = self._partly_stuck(q, v, tau, fs)
-        return lam[stuck], a
-
-    def _partly_stuck(self, q, v, tau, fs: FrictionState):
-        """:func:`stuck_solve` for one arm: ``(lam (nv,), a (nv,))``."""
-        minv = np.zeros((1, self.nv, self.nv))
-        m0, d0, unit, rest = self.model0, self._data0, self._unit, self._rest
-        for j in fs.stuck.tolist():
-            minv[0, :, j] = pin.aba(m0, d0, q, rest, unit[j], _WORLD)
-        lam, a = stuck_solve(pin.aba(self.model, self.data, q, v, tau, _WORLD)[None], minv, fs.stuck_mask[None])
-        return lam[0], a[0]
+        return pin.rnea(model, data, q, v, a)[stuck] - tau[stuck], a
 
     def _loads(self, x, tau_servo, fs: FrictionState, contact_v0, with_gap: bool):
         """Generalised torque on the arm (held servo torque, friction of the slipping joints,
@@ -436,12 +354,16 @@ class FixedBasePlant:
         return xd
 
     def _accel(self, q, v, tau, fs: FrictionState):
-        """Accelerations of the constrained dynamics (:meth:`constrained` without ``lam``)."""
+        """Accelerations of the constrained dynamics (:meth:`constrained` without ``lam``):
+        ABA on the full model, on the model with the stuck joints locked, or zero."""
         if fs.none_stuck:
             return pin.aba(self.model, self.data, q, v, tau, _WORLD)
-        if fs.all_stuck:
-            return np.zeros(self.nv)
-        return self._partly_stuck(q, v, tau, fs)[1]
+        a = np.zeros(self.nv)
+        if not fs.all_stuck:
+            rm, rd = fs.reduced
+            free = fs.free
+            a[free] = pin.aba(rm, rd, q[free], v[free], tau[free])
+        return a
 
     def holding_torque(self, q, v, tau, stuck):
         """Friction torque ``lam`` that keeps the ``stuck`` joints still, and the constrained
