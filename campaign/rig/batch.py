@@ -1,31 +1,34 @@
 """Lock-step batched integration: a job's trials advance together through Pinocchio's batch API.
 
-The cost of a trial is the Python around Pinocchio, not Pinocchio (a servo tick is ~100 us
-of interpreter around ~3 us of ABA). This module pays the interpreter once per step for
-many trials instead of once per trial: every trial runs its own one-trial loop
-(:func:`.integrate.trial_steps`, the reference), and wherever that loop reaches a *plain*
-step -- fixed-base arm out of contact, not every joint stuck -- it hands the trial
-over (:class:`.integrate.Lane`). All handed-over trials then take their steps together:
+Every trial runs its own one-trial loop (:func:`.integrate.trial_steps`, the reference);
+wherever that loop reaches a step the batch can take -- a fixed-base arm with not every
+joint stuck, in or out of contact -- it hands the trial over (:class:`.integrate.Lane`).
+All handed-over trials then take their steps together:
 
 * one ``pinocchio.abaInParallel`` call per RK4 stage over the batch (a
-  ``pinocchio.ModelPool`` of the shared arm model), the rest of the right-hand side
-  (held servo torque, Coulomb and viscous friction) as NumPy over the batch axis;
+  ``pinocchio.ModelPool`` of the shared arm model) and ``rneaInParallel`` for the holding
+  torques of stuck joints; the rest of the right-hand side (held servo torque, Coulomb
+  and viscous friction, the pendulum) as NumPy over the batch axis;
+* per trial, what the batch API cannot evaluate: the contact's gap and Jacobian
+  (``plant.gap``, Pinocchio kinematics) and a partly stuck arm's ABA on its reduced model
+  (each trial locks its stuck joints at its own angles);
 * the event checks (a slipping joint's velocity crossing zero, a stuck joint's holding
-  torque reaching its static limit, the rebounding hammer's top; only a swinging
-  hammer's gap takes a kinematics call per trial), the servo tick (the counts PID of
-  :class:`.controller.PID`, vectorised) and the end-of-recording check as NumPy too.
+  torque reaching its static limit, the contact's start and end, the rebounding hammer's
+  top), the servo tick (the counts PID of :class:`.controller.PID`, vectorised) and the
+  end-of-recording check as NumPy.
 
-A trial whose step would hold an event (a joint stopping or breaking loose, the hammer
-touching again or caught, a non-finite state) is not stepped here: it goes back to its own loop at
-the state before that step, which locates and applies the event as the one-trial path
-does, and rejoins the batch at its next plain step. A finished trial leaves the batch; a
-failing one (:class:`~campaign.errors.SimulationError`) leaves it with its error and the
-others go on.
+A trial whose step would hold an event (a joint stopping or breaking loose, the contact
+starting or ending, the hammer caught, a non-finite state) is not stepped here: it goes
+back to its own loop at the state before that step, which locates and applies the event
+as the one-trial path does, and rejoins the batch at its next step. A finished trial
+leaves the batch; a failing one (:class:`~campaign.errors.SimulationError`) leaves it
+with its error and the others go on.
 
 Every operation here is the one-trial path's, element for element, in the same order
 (``abaInParallel`` evaluates ABA in the world convention, which the one-trial path uses
-too), so a batched trial's trajectory equals its one-trial trajectory bit for bit
-(``tests/test_batched.py``); only the count of right-hand-side evaluations is bookkeeping.
+too; ``rneaInParallel`` equals ``pin.rnea``), so a batched trial's trajectory, channels
+and evaluation count equal its one-trial ones bit for bit (``tests/test_batched.py``).
+Measured cost: ``benchmarks/README.md`` (section "Batched rig").
 """
 
 from __future__ import annotations
