@@ -1,4 +1,4 @@
-"""Identification accuracy against the simulator truth (issue 6).
+"""Identification accuracy against the simulator truth.
 
 Simulates the fixed-base sweep -- configurations 1-3 x gains zero/low/high x impact speeds
 1.0/1.5/2.0/2.5 m/s x 2 repeats, default scene -- at the paper's 50 Hz joint-encoder rate

@@ -51,7 +51,7 @@ noise and quantisation), median / 90th percentile / worst (benchmarks/identifica
   joint encoders at 1 kHz: encoder method, joint-dynamics model, 60 ms post window
     Zero  m* 0.07 / 0.18 / 0.31 %  Low m* 0.07 / 0.26 / 0.49 %  High m* 0.14 / 0.68 / 0.86 %
     e 0.01 % median, worst 0.09 %; every trial within the 1 % target
-    (before, arm_model="lti": Zero 0.39, Low 0.65, High 1.53 % worst; the misses were
+    (arm_model="lti": Zero 0.39, Low 0.65, High 1.53 % worst; the misses were
     config 2 High 1.0 m/s, +1.53 / -1.02 %, where the tip gains only 15 mm/s of a 57 mm/s
     impulse the servo and friction take back within the contact; noise-free encoders give
     the joint model v'_a - v_a within 0.41 % over the sweep, so the rest is the encoders'
