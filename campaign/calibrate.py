@@ -1,25 +1,15 @@
 """Calibration of the simulated rig to the paper's fixed-base observations.
 
-The method, its targets and its measured results: user guide, *Calibration and validation*.
+:func:`calibrate` fits the unpublished rig parameters of ``config/calibration.yaml`` by
+bounded least squares so that a reduced fixed-base sweep matches the paper's Table 2 (m2,
+m3), Figure 7's mean restitution, section 3's force range and Figure 5, and
+:func:`write_back` records them in ``config/rig.yaml``. :func:`validate` then simulates
+what was held out (Table 4, Figure 9) and :func:`assess_held_out` marks each comparison
+met or missed, without refitting anything. Each evaluation uses the simulator's true edge
+velocities, since identification is validated on its own.
 
-A digital twin earns trust by fitting its unknowns on one set of observations and
-predicting another. :func:`calibrate` fits the unpublished rig parameters listed in
-``config/calibration.yaml`` by bounded nonlinear least squares
-(``scipy.optimize.least_squares`` in log-parameter space) so that a reduced fixed-base
-sweep matches the paper's Table 2 (m2, m3), the mean restitution of Figure 7, the force
-range of section 3 and the joint-3 excursion of Figure 5. The force range enters as a
-one-sided (hinge) residual, zero while every trial's peak force lies inside 30-70 N
-narrowed by a stated margin (:func:`force_band`), so the fit aims strictly inside the
-paper's range instead of onto its edges. It writes the fitted values back
-into ``config/rig.yaml`` with the date, the objective and the package version.
-
-:func:`validate` then simulates what was held out -- Table 4 (flexible base) and
-Figure 9's Low-vs-High reduction of the peak base amplitude -- and compares with the
-paper, without refitting anything.
-
-Every evaluation simulates the sweep from scratch (deterministic seeds), using the
-simulator's true edge velocities for m* and e: identification accuracy is validated
-separately (user guide, *Identification*) and would only add its own few-percent scatter to the objective.
+The objective, the targets and the measured results: user guide, *Calibration and
+validation* (``docs/calibration.rst``).
 """
 
 from __future__ import annotations
