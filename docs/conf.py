@@ -40,8 +40,10 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.napoleon",
-    "sphinx.ext.mathjax",
 ]
+# Equations are written as plain-text literal blocks, in the names the code uses, so the
+# guide reads the same offline (no MathJax from a CDN) and in the docstrings.
+highlight_language = "none"
 exclude_patterns = ["_build"]
 root_doc = "index"
 
@@ -60,7 +62,8 @@ napoleon_google_docstring = False
 napoleon_numpy_docstring = True
 napoleon_use_param = False
 napoleon_use_rtype = False
-napoleon_use_ivar = True
+# "Attributes" as attribute entries: they keep "start, end : float" as one entry
+napoleon_use_ivar = False
 
 # Every cross-reference to the package's public names must resolve (-n); names of other
 # projects have no inventory offline, so references outside ``campaign`` are not checked.
@@ -92,13 +95,17 @@ def _note_module(app, what, name, obj, options, lines):
 
 
 def _skip_member(app, what, name, obj, skip, options):
-    """Keep two kinds of members out of the API reference: the lazily imported third-party
-    modules (``xr = LazyModule("xarray")``), and a package's re-export of a function that
+    """Keep three kinds of members out of the API reference: the lazily imported third-party
+    modules (``xr = LazyModule("xarray")``), a NamedTuple's generated field aliases, and a
+    package's re-export of a function that
     has the name of the submodule defining it (``campaign.rig.simulate``, function and
     module, would be one target twice; the function stays on its module's page)."""
     from campaign._lazy import LazyModule
 
     if isinstance(obj, LazyModule):
+        return True
+    # a NamedTuple's fields: their "Attributes" section already documents them
+    if what == "class" and (getattr(obj, "__doc__", None) or "").startswith("Alias for field number"):
         return True
     if what == "module" and getattr(obj, "__module__", None) == f"{_current_module[0]}.{name}":
         return True
