@@ -1,4 +1,5 @@
-"""Arm velocity from the wrist F/T sensor: the arm's momentum change."""
+"""Arm velocity from the base F/T sensor: the arm's momentum, integrated from the measured wrench
+and the piezo force (user guide, *Identification*, step 3)."""
 
 from __future__ import annotations
 
