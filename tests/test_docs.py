@@ -21,6 +21,7 @@ STAGE_PAGES = {
     "lambda_fit": "The lambda fit",
     "workflow": "The workflow",
     "calibration": "Calibration and validation",
+    "planner": "The impact planner",
     "benchmarks": "Benchmarks",
 }
 
