@@ -206,7 +206,7 @@ def format_cost(c: dict[str, Any]) -> str:
         + ("; within 25 % of that machine, so the raw times are what the targets mean. " if 0.8 <= rx <= 1.25 else ". ")
         + "The scaled column divides each trial's time by its scene's xarray ratio (the Python-bound "
         "reference, like the rig). The naive RK4 below is not used for scaling: ours took "
-        f"{b['naive_integration'] / BASELINE_AT_TARGETS:.1f}x the issue's {BASELINE_AT_TARGETS * 1e3:.0f} ms here "
+        f"{b['naive_integration'] / BASELINE_AT_TARGETS:.1f}x the targets' {BASELINE_AT_TARGETS * 1e3:.0f} ms here "
         "because it does more per step than that unpublished one (a friction state and the contact "
         "kinematics at every stage); the machine-independent figure is the rig's ratio to it in the same run.")
     return "\n\n".join([table1, scale_note, table2, table3,
