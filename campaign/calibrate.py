@@ -1,23 +1,15 @@
-"""Calibration of the simulated rig to the paper's fixed-base observations (issue 9).
+"""Calibration of the simulated rig to the paper's fixed-base observations.
 
-A digital twin earns trust by fitting its unknowns on one set of observations and
-predicting another. :func:`calibrate` fits the unpublished rig parameters listed in
-``config/calibration.yaml`` by bounded nonlinear least squares
-(``scipy.optimize.least_squares`` in log-parameter space) so that a reduced fixed-base
-sweep matches the paper's Table 2 (m2, m3), the mean restitution of Figure 7, the force
-range of section 3 and the joint-3 excursion of Figure 5. The force range enters as a
-one-sided (hinge) residual, zero while every trial's peak force lies inside 30-70 N
-narrowed by a stated margin (:func:`force_band`), so the fit aims strictly inside the
-paper's range instead of onto its edges. It writes the fitted values back
-into ``config/rig.yaml`` with the date, the objective and the package version.
+:func:`calibrate` fits the unpublished rig parameters of ``config/calibration.yaml`` by
+bounded least squares so that a reduced fixed-base sweep matches the paper's Table 2 (m2,
+m3), Figure 7's mean restitution, section 3's force range and Figure 5, and
+:func:`write_back` records them in ``config/rig.yaml``. :func:`validate` then simulates
+what was held out (Table 4, Figure 9) and :func:`assess_held_out` marks each comparison
+met or missed, without refitting anything. Each evaluation uses the simulator's true edge
+velocities, since identification is validated on its own.
 
-:func:`validate` then simulates what was held out -- Table 4 (flexible base) and
-Figure 9's Low-vs-High reduction of the peak base amplitude -- and compares with the
-paper, without refitting anything.
-
-Every evaluation simulates the sweep from scratch (deterministic seeds), using the
-simulator's true edge velocities for m* and e: identification accuracy is validated
-separately (issue 6) and would only add its own few-percent scatter to the objective.
+The objective, the targets and the measured results: user guide, *Calibration and
+validation* (``docs/calibration.rst``).
 """
 
 from __future__ import annotations
@@ -41,16 +33,16 @@ __all__ = ["CalibrationResult", "load_calibration", "sweep_records", "residuals"
            "hinge_log", "calibrate", "validate", "write_back", "assess_held_out", "impulsive_base_speed",
            "TABLE4_TOLERANCE", "TABLE4_ORDER", "FIGURE9_REDUCTION_BAND", "DIAGNOSIS"]
 
-# Targets of the held-out comparisons (issue 9: "calibrate the rig on fixed-base
-# observations, validate on held-out flexible-base results"); they are checked, never fitted.
+# Targets of the held-out comparisons (the rig is calibrated on fixed-base observations and
+# validated on held-out flexible-base results); they are checked, never fitted.
 #: each simulated Table 4 cell (flexible-base m*) within this relative distance of the
-#: paper's experiment column (issue 9: "within 15 %")
+#: paper's experiment column
 TABLE4_TOLERANCE = 0.15
-#: the ordering Table 4 must keep (issue 9: configuration 2 > configuration 1, High > Low):
+#: the ordering Table 4 must keep (configuration 2 > configuration 1, High > Low):
 #: pairs (larger cell, smaller cell)
 TABLE4_ORDER = (("2-low", "1-low"), ("2-high", "1-high"), ("1-high", "1-low"), ("2-high", "2-low"))
 #: band of the Low-vs-High reduction of the peak base amplitude, configurations 1 and 2
-#: (issue 9: "between 15 % and 35 %" around Figure 9's reported 20-30 %)
+#: (15-35 %, a band around Figure 9's reported 20-30 %)
 FIGURE9_REDUCTION_BAND = (0.15, 0.35)
 #: where the reasons of a missed held-out comparison are diagnosed with numbers
 DIAGNOSIS = "benchmarks/README.md, 'Flexible-base validation (held-out diagnosis)'"
@@ -442,7 +434,7 @@ def _pct(x: float) -> str:
 
 
 def assess_held_out(table4: Mapping[str, Mapping], figure9: Mapping[Any, Mapping]) -> list[dict]:
-    """Mark each held-out comparison met or missed against issue 9's targets, with the
+    """Mark each held-out comparison met or missed against the validation targets, with the
     reason of a miss (pointing to :data:`DIAGNOSIS` for its numbers).
 
     Parameters
@@ -544,7 +536,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
     comparisons come from the campaign's own Table 4 (identified flexible-base m*, and the
     eq 8 prediction with the identified lambda) and its Figure 9 trials (``{"1-low": path,
     "1-high": ..., "2-low": ..., "2-high": ...}``), each marked met or missed against
-    issue 9's targets (:func:`assess_held_out`) with the reason of a miss.
+    the validation targets (:func:`assess_held_out`) with the reason of a miss.
 
     Returns
     -------
@@ -625,7 +617,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
              f"Fit of {', '.join(record['values'])} on the paper's fixed-base observations "
              f"(`campaign calibrate`, {record['date']}, package {record['package_version']}, objective "
              f"{record['objective']}, {record['evaluations']} sweeps). Held-out rows are never fitted: they "
-             "come from this campaign's flexible-base trials, and are marked against issue 9's targets "
+             "come from this campaign's flexible-base trials, and are marked against the validation targets "
              f"(each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment column with "
              f"its ordering kept; a Low-vs-High reduction of {100 * FIGURE9_REDUCTION_BAND[0]:.0f}-"
              f"{100 * FIGURE9_REDUCTION_BAND[1]:.0f} % for Figure 9). Held out: {n_met} of {len(held)} "

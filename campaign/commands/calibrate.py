@@ -11,7 +11,7 @@ from pathlib import Path
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="fit unpublished rig parameters to the paper's fixed-base observations (issue 9)",
+        help="fit unpublished rig parameters to the paper's fixed-base observations",
         description="Fit the rig parameters listed in config/calibration.yaml (friction, servo scale, contact) "
         "by bounded least squares so that a reduced fixed-base sweep matches the paper's Table 2 (m2, m3), "
         "Figure 7 (e = 0.55), the 30-70 N force range and Figure 5's 2.5 deg; write the fitted values back into "
@@ -68,7 +68,7 @@ def _markdown(summary: dict, fit: dict | None, validation: dict | None) -> str:
         lo_t, hi_t = FIGURE9_REDUCTION_BAND
         paper_band = "-".join(f"{100 * x:.0f}" for x in paper["figure9_low_vs_high_reduction"]) + " %"
         lines += ["## Held out: flexible base", "",
-                  f"Issue 9's targets: each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment "
+                  f"Validation targets: each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment "
                   f"column, ordering kept (configuration 2 > 1, High > Low); Figure 9's Low-vs-High reduction "
                   f"{100 * lo_t:.0f}-{100 * hi_t:.0f} %. m* from the simulator's true edge velocities. "
                   f"{sum(r['verdict'] == 'met' for r in rows)} of {len(rows)} met.", "",
