@@ -2,16 +2,16 @@
 # The reduced campaign (config/ci.yaml) through a real one-node SLURM cluster and the shipped
 # profile (profiles/slurm), checked against a local run of the same configuration.
 #
-# As root on Debian (12): installs munge and Slurm from the distribution's packages when they
-# are missing, starts munged, slurmctld and slurmd by hand with private state, key and config
-# files (nothing under /etc is changed), then
+# As root on Debian (12): installs munge and Slurm when they are missing and starts a private
+# one-node cluster (tests/cluster/cluster.sh), then
 #   1. runs the campaign locally (profiles/default) into <work>/local,
 #   2. runs it through SLURM with `--workflow-profile profiles/slurm` into <work>/cluster,
 #   3. compares every product (tests/cluster/compare_runs.py): byte for byte where a local run
 #      is byte-reproducible, trial files by their groups' content digests,
-#   4. submits a workflow whose job fails and checks that Snakemake reports it and exits
-#      non-zero within a minute.
-# Every daemon it started is stopped by PID on exit, whatever happens (trap).
+#   4. remakes Table 2 through SLURM from an identification table that is not one, and checks
+#      that its job is reported failed and Snakemake exits non-zero within a minute.
+# Every daemon it started is stopped by PID on exit, whatever happens (trap), and the Slurm
+# configuration it wrote is removed. It prints the seconds of each part.
 #
 # Usage: tests/cluster/slurm.sh [--skip-if-unable]    (`make test-slurm`)
 #   --skip-if-unable   on a machine that cannot run it (not root, no apt-get, packages not
@@ -47,80 +47,24 @@ unable() {
 }
 
 # ---------------------------------------------------------------------------------------------
-# preconditions and installation
+# preconditions, installation, the cluster
 # ---------------------------------------------------------------------------------------------
-[ "$(id -u)" = 0 ] || unable "it must run as root (it installs and starts munge and Slurm)"
+# shellcheck source=tests/cluster/cluster.sh
+. "$REPO/tests/cluster/cluster.sh"
+T_START=$SECONDS
+cluster_install
 [ -x "$SNAKEMAKE" ] || fail "$SNAKEMAKE is missing: run 'make test-slurm' (it installs .venv with the cluster extra)"
 "$PY" -c "import snakemake_executor_plugin_slurm" 2>/dev/null \
     || fail "the SLURM executor plugin is not in .venv: run 'make test-slurm' (installs '.[test,cluster]' from constraints.txt)"
 
-T_START=$SECONDS
-PACKAGES=(slurmctld slurmd slurm-client munge)
-need_install=0
-for tool in munged slurmctld slurmd sbatch squeue scontrol; do
-    command -v "$tool" >/dev/null || need_install=1
-done
-if [ "$need_install" = 1 ]; then
-    command -v apt-get >/dev/null || unable "Slurm is not installed and there is no apt-get to install it"
-    say "installing ${PACKAGES[*]} (apt-get)"
-    # policy-rc.d 101: the packages' maintainer scripts must not start the daemons; this script
-    # starts its own, with its own configuration, and stops exactly those.
-    policy=/usr/sbin/policy-rc.d
-    made_policy=0
-    if [ ! -e "$policy" ]; then
-        printf '#!/bin/sh\nexit 101\n' > "$policy" && chmod 755 "$policy" && made_policy=1
-    fi
-    apt_ok=1
-    { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${PACKAGES[@]}"; } \
-        > /tmp/slurm-test-apt.log 2>&1 || apt_ok=0
-    [ "$made_policy" = 1 ] && rm -f "$policy"
-    [ "$apt_ok" = 1 ] || unable "apt-get could not install ${PACKAGES[*]} (see /tmp/slurm-test-apt.log)"
-fi
-for tool in munged slurmctld slurmd sbatch squeue scontrol; do
-    command -v "$tool" >/dev/null || fail "$tool is still missing after installing ${PACKAGES[*]}"
-done
-
-# ---------------------------------------------------------------------------------------------
-# a private one-node cluster: key, config, state and logs in $STATE, daemons in the foreground
-# (-F / -D) as children of this script so that their PIDs are known and they are stopped here
-# ---------------------------------------------------------------------------------------------
 WORK="${SLURM_TEST_WORK:-$(mktemp -d /tmp/campaign-slurm-test.XXXXXX)}"
 mkdir -p "$WORK"
 WORK="$(cd "$WORK" && pwd)"
-STATE="$WORK/slurm"
-rm -rf "$STATE"
-mkdir -p "$STATE"/{munge,spool/ctld,spool/d}
-chmod 700 "$STATE/munge"
-DAEMON_PIDS=()
-WROTE_CONF=0
 KEEP_WORK="${SLURM_TEST_WORK:+1}"
 passed=0
-
-stop_daemons() {
-    local pid jobs
-    # jobs still queued or running (a run stopped by its timeout) end with the cluster: their
-    # slurmstepd would otherwise outlive slurmd
-    if [ "${#DAEMON_PIDS[@]}" -gt 0 ] && jobs="$(squeue -h -o %i 2>/dev/null)" && [ -n "$jobs" ]; then
-        scancel $jobs 2>/dev/null || true
-        for _ in $(seq 50); do [ -z "$(squeue -h -o %i 2>/dev/null)" ] && break; sleep 0.2; done
-    fi
-    # slurmd first (it may still report to slurmctld), munged last (both authenticate with it)
-    for ((i = ${#DAEMON_PIDS[@]} - 1; i >= 0; i--)); do
-        pid="${DAEMON_PIDS[i]}"
-        kill -TERM "$pid" 2>/dev/null || true
-    done
-    for pid in "${DAEMON_PIDS[@]}"; do
-        for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
-        if kill -0 "$pid" 2>/dev/null; then kill -KILL "$pid" 2>/dev/null || true; fi
-        wait "$pid" 2>/dev/null || true
-    done
-    [ "${#DAEMON_PIDS[@]}" = 0 ] || say "stopped daemons (PIDs ${DAEMON_PIDS[*]})"
-    DAEMON_PIDS=()
-}
 on_exit() {
     local rc=$?
-    stop_daemons
-    if [ "$WROTE_CONF" = 1 ]; then rm -f "$SLURM_CONF" "$SLURM_CONF.tmp"; fi
+    cluster_stop
     if [ "$passed" = 1 ] && [ -z "$KEEP_WORK" ]; then
         rm -rf "$WORK"
     else
@@ -131,83 +75,10 @@ on_exit() {
 trap on_exit EXIT
 trap 'exit 130' INT TERM
 
-start_daemon() {  # start_daemon <name> <command...>: run in the background, remember the PID
-    local name="$1"
-    shift
-    "$@" > "$STATE/$name.out" 2>&1 &
-    DAEMON_PIDS+=("$!")
-}
-
 say "work folder $WORK"
-dd if=/dev/urandom of="$STATE/munge/munge.key" bs=1024 count=1 status=none
-chmod 400 "$STATE/munge/munge.key"
-MUNGE_SOCKET="$STATE/munge/munge.socket"
-start_daemon munged munged --foreground --force \
-    --key-file="$STATE/munge/munge.key" --socket="$MUNGE_SOCKET" \
-    --pid-file="$STATE/munge/munged.pid" --log-file="$STATE/munge/munged.log" \
-    --seed-file="$STATE/munge/munged.seed"
-for _ in $(seq 50); do [ -S "$MUNGE_SOCKET" ] && break; sleep 0.1; done
-[ -S "$MUNGE_SOCKET" ] || fail "munged did not start: $(tail -3 "$STATE/munged.out" "$STATE/munge/munged.log" 2>/dev/null)"
-
-NODE="$(hostname -s)"
-# the node's hardware line as slurmd sees it (CPUs, sockets, cores, threads, RealMemory)
-NODE_LINE="$(slurmd -C | head -1)"
-case "$NODE_LINE" in NodeName=*) ;; *) fail "slurmd -C printed no node line: $NODE_LINE" ;; esac
-# The configuration goes where every Slurm command looks by default: the SLURM plugin's job
-# step removes SLURM_* variables (SLURM_CONF too) before its srun. A configuration this script
-# did not write is never replaced (the machine then belongs to another cluster).
-SLURM_CONF=/etc/slurm/slurm.conf
-MARK="# one-node test cluster of tests/cluster/slurm.sh"
-if [ -e "$SLURM_CONF" ] && ! head -1 "$SLURM_CONF" | grep -qxF "$MARK"; then
-    unable "$SLURM_CONF exists and was not written by this script (the machine has its own Slurm)"
-fi
-mkdir -p "$(dirname "$SLURM_CONF")"
-WROTE_CONF=1
-cat > "$SLURM_CONF.tmp" <<EOF
-$MARK
-# (state in $STATE); no accounting (no slurmdbd), as on a
-# cluster where sacct cannot answer: the profile must track jobs with squeue
-ClusterName=campaign-test
-SlurmctldHost=$NODE(127.0.0.1)
-SlurmUser=root
-SlurmdUser=root
-AuthType=auth/munge
-CredType=cred/munge
-AuthInfo=socket=$MUNGE_SOCKET
-SlurmctldPort=${SLURM_TEST_PORT:-6917}
-SlurmdPort=$(( ${SLURM_TEST_PORT:-6917} + 1 ))
-StateSaveLocation=$STATE/spool/ctld
-SlurmdSpoolDir=$STATE/spool/d
-SlurmctldPidFile=$STATE/slurmctld.pid
-SlurmdPidFile=$STATE/slurmd.pid
-SlurmctldLogFile=$STATE/slurmctld.log
-SlurmdLogFile=$STATE/slurmd.log
-ProctrackType=proctrack/linuxproc
-TaskPlugin=task/none
-SelectType=select/cons_tres
-SelectTypeParameters=CR_CPU
-ReturnToService=2
-MinJobAge=300
-AccountingStorageType=accounting_storage/none
-JobAcctGatherType=jobacct_gather/none
-$NODE_LINE NodeAddr=127.0.0.1 State=UNKNOWN
-PartitionName=debug Nodes=$NODE Default=YES MaxTime=INFINITE State=UP
-EOF
-mv "$SLURM_CONF.tmp" "$SLURM_CONF"
-
-start_daemon slurmctld slurmctld -D -i -f "$SLURM_CONF"
-start_daemon slurmd slurmd -D -f "$SLURM_CONF"
-up=0
-for _ in $(seq 100); do
-    if sinfo -h -o '%T' 2>/dev/null | grep -qx idle; then up=1; break; fi
-    sleep 0.2
-done
-[ "$up" = 1 ] || fail "the node did not come up idle: $(sinfo 2>&1 | tail -2); $(tail -3 "$STATE/slurmctld.log" "$STATE/slurmd.log" 2>/dev/null)"
-# the cluster answers a job before the campaign relies on it
-probe="$(srun -N1 -n1 -t 1 echo slurm-probe-ok 2>&1)" || fail "srun failed: $probe"
-[ "$probe" = slurm-probe-ok ] || fail "srun printed '$probe'"
+cluster_start "$WORK/slurm"
 SETUP_SECONDS=$((SECONDS - T_START))
-say "cluster up in ${SETUP_SECONDS} s: $(sinfo -h -o '%P %D %c CPUs %T')"
+say "installed and started in ${SETUP_SECONDS} s"
 
 # ---------------------------------------------------------------------------------------------
 # the reduced campaign, locally and through the cluster, each in its own folder
@@ -233,7 +104,7 @@ run_campaign "$WORK/cluster" "$WORK/cluster.log" --workflow-profile "$REPO/profi
 CLUSTER_SECONDS=$((SECONDS - t0))
 [ "$rc" != 124 ] && [ "$rc" != 137 ] || fail "the cluster run did not finish within ${CAMPAIGN_TIMEOUT} s (log $WORK/cluster.log)"
 [ "$rc" = 0 ] || fail "the cluster run failed ($rc): $(tail -30 "$WORK/cluster.log")"
-submitted="$(grep -c 'Job [0-9]* has been submitted with SLURM jobid' "$WORK/cluster.log" || true)"
+submitted="$(grep -c 'Job [^ ]* has been submitted with SLURM jobid' "$WORK/cluster.log" || true)"
 [ "$submitted" -gt 0 ] || fail "the cluster run submitted no SLURM job (log $WORK/cluster.log)"
 say "cluster run: $submitted SLURM jobs in ${CLUSTER_SECONDS} s (local ${LOCAL_SECONDS} s)"
 
