@@ -111,7 +111,7 @@ README = "README.md"
 CELL_KEYS = ("base", "config", "gain", "speed", "repeat")
 #: columns of index.csv, in order
 INDEX_COLUMNS = ("path", "base", "config", "gain", "speed", "repeat", "seed", "scene", "scene_sha256",
-                 "robot", "schema_version")
+                 "robot", "schema_version", "q_paper_deg", "direction")
 #: keys accepted by :func:`list_trials` filters, with the type a value is read as
 FILTER_KEYS = {"base": str, "config": int, "gain": str, "speed": float, "repeat": int, "seed": int,
                "scene": str, "scene_sha256": str, "robot": str}
@@ -1295,6 +1295,21 @@ class TrialRecord:
     schema_version: str
     scene_json: str = dataclasses.field(repr=False)
 
+    @property
+    def q_paper_deg(self) -> str:
+        """The arm pose in the paper's joint angles [deg], space-separated."""
+        return " ".join(f"{float(x):g}" for x in json.loads(self.scene_json)["q_paper_deg"])
+
+    @property
+    def direction(self) -> str:
+        """The unit impact direction n (base frame), space-separated; the paper's when the
+        scene names none."""
+        n = json.loads(self.scene_json).get("direction")
+        if n is None:
+            from .paper import impact_direction
+            n = impact_direction()
+        return " ".join(f"{float(x):.9g}" for x in n)
+
     def row(self) -> dict[str, Any]:
         """The ``index.csv`` row."""
         return {k: getattr(self, k) for k in INDEX_COLUMNS}
@@ -1697,7 +1712,7 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
         "## Files",
         "",
         f"- `<base>/config<N>/<gain>/v<speed m/s>/r<repeat>{TRIAL_SUFFIX}`: one trial, NetCDF4/HDF5 "
-        "(`config-custom` for a pose that is not a paper configuration).",
+        "(`pose-<q1>_<q2>_<q3>-n<azimuth of n from -x, deg>` for another pose or impact direction).",
         f"- `{INDEX}`: one row per trial: " + ", ".join(f"`{c}`" for c in INDEX_COLUMNS) + ".",
         f"- `{MANIFEST}`: sha256 of every other file; check with `sha256sum -c {MANIFEST}` in this folder, "
         "or `campaign archive verify <folder>` (also checks every trial against the schema).",
