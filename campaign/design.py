@@ -19,7 +19,7 @@ Measurement error model (:class:`ErrorModel`): ``var(ln m*) = a^2 + b^2 x^2`` wi
 roughly constant velocity error; its relative error, hence that of m* (eq 10), grows as
 ``(1 + m*/m_b) / v``: a heavy effective mass or a slow hammer leaves the arm almost still.
 ``a`` is the floor (pendulum encoder, contact edges). ``a^2, b^2 >= 0`` are fitted by
-non-negative least squares to the squared errors ``(ln m*_identified - ln m*_truth)^2`` of
+non-negative, iteratively reweighted least squares to the squared errors ``(ln m*_identified - ln m*_truth)^2`` of
 a campaign's own fixed-base trials, where ``m*_truth`` is eq 10 on the simulator's true
 contact-edge velocities (the trial file's ``truth`` group): identification's error alone,
 not the model's (:func:`calibrate_error_model`; by default on the committed reference
@@ -99,6 +99,11 @@ class ErrorModel:
         x = (1.0 + mt[ok] / mb[ok]) / v[ok]
         A = np.column_stack([np.ones_like(x), x**2])
         coef, _ = nnls(A, r**2)
+        # r^2 has variance 2 var^2: reweight by the fitted variance (iteratively reweighted
+        # least squares), so the many small errors pin the floor down as well as the large ones
+        for _ in range(5):
+            var = np.maximum(A @ coef, 1e-30)
+            coef, _ = nnls(A / var[:, None], r**2 / var)
         return cls(a=float(math.sqrt(coef[0])), b=float(math.sqrt(coef[1])), n_trials=int(ok.sum()), source=source,
                    rms=float(np.sqrt(np.mean(r**2))))
 
