@@ -548,7 +548,7 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
     rig : path-like, optional
         Rig parameter file.
     lambda_prior : mapping, optional
-        Class -> lambda the design is optimal at; default the paper's Table 3.
+        Class -> lambda the design is optimal at; a class not given takes the paper's Table 3.
     gain_classes : mapping, optional
         Class -> gain sets; default the paper's.
 
@@ -576,7 +576,7 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
         Q, D = read_candidates(candidates)
     ok, _ = feasible(robot, Q, D, speed=max(speeds), rig=rig)
     classes = dict(gain_classes or paper["gain_classes"])
-    priors = dict(lambda_prior or paper["table3"])
+    priors = {**paper["table3"], **dict(lambda_prior or {})}
     out: dict[str, Any] = {
         "criterion": criterion, "n_poses": int(n_poses), "candidates": str(candidates), "n_candidates": int(len(Q)),
         "n_feasible": int(ok.sum()), "speeds": [float(v) for v in speeds], "repeats": int(repeats),

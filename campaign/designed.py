@@ -64,7 +64,7 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
     ----------
     settings : mapping
         ``config/designed.yaml``: ``speeds``, ``repeats``, ``design`` (``n_poses``,
-        ``criterion``, ``candidates``), ``heldout`` (``n``, ``seed``), ``rig``.
+        ``criterion``, ``candidates``, ``lambda_prior``), ``heldout`` (``n``, ``seed``), ``rig``.
     out_json : path-like
         The plan.
     out_md : path-like, optional
@@ -80,7 +80,8 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
     des = dict(settings.get("design") or {})
     rig = settings.get("rig") or None
     design = run_design(n_poses=int(des.get("n_poses", 6)), criterion=str(des.get("criterion", "D")),
-                        candidates=str(des.get("candidates", "grid")), speeds=speeds, repeats=repeats, rig=rig)
+                        candidates=str(des.get("candidates", "grid")), speeds=speeds, repeats=repeats, rig=rig,
+                        lambda_prior=des.get("lambda_prior") or None)
     if out_md is not None:
         write_design(design, out_md=out_md)
     paper = load_paper()

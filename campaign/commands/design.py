@@ -34,6 +34,9 @@ def register(sub) -> None:
     p.add_argument("--calibration", action="append", default=None, metavar="CSV",
                    help="identification table(s) whose fixed-base trials calibrate the error model against their "
                         "truth (default: the committed reference archive's)")
+    p.add_argument("--prior", action="append", default=[], metavar="CLASS=L1,L2,L3",
+                   help="lambda [kg m^2] the design of a gain class is optimal at (default the paper's Table 3); "
+                        "e.g. the lambda a first designed campaign fitted, for a second, sequential design")
     p.add_argument("--rig", default=None, metavar="PATH", help="rig parameter file (default config/rig.yaml)")
     p.add_argument("--json", dest="out_json", default=None, metavar="PATH", help="write the result as JSON")
     p.add_argument("--md", dest="out_md", default=None, metavar="PATH", help="write the result as Markdown")
@@ -65,9 +68,21 @@ def run(args) -> int:
         raise InputError(f"--k {args.k}: must be >= 1")
     if args.repeats < 1:
         raise InputError(f"--repeats {args.repeats}: must be >= 1")
+    from ..paper import load_paper
+    from .meff import parse_vector
+
+    priors = dict(load_paper()["table3"])
+    for text in args.prior:
+        name, _, values = text.partition("=")
+        if name not in priors:
+            raise InputError(f"--prior {text}: unknown gain class {name!r}; known: {sorted(priors)}")
+        lam = parse_vector(values, option="--prior", size=len(priors[name]), units="kg m^2")
+        if any(x <= 0 for x in lam):
+            raise InputError(f"--prior {text}: every lambda component must be > 0 kg m^2")
+        priors[name] = lam
     result = run_design(n_poses=args.k, criterion=args.criterion, candidates=args.candidates,
                         n_random=args.n_random, seed=args.seed, speeds=speeds, repeats=args.repeats,
-                        calibration=args.calibration, rig=args.rig)
+                        calibration=args.calibration, rig=args.rig, lambda_prior=priors)
     md = write_design(result, out_json=args.out_json, out_md=args.out_md)
     if not args.quiet:
         print(md, end="", file=sys.stdout)
