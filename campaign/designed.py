@@ -295,6 +295,10 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
                                "prediction": {}, "per_speed": {}}
         for role, est in fits.items():
             cls["prediction"][role] = _errors(est.predict(Qh, directions=Dh), mh)
+        # a constant lambda fitted with the held-out trials themselves (in-sample, not a
+        # prediction): how close any constant lambda gets to them
+        both = _fit(robot, pick["designed"] + ho, seed=seed, options={**options, "n_bootstrap": 0})
+        cls["prediction"]["constant_in_sample"] = _errors(both.predict(Qh, directions=Dh), mh)
         # is lambda a constant? fit it per speed on the designed trials
         per_speed = {}
         for v in the_plan["speeds"]:
@@ -366,7 +370,8 @@ def report_markdown(out: Mapping[str, Any]) -> str:
                   "|---|---|---|---|---|"]
         for key, label in (("paper", "lambda of the paper design"), ("designed", "lambda of the designed campaign"),
                            ("designed_per_speed", "designed, lambda fitted per speed"),
-                           ("designed_coulomb", "designed, lambda + Coulomb impulse per joint")):
+                           ("designed_coulomb", "designed, lambda + Coulomb impulse per joint"),
+                           ("constant_in_sample", "a constant lambda fitted on designed + held-out trials (in-sample)")):
             e = cls["prediction"][key]
             lines.append(f"| {label} | {len(e['errors'])} | {100 * e['median']:.2f} % | {100 * e['p90']:.2f} % | "
                          f"{100 * e['max']:.2f} % |")
