@@ -90,9 +90,9 @@ def arm_segments(robot, q, *, data=None) -> tuple[list[tuple[str, np.ndarray, np
     Returns
     -------
     segments : list of (name, a, b)
-        Segments joining successive distinct joint origins, named after the joint at their
-        far end (``"j3"`` is the link that joint 3 carries... up to the impact point, named
-        ``"tip"``); zero-length steps (coincident origins) are skipped.
+        Segments joining successive distinct joint origins and, last, the impact point,
+        named ``"<joint>-<joint>"`` after their ends (``"j2-j3"`` the upper arm, ``"j3-tip"``
+        the struck forearm); coincident origins are merged.
     tip : ndarray, shape (3,)
     """
     import pinocchio as pin
