@@ -336,12 +336,17 @@ def calibration_targets():
 # ----------------------------------------------------------------------------------------
 # the designed campaign (`snakemake designed`): its own settings file, checked at start-up
 # ----------------------------------------------------------------------------------------
-DESIGNED_FILE = config.get("designed", "config/designed.yaml")
+# the project's config/designed.yaml (like rig.yaml and paper.yaml, whatever the working
+# directory), or the file --config designed=PATH names
+DESIGNED_FILE = str(config.get("designed") or runner.package_file("designed.yaml"))
 
 
 def _designed_settings():
-    """config/designed.yaml (or the file --config designed=PATH names), validated; None if absent."""
+    """The designed campaign's settings, validated; None when the file is absent (the
+    designed rules are then not defined)."""
     if not Path(DESIGNED_FILE).is_file():
+        if config.get("designed"):
+            _config_error("designed", f"{DESIGNED_FILE!r} does not exist")
         return None
     with open(DESIGNED_FILE, encoding="utf-8") as fh:
         settings = yaml.safe_load(fh)
