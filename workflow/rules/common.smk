@@ -54,10 +54,13 @@ PAPER_FILE = str(runner.package_file("paper.yaml"))
 def source_files(*patterns):
     """Files of the campaign package a rule's jobs run (glob patterns relative to the package)."""
     package = Path(runner.__file__).resolve().parent
-    files = sorted({f for pattern in patterns for f in package.glob(pattern) if f.is_file()})
-    if not files:
-        raise WorkflowError(f"no package source matches {patterns} under {package}")
-    return files
+    files = set()
+    for pattern in patterns:
+        matched = {f for f in package.glob(pattern) if f.is_file()}
+        if not matched:   # a moved module must not drop out of its stage's digest unnoticed
+            raise WorkflowError(f"no package source matches {pattern!r} under {package}")
+        files |= matched
+    return sorted(files)
 
 
 def code_digest(*patterns):
@@ -80,8 +83,8 @@ def code_digest(*patterns):
 
 
 # the code behind each stage (see code_digest)
-CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive.py")
-CODE_IDENTIFY = code_digest("identify.py", "robot/*.py", "robot/*/*", "archive.py", "runner.py")
+CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive/*.py")
+CODE_IDENTIFY = code_digest("identify/*.py", "robot/*.py", "robot/*/*", "archive/*.py", "runner.py")
 CODE_FIT = code_digest("fit.py", "exiit.py")
 CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py")
 
@@ -359,7 +362,7 @@ DESIGNED_RESULTS = f"{config['results_root']}/{DESIGNED['campaign']}" if DESIGNE
 DESIGNED_ARCHIVE = f"{config['archive_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ROLES = ("paper", "designed", "heldout")
 CODE_DESIGNED = code_digest("design.py", "designed.py", "coulomb_fit.py", "fit.py", "exiit.py", "rig/*.py",
-                            "scene.py", "identify.py", "archive.py")
+                            "scene.py", "identify/*.py", "archive/*.py")
 
 
 def designed_tables(role):

@@ -29,7 +29,7 @@ rule fig5_joint3_motion:
         png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig5.pdf",
     params:
-        code=figure_code("fig5", "archive.py", "identify.py"),
+        code=figure_code("fig5", "archive/*.py", "identify/*.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
@@ -117,7 +117,7 @@ rule fig9_base_motion:
         png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Figures"),
         pdf=f"{RESULTS}/figures/fig9.pdf",
     params:
-        code=figure_code("fig9", "archive.py", "identify.py"),
+        code=figure_code("fig9", "archive/*.py", "identify/*.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
