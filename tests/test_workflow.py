@@ -98,6 +98,10 @@ def test_reduced_campaign_makes_every_product(ci_run):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
         assert pdf.read_bytes()[:5] == b"%PDF-", pdf
         assert png.stat().st_size > 20_000, f"{png} is suspiciously small"
+    for name in ("plan_workspace", "plan_directions"):   # the impact planner's maps
+        png, pdf = results / "figures" / f"{name}.png", results / "figures" / f"{name}.pdf"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000, png
+        assert pdf.read_bytes()[:5] == b"%PDF-", pdf
     for t in (2, 3, 4):
         assert (results / "tables" / f"table{t}.md").read_text().startswith(f"### Table {t}")
     for log in (results / "logs").rglob("*.log"):
