@@ -179,6 +179,14 @@ def _direction(recs):
     return np.array(dirs.pop()) if dirs else impact_direction()
 
 
+def _directions(recs) -> np.ndarray:
+    """Each record's impact direction, shape (N, 3) (the paper's where a record has none)."""
+    from .paper import impact_direction
+
+    n0 = impact_direction()
+    return np.array([r["impact_direction"] if r.get("impact_direction") else n0 for r in recs], float)
+
+
 def _class_of(gain: str, classes: Mapping[str, Sequence[str]]) -> str | None:
     for name, members in classes.items():
         if gain in members:
@@ -220,11 +228,11 @@ def fit_gain_classes(records, *, robot=None, gain_classes: Mapping[str, Sequence
         use = _usable(recs, base="fixed", gains=set(members))
         if not use:
             continue
-        n = _direction(use)
+        D = _directions(use)
         Q = np.array([r["q_cmd"] for r in use])
         m = np.array([r["m_eff"] for r in use])
-        fits[name] = LambdaFit(rob, direction=n, structure=structure, n_bootstrap=n_bootstrap,
-                               random_state=random_state, warn=warn).fit(Q, m)
+        fits[name] = LambdaFit(rob, direction=D[0], structure=structure, n_bootstrap=n_bootstrap,
+                               random_state=random_state, warn=warn).fit(Q, m, directions=D)
     return fits
 
 

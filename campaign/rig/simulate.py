@@ -17,7 +17,6 @@ import numpy as np
 from .. import schema
 from .._lazy import LazyModule
 from ..errors import InputError, SimulationError
-from ..paper import impact_direction
 from ..robot import load_robot
 from ..scene import Scene
 from ..schema import ChannelArray, GroupArrays, TrialArrays
@@ -25,6 +24,7 @@ from .contact import Contact, contact_duration_estimate
 from .controller import PID, check_stability
 from .integrate import integrate_trial
 from .pendulum import Pendulum
+from .placement import place_pendulum, placement_params
 from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
@@ -73,11 +73,22 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     ``substeps_free``), checked here too: an override must still resolve the contact."""
     p = scene.p
     robot = load_robot(p("robot"))
-    q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
+    try:
+        q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()),
+                           what=f"pose {list(scene.q_paper_deg)} deg (paper angles; DH = paper + {_offset().tolist()} deg)")
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     gravity = float(p("gravity"))
     pend = Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
                     gravity, float(p("pendulum.max_release_deg")))
-    pend.release_angle(scene.speed)  # refuses a speed the device cannot reach
+    theta0 = pend.release_angle(scene.speed)  # refuses a speed the device cannot reach
+    n = np.asarray(scene.impact_direction, dtype=float)
+    # the pendulum is placed to strike the impact point along n at the bottom of its swing;
+    # a pose it cannot reach, or whose impact point is not exposed from n, is refused here
+    place = placement_params(scene.param_dict)
+    if place is not None:
+        place_pendulum(robot, q0, n, radius=pend.radius, release_angle=theta0,
+                       what=f"pose {list(scene.q_paper_deg)} deg", **place)
     contact = Contact(float(p("contact.stiffness")), float(p("contact.exponent")), float(p("contact.restitution")))
     contact.damping  # refuses an unreachable restitution now
     friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
@@ -86,7 +97,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     # the hammer must rebound: one at least as heavy as the arm's free effective mass (eq 11,
     # lambda = 0, the smallest m* the arm can show) keeps pushing it and never leaves cleanly
     from ..exiit import effective_mass
-    m1 = effective_mass(robot, q0, impact_direction())
+    m1 = effective_mass(robot, q0, n)
     if pend.m_b >= m1:
         raise InputError(
             f"hammer effective mass m_b = {pend.m_b:.4g} kg (pendulum.head_mass, pendulum.rod_mass) is not below "
@@ -95,7 +106,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     streams = noise_streams(scene.seed)
     t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
     if scene.base == "fixed":
-        plant = FixedBasePlant(robot, q0, impact_direction(), pend, contact, **friction)
+        plant = FixedBasePlant(robot, q0, n, pend, contact, **friction)
     else:
         from .beam import Beam
         from .flexible import IdealCouplingPlant, VesLoopPlant
@@ -112,7 +123,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                 f"{max_post:.3g} s recording for flexible.trial_periods = {p('flexible.trial_periods'):g} periods, "
                 f"beyond the {MAX_FLEXIBLE_RECORD:g} s a trial may last: stiffen the structure or record fewer periods")
         if p("ves.mode") == "ideal":
-            plant = IdealCouplingPlant(robot, q0, impact_direction(), pend, contact, beam, **friction)
+            plant = IdealCouplingPlant(robot, q0, n, pend, contact, beam, **friction)
             # the structure is integrated with the arm: RK4 must resolve its highest mode
             # (omega h <= 1) out of contact too
             sub_free_min = math.ceil(2.0 * math.pi * float(freqs[-1]) / float(p("controller.servo_rate")))
@@ -122,7 +133,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                     f"VES latency {p('ves.latency'):g} s (ves.latency) is beyond {MAX_VES_LATENCY:g} s: a force loop "
                     f"delayed that long cannot emulate a {f1:.3g} Hz structure (it destabilises it), and its "
                     "stability check would have to analyse the whole delay line")
-            plant = VesLoopPlant(robot, q0, impact_direction(), pend, contact, beam, **friction,
+            plant = VesLoopPlant(robot, q0, n, pend, contact, beam, **friction,
                                  rate=float(p("ves.rate")), latency=float(p("ves.latency")),
                                  bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
             T_e = plant.emulator_period

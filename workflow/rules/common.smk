@@ -377,3 +377,42 @@ def calibration_targets():
             and not missing_requirement("table4") and not missing_requirement("fig9"):
         return [f"{RESULTS}/calibration/calibration.md"]
     return []
+
+
+# ----------------------------------------------------------------------------------------
+# the designed campaign (`snakemake designed`): its own settings file, checked at start-up
+# ----------------------------------------------------------------------------------------
+# the project's config/designed.yaml (like rig.yaml and paper.yaml, whatever the working
+# directory), or the file --config designed=PATH names
+DESIGNED_FILE = str(config.get("designed") or runner.package_file("designed.yaml"))
+
+
+def _designed_settings():
+    """The designed campaign's settings, validated; None when the file is absent (the
+    designed rules are then not defined)."""
+    if not Path(DESIGNED_FILE).is_file():
+        if config.get("designed"):
+            _config_error("designed", f"{DESIGNED_FILE!r} does not exist")
+        return None
+    with open(DESIGNED_FILE, encoding="utf-8") as fh:
+        settings = yaml.safe_load(fh)
+    validate(settings, schema="../schemas/designed.schema.yaml")
+    return settings
+
+
+DESIGNED = _designed_settings()
+DESIGNED_RESULTS = f"{config['results_root']}/{DESIGNED['campaign']}" if DESIGNED else None
+DESIGNED_ARCHIVE = f"{config['archive_root']}/{DESIGNED['campaign']}" if DESIGNED else None
+DESIGNED_ROLES = ("paper", "designed", "heldout")
+CODE_DESIGNED = code_digest("design.py", "designed.py", "coulomb_fit.py", "fit.py", "exiit.py", "rig/*.py",
+                            "scene.py", "identify/*.py", "archive/*.py")
+
+
+def designed_tables(role):
+    """Identification CSVs of one role of the designed campaign, every gain set."""
+    return [f"{DESIGNED_RESULTS}/identification/{role}_{g}.csv" for g in GAIN_ORDER]
+
+
+def designed_log(rule_name, unit=None):
+    """Log of one job of the designed campaign."""
+    return str(Path(DESIGNED_RESULTS, "logs", rule_name, *([unit] if unit else [])).with_suffix(".log"))
