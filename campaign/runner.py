@@ -705,14 +705,15 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
 
     Parameters
     ----------
-    name : {"table2", "table3", "table4", "table4_structures"}
+    name : {"table2", "table3", "table4", "table4_structures", "plan_rig_check"}
     out_csv, out_md : path-like
     ident_tables : iterable of path-like
         Identification CSVs: fixed-base ones for Table 2, flexible-base ones for Table 4.
     fits : mapping, optional
         ``{gain class: pickle of fit_lambda}`` for Tables 3 and 4, in the paper's order.
     source : path-like, optional
-        For ``table4_structures``: the CSV ``benchmarks/space_structure.py`` writes.
+        For ``table4_structures``: the CSV ``benchmarks/space_structure.py`` writes; for
+        ``plan_rig_check``: the CSV ``benchmarks/plan_rig_check.py`` writes.
     timer : Timer, optional
 
     Returns
@@ -733,8 +734,11 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
             table = tables.table4(records, loaded)
         elif name == "table4_structures":
             table = tables.structures_table(source)
+        elif name == "plan_rig_check":
+            table = tables.rig_check_table(source)
         else:
-            raise ValueError(f"unknown table {name!r}; expected table2, table3, table4 or table4_structures")
+            raise ValueError(f"unknown table {name!r}; expected table2, table3, table4, table4_structures or "
+                             "plan_rig_check")
         _write_atomic(out_csv, table.to_csv())
         _write_atomic(out_md, table.to_markdown())
     print(table.to_markdown())

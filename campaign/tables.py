@@ -46,6 +46,7 @@ __all__ = [
     "table3",
     "table4",
     "structures_table",
+    "rig_check_table",
     "tables_from_archive",
     "write_tables",
 ]
@@ -452,6 +453,43 @@ def structures_table(path) -> Table:
              f"{100 * lo:.0f}-{100 * hi:.0f} %); eq 8's: the same of the base velocity right after an impulsive "
              "contact with the identified lambda"]
     return Table("table4_structures", "Table 4 and Figure 9 under both structures", cols, rows, notes)
+
+
+def rig_check_table(path) -> Table:
+    """The impact planner checked on the rig: per object, contact point and base, the predicted and
+    measured ranges of the planner's quantity over its simulated candidates, Spearman's rank
+    correlation of the two and the measured value of the planner's best candidate over the worst,
+    from the CSV ``benchmarks/plan_rig_check.py`` writes (``benchmarks/plan_rig_check.csv``)."""
+    with open(path, newline="") as fh:
+        src = list(csv.DictReader(fh))
+    if not src:
+        raise ValueError(f"{path}: no rows; run benchmarks/plan_rig_check.py --csv {path}")
+
+    def num(text):
+        return float(text) if text not in ("", None) else None
+
+    rows = []
+    for r in src:
+        # displacements in mm, forces in N: the units the planner's table prints
+        scale, unit = (1e3, "mm") if r["unit"] == "m" else (1.0, r["unit"])
+        base = r["base"] if not r["structure"] else f"{r['base']} ({r['structure']})"
+        rows.append({"object": num(r["object_kg"]), "point": r["point"], "base": base, "f1": num(r["f1_Hz"]),
+                     "candidates": f"{r['candidates']} ({r['refused']})", "quantity": f"{r['quantity']} [{unit}]",
+                     "predicted": f"{scale * float(r['predicted_min']):.3g}-{scale * float(r['predicted_max']):.3g}",
+                     "measured": f"{scale * float(r['measured_min']):.3g}-{scale * float(r['measured_max']):.3g}",
+                     "spearman": num(r["spearman"]), "best_over_worst": num(r["best_over_worst"])})
+    cols = [("object", "object m_b [kg]"), ("point", "contact point"), ("base", "base (structure)"),
+            ("f1", "f_1 [Hz]"), ("candidates", "candidates (refused)"), ("quantity", "quantity"),
+            ("predicted", "predicted range"), ("measured", "measured range"), ("spearman", "Spearman"),
+            ("best_over_worst", "best / worst measured")]
+    notes = [f"from {Path(path).name}, written by benchmarks/plan_rig_check.py: every IK branch x gain set x "
+             "horizontal direction the planner returns, simulated on the rig (candidates the rig refuses left out)",
+             "measured: the simulator truth's peak contact force (fixed base) and peak translational base "
+             "displacement (flexible base); best / worst: the measured value of the planner's best candidate "
+             "over the largest measured value",
+             "targets: Spearman >= 0.9 and best / worst <= 0.5; eq 8 assumes an impulsive contact, which the "
+             "stiff mast's first mode is too fast for"]
+    return Table("plan_rig_check", "The impact planner checked on the rig", cols, rows, notes)
 
 
 def write_tables(records, out_dir, *, robot=None, n_bootstrap: int = 200, random_state=0,

@@ -141,8 +141,9 @@ def rig_defaults(rig=None) -> dict:
 
 
 def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=None, objective="impulse",
-                  weights=(1.0, 1.0, 1.0), rig=None, robot=None):
-    """An :class:`campaign.plan.ImpactPlanner` with the rig's contact law and structure."""
+                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None):
+    """An :class:`campaign.plan.ImpactPlanner` with the rig's contact law and structure
+    (``structure``: a name of the rig file's ``structures:``, by default the file's own)."""
     from ..paper import load_paper
     from ..plan import ImpactPlanner
     from ..robot import load_robot
@@ -152,7 +153,8 @@ def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=No
     if base == "flexible":
         from ..rig.beam import Beam
         from ..scene import make_scene
-        beam = Beam.from_scene(make_scene(base="flexible", rig=rig))
+        params = None if structure is None else {"flexible.structure": structure}
+        beam = Beam.from_scene(make_scene(base="flexible", rig=rig, params=params))
     robot = load_robot(load_paper()["robot"]) if robot is None else robot
     return ImpactPlanner(robot, lambdas=lambdas, mass=d["mass"] if mass is None else mass, speed=speed,
                          restitution=d["restitution"] if restitution is None else restitution,
