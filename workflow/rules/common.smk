@@ -54,6 +54,8 @@ PAPER_FILE = str(runner.package_file("paper.yaml"))
 BENCH_DIR = Path(runner.__file__).resolve().parents[1] / "benchmarks"
 VALIDITY_CSV = str(BENCH_DIR / "eq8_validity.csv")
 STRUCTURES_CSV = str(BENCH_DIR / "table4_structures.csv")
+# the impact planner's candidates simulated on the rig (benchmarks/plan_rig_check.py)
+RIG_CHECK_CSV = str(BENCH_DIR / "plan_rig_check.csv")
 
 
 def source_files(*patterns):
@@ -280,7 +282,7 @@ def all_trials():
 # products and what each needs
 # ----------------------------------------------------------------------------------------
 FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "plan_maps", "eq8_validity")
-TABLES = ("table2", "table3", "table4", "table4_structures")
+TABLES = ("table2", "table3", "table4", "table4_structures", "plan_rig_check")
 
 
 def figure_files(name):
@@ -314,6 +316,9 @@ def missing_requirement(product):
     if product in ("eq8_validity", "table4_structures"):
         data = VALIDITY_CSV if product == "eq8_validity" else STRUCTURES_CSV
         return "" if Path(data).is_file() else f"needs the benchmark data {data} (benchmarks/space_structure.py)"
+    if product == "plan_rig_check":
+        return "" if Path(RIG_CHECK_CSV).is_file() else \
+            f"needs the benchmark data {RIG_CHECK_CSV} (benchmarks/plan_rig_check.py --csv)"
     if product == "fig5":
         return "" if ("fixed", 1, "zero") in cells("fixed") else "needs bases.fixed with configuration 1 and gain zero"
     if product in ("fig6", "fig7"):

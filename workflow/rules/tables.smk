@@ -88,3 +88,25 @@ rule table4_structures_table:
         "../envs/campaign.yaml"
     script:
         "../scripts/table4_structures.py"
+
+
+# the impact planner checked on the rig: the candidates' simulations run in the benchmark
+# (every branch x gain x direction at two contact points), so the report renders its CSV
+rule plan_rig_check_table:
+    input:
+        data=RIG_CHECK_CSV,
+    output:
+        csv=report(f"{RESULTS}/tables/plan_rig_check.csv", caption="../report/plan_rig_check.rst",
+                   category="Tables"),
+        md=f"{RESULTS}/tables/plan_rig_check.md",
+    params:
+        code=CODE_TABLES,
+    log:
+        log_file("plan_rig_check"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/plan_rig_check.py"

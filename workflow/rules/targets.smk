@@ -1,7 +1,8 @@
 # Named targets. `snakemake` makes everything the configuration can make (rule all, in the
-# root Snakefile); `snakemake <product>` (fig4 ... fig9, plan_maps, table2 ... table4) makes one product
-# and runs only the jobs it needs (table2 alone runs no flexible-base trial; fig5 runs the
-# one job holding its trial); `trials` and `identification` stop after those stages.
+# root Snakefile); `snakemake <product>` (fig4 ... fig9, plan_maps, table2 ... table4,
+# plan_rig_check) makes one product and runs only the jobs it needs (table2 alone runs no
+# flexible-base trial; fig5 runs the one job holding its trial); `trials` and `identification`
+# stop after those stages.
 
 
 rule trials:
@@ -72,3 +73,8 @@ rule eq8_validity:
 rule table4_structures:
     input:
         lambda wc: requires("table4_structures"),
+
+
+rule plan_rig_check:
+    input:
+        lambda wc: requires("plan_rig_check"),
