@@ -1,4 +1,4 @@
-"""Calibration of the simulated rig to the paper's fixed-base observations (issue 9).
+"""Calibration of the simulated rig to the paper's fixed-base observations.
 
 A digital twin earns trust by fitting its unknowns on one set of observations and
 predicting another. :func:`calibrate` fits the unpublished rig parameters listed in
@@ -17,7 +17,7 @@ paper, without refitting anything.
 
 Every evaluation simulates the sweep from scratch (deterministic seeds), using the
 simulator's true edge velocities for m* and e: identification accuracy is validated
-separately (issue 6) and would only add its own few-percent scatter to the objective.
+separately (benchmarks/README.md, *Identification accuracy*) and would only add its own few-percent scatter to the objective.
 """
 
 from __future__ import annotations
@@ -35,22 +35,22 @@ import numpy as np
 
 from . import __version__
 from .errors import InputError
-from .paper import config_dir, load_paper, yaml_load
+from .paper import config_dir, load_paper, read_yaml, yaml_load
 
 __all__ = ["CalibrationResult", "load_calibration", "sweep_records", "residuals", "residual_terms", "force_band",
            "hinge_log", "calibrate", "validate", "write_back", "assess_held_out", "impulsive_base_speed",
            "TABLE4_TOLERANCE", "TABLE4_ORDER", "FIGURE9_REDUCTION_BAND", "DIAGNOSIS"]
 
-# Targets of the held-out comparisons (issue 9: "calibrate the rig on fixed-base
-# observations, validate on held-out flexible-base results"); they are checked, never fitted.
+# Targets of the held-out comparisons (the rig is calibrated on fixed-base observations and
+# validated on the flexible-base results it never saw); they are checked, never fitted.
 #: each simulated Table 4 cell (flexible-base m*) within this relative distance of the
-#: paper's experiment column (issue 9: "within 15 %")
+#: paper's experiment column
 TABLE4_TOLERANCE = 0.15
-#: the ordering Table 4 must keep (issue 9: configuration 2 > configuration 1, High > Low):
+#: the ordering Table 4 must keep (configuration 2 > configuration 1, High > Low, as the paper's):
 #: pairs (larger cell, smaller cell)
 TABLE4_ORDER = (("2-low", "1-low"), ("2-high", "1-high"), ("1-high", "1-low"), ("2-high", "2-low"))
 #: band of the Low-vs-High reduction of the peak base amplitude, configurations 1 and 2
-#: (issue 9: "between 15 % and 35 %" around Figure 9's reported 20-30 %)
+#: (15-35 %: Figure 9's reported 20-30 % with a margin for reading the figure)
 FIGURE9_REDUCTION_BAND = (0.15, 0.35)
 #: where the reasons of a missed held-out comparison are diagnosed with numbers
 DIAGNOSIS = "benchmarks/README.md, 'Flexible-base validation (held-out diagnosis)'"
@@ -65,13 +65,20 @@ def load_calibration(path: str | Path | None = None) -> dict:
     path = Path(path) if path is not None else config_dir() / "calibration.yaml"
     if not path.is_file():
         raise InputError(f"calibration file {path} does not exist")
-    with open(path) as fh:
-        cfg = yaml_load(fh)
+    cfg = read_yaml(path)
+    if not isinstance(cfg, dict):
+        raise InputError(f"calibration file {path}: expected a mapping of sections, got {type(cfg).__name__}")
     for key in ("sweep", "parameters", "observations", "optimizer"):
         if key not in cfg:
             raise InputError(f"{path}: missing section {key!r}")
+    if not isinstance(cfg["parameters"], dict) or not isinstance(cfg["observations"], dict):
+        raise InputError(f"{path}: sections 'parameters' and 'observations' must be mappings")
     for name, spec in cfg["parameters"].items():
-        lo, hi = spec["bounds"]
+        bounds = spec.get("bounds") if isinstance(spec, dict) else None
+        if not (isinstance(bounds, list) and len(bounds) == 2
+                and all(isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)):
+            raise InputError(f"{path}: parameter {name} needs bounds: [low, high], got {bounds!r}")
+        lo, hi = bounds
         if not (0 < lo < hi):
             raise InputError(f"{path}: parameter {name} needs bounds 0 < low < high, got {spec['bounds']}")
     missing = set(OBSERVATIONS) - set(cfg["observations"])
@@ -423,7 +430,7 @@ def _pct(x: float) -> str:
 
 
 def assess_held_out(table4: Mapping[str, Mapping], figure9: Mapping[Any, Mapping]) -> list[dict]:
-    """Mark each held-out comparison met or missed against issue 9's targets, with the
+    """Mark each held-out comparison met or missed against their targets, with the
     reason of a miss (pointing to :data:`DIAGNOSIS` for its numbers).
 
     Parameters
@@ -525,7 +532,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
     comparisons come from the campaign's own Table 4 (identified flexible-base m*, and the
     eq 8 prediction with the identified lambda) and its Figure 9 trials (``{"1-low": path,
     "1-high": ..., "2-low": ..., "2-high": ...}``), each marked met or missed against
-    issue 9's targets (:func:`assess_held_out`) with the reason of a miss.
+    the held-out targets (:func:`assess_held_out`) with the reason of a miss.
 
     Returns
     -------
@@ -606,7 +613,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
              f"Fit of {', '.join(record['values'])} on the paper's fixed-base observations "
              f"(`campaign calibrate`, {record['date']}, package {record['package_version']}, objective "
              f"{record['objective']}, {record['evaluations']} sweeps). Held-out rows are never fitted: they "
-             "come from this campaign's flexible-base trials, and are marked against issue 9's targets "
+             "come from this campaign's flexible-base trials, and are marked against their targets "
              f"(each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment column with "
              f"its ordering kept; a Low-vs-High reduction of {100 * FIGURE9_REDUCTION_BAND[0]:.0f}-"
              f"{100 * FIGURE9_REDUCTION_BAND[1]:.0f} % for Figure 9). Held out: {n_met} of {len(held)} "

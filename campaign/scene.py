@@ -19,6 +19,7 @@ import math
 from pathlib import Path
 from typing import Any, Mapping
 
+from .checks import SEED_MAX, allowed_names
 from .errors import InputError
 from .paper import config_dir, load_paper, read_yaml
 
@@ -67,6 +68,8 @@ def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, 
     if not path.is_file():
         raise InputError(f"rig parameter file {path} does not exist")
     tree = read_yaml(path)      # parsed once per file content; a fresh copy to modify
+    if not isinstance(tree, dict):
+        raise InputError(f"rig parameter file {path}: expected a mapping of parameters, got {type(tree).__name__}")
     scenes = tree.pop("scenes", {}) or {}
     tree.pop("calibration", None)
     return _flatten(tree), {k: dict(v.get("overrides", {})) for k, v in scenes.items()}
@@ -183,6 +186,8 @@ class Scene:
             raise InputError(f"unknown scene {self.name!r}; expected one of {SCENE_NAMES}")
         if not (isinstance(self.speed, (int, float)) and math.isfinite(self.speed) and self.speed > 0):
             raise InputError(f"impact speed must be a finite number > 0 m/s, got {self.speed!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed <= SEED_MAX:
+            raise InputError(f"seed {self.seed!r} is not an integer in [0, 2**63 - 1] (trial files store it as int64)")
         if not isinstance(self.repeat, int) or self.repeat < 0:
             raise InputError(f"repeat must be an integer >= 0, got {self.repeat!r}")
         if len(self.gains_counts) != 3 or any(not math.isfinite(g) or g < 0 for g in self.gains_counts):
@@ -249,7 +254,7 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
             values[k] = v
     for k, v in (params or {}).items():
         if k not in values:
-            raise InputError(f"unknown rig parameter {k!r}")
+            raise InputError(f"unknown rig parameter {k!r}; {allowed_names(str(k), list(values))}")
         values[k] = v
     if gain not in paper["gains"]:
         raise InputError(f"unknown gain set {gain!r}; expected one of {sorted(paper['gains'])}")

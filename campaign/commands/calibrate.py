@@ -11,7 +11,7 @@ from pathlib import Path
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="fit unpublished rig parameters to the paper's fixed-base observations (issue 9)",
+        help="fit unpublished rig parameters to the paper's fixed-base observations",
         description="Fit the rig parameters listed in config/calibration.yaml (friction, servo scale, contact) "
         "by bounded least squares so that a reduced fixed-base sweep matches the paper's Table 2 (m2, m3), "
         "Figure 7 (e = 0.55), the 30-70 N force range and Figure 5's 2.5 deg; write the fitted values back into "
@@ -68,7 +68,7 @@ def _markdown(summary: dict, fit: dict | None, validation: dict | None) -> str:
         lo_t, hi_t = FIGURE9_REDUCTION_BAND
         paper_band = "-".join(f"{100 * x:.0f}" for x in paper["figure9_low_vs_high_reduction"]) + " %"
         lines += ["## Held out: flexible base", "",
-                  f"Issue 9's targets: each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment "
+                  f"Targets: each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment "
                   f"column, ordering kept (configuration 2 > 1, High > Low); Figure 9's Low-vs-High reduction "
                   f"{100 * lo_t:.0f}-{100 * hi_t:.0f} %. m* from the simulator's true edge velocities. "
                   f"{sum(r['verdict'] == 'met' for r in rows)} of {len(rows)} met.", "",
@@ -106,6 +106,20 @@ def run(args) -> int:
         write_back,
     )
 
+    from ..calibrate import load_calibration as _load
+    from ..checks import check_output_dir, check_output_file, check_positive_int
+    from ..scene import load_rig
+
+    # every input and output checked before the first simulation
+    if args.max_evaluations is not None:
+        check_positive_int(args.max_evaluations, key="--max-evaluations")
+    if args.report:
+        check_output_dir(args.report, option="--report")
+    if args.rig is not None and not args.no_write and not args.skip_fit:
+        check_output_file(args.rig, option="--rig")
+    _load(args.calibration)
+    load_rig(args.rig)
+
     fit = None
     if args.skip_fit:
         cfg = load_calibration(args.calibration)
@@ -120,10 +134,11 @@ def run(args) -> int:
     validation = validate(rig=args.rig, fixed=summary) if args.validate else None
     text = _markdown(summary, fit, validation)
     if args.report:
+        from ..runner import _write_atomic
+
         out = Path(args.report)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "calibration.json").write_text(json.dumps({"summary": summary, "fit": fit, "validation": validation},
-                                                         indent=1, default=float))
-        (out / "calibration.md").write_text(text)
+        _write_atomic(out / "calibration.json", json.dumps({"summary": summary, "fit": fit, "validation": validation},
+                                                           indent=1, default=float))
+        _write_atomic(out / "calibration.md", text)
     print(text)
     return 0

@@ -47,8 +47,11 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..archive import write_trial
+    from ..checks import check_output_file
     from ..rig import simulate
     from ..scene import make_scene
+
+    check_output_file(args.out)
 
     scene = make_scene(base=args.base, config=args.config, gain=args.gain, speed=args.speed, repeat=args.repeat,
                        seed=args.seed, scene=args.scene, rig=args.rig, params=dict(args.params))

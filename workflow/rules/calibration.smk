@@ -1,4 +1,4 @@
-# Calibration (issue 9). `snakemake calibrate` re-fits the unpublished rig parameters to the
+# Calibration. `snakemake calibrate` re-fits the unpublished rig parameters to the
 # paper's fixed-base observations and rewrites the rig file (everything downstream then
 # reruns); it is never part of `all`. The calibration report is: it reads the fit's record
 # from the rig file and compares the held-out flexible-base results of this campaign.
