@@ -43,9 +43,9 @@ def allowed_names(value: str, known: Sequence[str], *, limit: int = 12) -> str:
 
 
 def check_seed(seed: Any, *, key: str = "seed") -> int:
-    """A seed a trial file can store: an integer in [0, 2**63 - 1]."""
+    """A seed: an integer in [0, 2**63 - 1] (what a trial file's int64 attribute holds)."""
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= SEED_MAX:
-        raise InputError(f"{key} = {seed!r} is not an integer in [0, 2**63 - 1] (trial files store it as int64)")
+        raise InputError(f"{key} = {seed!r} is not an integer in [0, 2**63 - 1]")
     return seed
 
 

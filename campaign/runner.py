@@ -480,13 +480,10 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
     timer = timer if timer is not None else Timer()
     with timer.imports():
         from .errors import InputError, TrialFileError
-        from .identify import IdentifyOptions, identify_trial, load_trial
+        from .checks import check_identify_options
+        from .identify import identify_trial, load_trial
         from .robot import load_robot
-    known = {f.name for f in dataclasses.fields(IdentifyOptions)}
-    unknown = sorted(set(options or {}) - known)
-    if unknown:
-        raise ValueError(f"identify: unknown option(s) {unknown}; known: {sorted(known)}")
-    opts = IdentifyOptions(**dict(options or {}))
+    opts = check_identify_options(options)
     robots: dict[str, Any] = {}
     rows = []
     columns: list[str] | None = None
