@@ -39,7 +39,7 @@ from typing import Any, Iterable, Iterator, Mapping, Sequence, TextIO
 __all__ = [
     "TRIAL_SUFFIX", "IDENTIFY_COLUMNS", "Timer", "cell_dir", "trial_relpath", "cell_trials", "find_cell_trials",
     "index_cells", "gain_counts", "run_cells", "run_cell", "identify_trials", "read_identification", "fit_lambda", "load_fits",
-    "make_table", "job_log", "package_file",
+    "make_table", "job_log", "package_file", "write_atomic",
 ]
 
 #: suffix of a trial file (campaign.archive.TRIAL_SUFFIX)
@@ -584,7 +584,7 @@ def read_identification(paths: Iterable[str | os.PathLike]) -> list[dict[str, An
 # ---------------------------------------------------------------------------------------
 # Virtual Rotor Inertia and the tables
 # ---------------------------------------------------------------------------------------
-def _write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
+def write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
     """Write ``data`` to a temporary file beside ``path`` and rename it into place."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -680,9 +680,9 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         "n_excluded": len(rows) - len(used), "configs": sorted({int(r["config"]) for r in used}),
         "units": {"lambda": "kg m^2", "lambda_ci": "kg m^2"},
     }
-    _write_atomic(out_json, json.dumps(result, indent=2, sort_keys=True) + "\n")
+    write_atomic(out_json, json.dumps(result, indent=2, sort_keys=True) + "\n")
     if out_pickle is not None:
-        _write_atomic(out_pickle, pickle.dumps(est))
+        write_atomic(out_pickle, pickle.dumps(est))
     lam = ", ".join(f"{x:.4g}" for x in np.ravel(est.lambda_))
     print(f"fit {gain_class} ({', '.join(gains)}): lambda = [{lam}] kg m^2 from {len(used)} trials "
           f"({len(rows) - len(used)} excluded); condition number {est.condition_number_:.3g}")
@@ -704,13 +704,16 @@ def load_fits(pickles: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
 
 def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike, *,
                ident_tables: Iterable[str | os.PathLike] = (), fits: Mapping[str, str | os.PathLike] | None = None,
-               timer: Timer | None = None):
-    """Write Table 2, 3 or 4 (:mod:`campaign.tables`) as CSV and Markdown, each atomically.
+               out_html: str | os.PathLike | None = None, timer: Timer | None = None):
+    """Write Table 2, 3 or 4 (:mod:`campaign.tables`) as CSV, Markdown and HTML, each atomically.
 
     Parameters
     ----------
     name : {"table2", "table3", "table4"}
     out_csv, out_md : path-like
+    out_html : path-like, optional
+        The Markdown as a standalone HTML page (:mod:`campaign.htmlpage`), which
+        Snakemake's report shows inline.
     ident_tables : iterable of path-like
         Identification CSVs: fixed-base ones for Table 2, flexible-base ones for Table 4.
     fits : mapping, optional
@@ -735,7 +738,11 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
             table = tables.table4(records, loaded)
         else:
             raise ValueError(f"unknown table {name!r}; expected table2, table3 or table4")
-        _write_atomic(out_csv, table.to_csv())
-        _write_atomic(out_md, table.to_markdown())
+        write_atomic(out_csv, table.to_csv())
+        write_atomic(out_md, table.to_markdown())
+        if out_html is not None:
+            from .htmlpage import markdown_page
+
+            write_atomic(out_html, markdown_page(table.to_markdown(), title=table.title))
     print(table.to_markdown())
     return table

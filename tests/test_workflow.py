@@ -167,10 +167,22 @@ def test_rerun_has_nothing_to_do(ci_run):
 
 
 def test_report_builds(ci_run):
+    """The report groups its results as the campaign is, shows the tables and calibration
+    notes as HTML (rendered inline, not download links) and holds every figure's PDF."""
+    import json
+
     report = ci_run / "results" / "ci" / "report.html"
     snakemake(ci_run, "--report", str(report))
     text = report.read_text(errors="replace")
     assert report.stat().st_size > 100_000 and "Table 2" in text and "Figure 9" in text
+    categories = json.loads(re.search(r"var categories = (\{.*?\});\n", text).group(1))
+    assert set(categories) == {"Fixed base", "Flexible base", "Virtual rotor inertia (lambda)", "Calibration"}
+    items = {Path(p).name for sub in categories.values() for files in sub.values() for p in files}
+    assert {"table2.html", "table3.html", "table4.html", "calibration.html"} <= items
+    assert {f"fig{i}.pdf" for i in range(4, 10)} | {f"fig{i}.png" for i in range(4, 10)} <= items
+    assert not any(name.endswith((".csv", ".md")) for name in items)
+    table = (ci_run / "results" / "ci" / "tables" / "table2.html").read_text()
+    assert table.count("<tr>") == 1 + 3 and "<th>Config</th>" in table  # header + configurations 1-3
 
 
 def test_editing_one_gain_reruns_only_its_dependents(ci_run, tmp_path):

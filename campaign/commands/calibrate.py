@@ -134,11 +134,11 @@ def run(args) -> int:
     validation = validate(rig=args.rig, fixed=summary) if args.validate else None
     text = _markdown(summary, fit, validation)
     if args.report:
-        from ..runner import _write_atomic
+        from ..runner import write_atomic
 
         out = Path(args.report)
-        _write_atomic(out / "calibration.json", json.dumps({"summary": summary, "fit": fit, "validation": validation},
+        write_atomic(out / "calibration.json", json.dumps({"summary": summary, "fit": fit, "validation": validation},
                                                            indent=1, default=float))
-        _write_atomic(out / "calibration.md", text)
+        write_atomic(out / "calibration.md", text)
     print(text)
     return 0

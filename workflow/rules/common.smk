@@ -372,5 +372,5 @@ def bench_file(rule_name, unit=None):
 def calibration_targets():
     """The calibration report, when the campaign has what its held-out rows need."""
     if not missing_requirement("table4") and not missing_requirement("fig9"):
-        return [f"{RESULTS}/calibration/calibration.md"]
+        return [f"{RESULTS}/calibration/calibration.md", f"{RESULTS}/calibration/calibration.html"]
     return []
