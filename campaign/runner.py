@@ -600,8 +600,8 @@ def write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
     return out
 
 
-def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.PathLike,
-               out_pickle: str | os.PathLike | None = None, *, gain_class: str, gains: Sequence[str],
+def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.PathLike, *,
+               gain_class: str, gains: Sequence[str],
                base: str = "fixed", options: Mapping[str, Any] | None = None, seed: int = 0,
                timer: Timer | None = None) -> dict[str, Any]:
     """Fit lambda (eq 11, 15) to the identified effective masses of one gain class.
@@ -617,11 +617,8 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         excluded trials, are left out.
     out_json : path-like
         :meth:`campaign.fit.LambdaFit.summary` with the gain class, the gains pooled and
-        the trials used and excluded (written atomically).
-    out_pickle : path-like, optional
-        The fitted estimator, pickled, for :func:`campaign.tables.table3` and
-        :func:`campaign.tables.table4` (a workflow intermediate, rebuilt by the workflow;
-        not an archive format).
+        the trials used and excluded (written atomically); all that Tables 3-4 read back
+        (:func:`load_fits`).
     gain_class : str
         Name of the class (``paper.yaml`` ``gain_classes``: ``zero_low``, ``high``).
     gains : sequence of str
@@ -647,7 +644,6 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         No usable trial, trials of several robots or impact directions, or an unknown fit
         option (named).
     """
-    import pickle
     import warnings
 
     timer = timer if timer is not None else Timer()
@@ -681,8 +677,6 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         "units": {"lambda": "kg m^2", "lambda_ci": "kg m^2"},
     }
     write_atomic(out_json, json.dumps(result, indent=2, sort_keys=True) + "\n")
-    if out_pickle is not None:
-        write_atomic(out_pickle, pickle.dumps(est))
     lam = ", ".join(f"{x:.4g}" for x in np.ravel(est.lambda_))
     print(f"fit {gain_class} ({', '.join(gains)}): lambda = [{lam}] kg m^2 from {len(used)} trials "
           f"({len(rows) - len(used)} excluded); condition number {est.condition_number_:.3g}")
@@ -691,14 +685,19 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
     return result
 
 
-def load_fits(pickles: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
-    """The fitted :class:`campaign.fit.LambdaFit` of each gain class, from :func:`fit_lambda`'s pickles."""
-    import pickle
+def load_fits(results: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
+    """The fitted :class:`campaign.fit.LambdaFit` of each gain class, read back from
+    :func:`fit_lambda`'s JSON (:meth:`campaign.fit.LambdaFit.from_summary`)."""
+    from .errors import InputError
+    from .fit import LambdaFit
 
     out = {}
-    for gain_class, path in pickles.items():
-        with open(path, "rb") as fh:
-            out[gain_class] = pickle.load(fh)
+    for gain_class, path in results.items():
+        with open(path, encoding="utf-8") as fh:
+            try:
+                out[gain_class] = LambdaFit.from_summary(json.load(fh))
+            except (ValueError, InputError) as exc:
+                raise InputError(f"{path}: {exc}") from None
     return out
 
 
@@ -717,7 +716,7 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
     ident_tables : iterable of path-like
         Identification CSVs: fixed-base ones for Table 2, flexible-base ones for Table 4.
     fits : mapping, optional
-        ``{gain class: pickle of fit_lambda}`` for Tables 3 and 4, in the paper's order.
+        ``{gain class: JSON of fit_lambda}`` for Tables 3 and 4, in the paper's order.
     timer : Timer, optional
 
     Returns

@@ -278,9 +278,9 @@ def fit_classes():
     return {k: [g for g in v if g in have] for k, v in GAIN_CLASSES.items() if any(g in have for g in v)}
 
 
-def fit_pickles():
-    """{gain class: fitted estimator} for Tables 3 and 4, in the paper's order."""
-    return {k: f"{RESULTS}/fit/lambda_{k}.pkl" for k in fit_classes()}
+def fit_results():
+    """{gain class: the lambda fit's JSON} for Tables 3 and 4, in the paper's order."""
+    return {k: f"{RESULTS}/fit/lambda_{k}.json" for k in fit_classes()}
 
 
 def all_trials():
