@@ -9,7 +9,8 @@ One trial is one NetCDF4/HDF5 file (design brief section 6)::
     /truth            what only the simulator knows (campaign.schema.TRUTH)
 
 Every variable carries CF ``units`` and ``long_name``; every time coordinate is float64
-seconds with ``standard_name = "time"``. Time series are chunked along time and compressed
+seconds from the start of the recording (``units = "s"``, no ``standard_name``: CF keeps
+``time`` for coordinates with a ``since`` epoch, and a simulated trial has none). Time series are chunked along time and compressed
 losslessly (deflate + shuffle, the filters every netCDF-4 reader has). Anyone opens a trial
 with plain xarray, no project import needed::
 
@@ -284,6 +285,11 @@ class _Group:
     variables: list[_Var]  # dimension coordinates first, then the schema's variables in schema order
 
 
+#: ACDD coverage_content_type of a group's time series; constants of the rig (no clock)
+#: are "referenceInformation", coordinates "coordinate"
+_COVERAGE = {"measured": "physicalMeasurement", "truth": "modelResult"}
+
+
 def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Group:
     """Check one group against the schema; fill units/long_name the rig left out."""
     expected = {v.name: v for v in variables(group, base)}
@@ -308,6 +314,8 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             raise InputError(f"/{group}/{name} has units {attrs['units']!r}, schema says {spec.units!r}")
         attrs.setdefault("units", spec.units)
         attrs.setdefault("long_name", spec.long_name)
+        attrs.setdefault("coverage_content_type", _COVERAGE[group] if any(d in CLOCKS for d in spec.dims)
+                         else "referenceInformation")
         for key, value in attrs.items():
             _check_attr(f"/{group}/{name}", key, value)
         data = np.asarray(var.values, order="C")
@@ -323,7 +331,10 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             attrs = dict(c.attrs)
             if attrs.get("units", "s") != "s":
                 raise InputError(f"/{group} time coordinate {dim} has units {attrs['units']!r}, expected 's'")
-            attrs.update(units="s", standard_name="time")
+            # seconds from the start of the recording: a duration, not a date, so no
+            # standard_name "time" (CF reserves it for coordinates with a "since" epoch)
+            attrs.pop("standard_name", None)
+            attrs.update(units="s")
             attrs.setdefault("long_name", CLOCKS[dim].long_name)
             values = np.asarray(c.values, order="C")
         elif dim in COORDS:
@@ -342,6 +353,7 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             attrs.setdefault("long_name", _LABEL_LONG_NAMES[dim])
         else:
             raise InputError(f"/{group} has dimension {dim!r}, which is neither a schema clock nor a label dimension")
+        attrs.setdefault("coverage_content_type", "coordinate")
         for key, value in attrs.items():
             _check_attr(f"/{group}/{dim}", key, value)
         coords.append(_Var(dim, (dim,), values, attrs, _encoding((dim,), values)))
@@ -390,8 +402,19 @@ def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
 
 
 def _now() -> str:
-    """ACDD date_created: UTC, ISO 8601, to the second."""
-    return _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    """ACDD date_created: UTC, ISO 8601, to the second; ``$SOURCE_DATE_EPOCH`` (seconds since
+    1970-01-01 UTC, the reproducible-builds convention) replaces the clock when set, so
+    two runs write byte-identical files."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if epoch:
+        try:
+            when = _dt.datetime.fromtimestamp(int(epoch), _dt.timezone.utc)
+        except (ValueError, OverflowError, OSError):
+            raise InputError(f"SOURCE_DATE_EPOCH = {epoch!r} is not a whole number of seconds since 1970-01-01 UTC") \
+                from None
+    else:
+        when = _dt.datetime.now(_dt.timezone.utc)
+    return when.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _Group]]:
@@ -417,6 +440,7 @@ def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _G
         raise InputError(f"trial says schema_version {version!r}, this archive writes {SCHEMA_VERSION}")
     groups = {g: _validate_group(g, tree[g] if isinstance(tree, TrialArrays) else tree[g].to_dataset(inherit=False),
                                  scene.base) for g in GROUPS}
+    created = _now()
     root = {
         "title": f"Simulated VES-II impact trial {scene.cell}",
         "summary": (
@@ -439,7 +463,8 @@ def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _G
         "source": "numerical simulation: campaign rig (simulated MIT VES-II)",
         **attrs,
         "Conventions": "CF-1.11, ACDD-1.3",
-        "date_created": _now(),
+        "date_created": created,
+        "history": f"{created} simulated by campaign {provenance()['campaign_version']} (trial {scene.cell})",
         "schema_version": SCHEMA_VERSION,
         **provenance(),
         "seed": int(scene.seed),
@@ -1722,8 +1747,9 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
         "",
         "## Clocks (time dimensions)",
         "",
-        "Each time coordinate is float64 seconds from the start of the recording (`units = \"s\"`, "
-        "`standard_name = \"time\"`); the contact happens at a seeded, jittered instant inside it.",
+        "Each time coordinate is float64 seconds from the start of the recording (`units = \"s\"`; no "
+        "`standard_name`, which CF keeps for times with a `since` epoch); the contact happens at a seeded, "
+        "jittered instant inside it.",
         "",
         _md_table(("dimension", "clock", "rate key (scene parameter)", "rate in this campaign [Hz]"), clock_rows),
         "",
