@@ -380,8 +380,11 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     timer = timer if timer is not None else Timer()
     with timer.imports():
         from .archive import trial_path, write_trial
+        from .checks import check_rig_params, check_speeds, pendulum_reach
         from .rig import simulate_arrays   # plain arrays: the job never imports xarray
         from .scene import make_scene
+    # every speed within the pendulum's reach and distinct in its path, before any trial
+    speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
     cells = [(str(b), int(c), str(g)) for b, c, g in cells]
     plan = []
     for base, config, gain in cells:

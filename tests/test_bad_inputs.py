@@ -128,12 +128,16 @@ def _api_cases(tmp: Path):
         (lambda: runner.identify_trials([str(TRIAL)], tmp / "out.csv", options={"k_sigmaa": 3}), "k_sigmaa"),
         (lambda: runner.fit_lambda([], tmp / "fit.json", gain_class="high", gains=["high"], options={"bogus": 1}),
          "bogus"),
+        (lambda: runner.run_cells([("fixed", 1, "zero")], archive_dir=tmp / "a", speeds=[1.0, 9.0], repeats=1),
+         "speed 9.0 m/s is beyond"),
+        (lambda: runner.run_cells([("fixed", 1, "zero")], archive_dir=tmp / "a", speeds=[2.0], repeats=1,
+                                  params={"pendulum.radiu": 0.5}), "'pendulum.radiu'"),
     ]
 
 
 API_IDS = ["make_scene key", "make_scene seed", "make_scene config", "load_rig yaml", "load_calibration shape",
            "IdentifyOptions value", "identify option name", "speeds rounding", "speeds reach", "output file",
-           "output dir", "identify_trials option", "fit_lambda option"]
+           "output dir", "identify_trials option", "fit_lambda option", "run_cells reach", "run_cells rig key"]
 
 
 @pytest.mark.parametrize("index", range(len(API_IDS)), ids=API_IDS)
