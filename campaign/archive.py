@@ -84,6 +84,8 @@ from h5py import h5a, h5d, h5ds, h5i, h5o, h5p, h5r, h5s, h5t
 from . import __version__
 from ._lazy import LazyModule
 from .errors import InputError, TrialFileError
+from .filing import filing_problems
+from .progress import progress
 from .scene import BASES, GAINS, Scene
 from .schema import (CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH, ChannelArray, GroupArrays, TrialArrays,
                      variables)
@@ -1023,8 +1025,8 @@ def _inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
             finally:
                 os._exit(code)
         os.close(write_fd)
-        with os.fdopen(read_fd, "rb") as fh:
-            lines = fh.read().splitlines()
+        with os.fdopen(read_fd, "rb") as fh:   # line by line, as the child checks the files
+            lines = [line.rstrip(b"\n") for line in progress(fh, desc="check", total=len(todo))]
         _, status = os.waitpid(pid, 0)
         for line in lines[:len(todo)]:
             try:
@@ -1420,7 +1422,7 @@ def list_trials(campaign_dir: str | os.PathLike, **filters: Any) -> list[TrialRe
     wanted = {k: _filter_values(k, v) for k, v in filters.items()}
     campaign = _campaign(campaign_dir)
     out = []
-    for file in _trial_files(campaign):
+    for file in progress(list(_trial_files(campaign)), desc="read"):
         rec = _record(campaign, file)
         if all((f"{rec.speed:.3f}" if k == "speed" else getattr(rec, k)) in vals for k, vals in wanted.items()):
             out.append(rec)
@@ -1663,7 +1665,7 @@ def write_manifest(campaign_dir: str | os.PathLike) -> Path:
     """
     campaign = _campaign(campaign_dir)
     lines = []
-    for file in _all_files(campaign):
+    for file in progress(_all_files(campaign), desc="sha256", unit="file"):
         rel = _rel(campaign, file)
         if _TEMP_RE.match(file.name):
             raise InputError(f"{campaign / rel} is a temporary file of an interrupted write: delete it "
@@ -1806,6 +1808,10 @@ def finalize_campaign(campaign_dir: str | os.PathLike) -> dict[str, Path]:
     # the index and the README describe the same trials: their root attributes are read once
     # (a few ms per file; 216 files in the full campaign)
     records = list_trials(campaign)
+    misfiled = filing_problems(campaign, [_filing_record(r) for r in records])
+    if misfiled:
+        raise TrialFileError("cannot finalize, misfiled or duplicate trials: "
+                             + "; ".join(f"{campaign / rel}: {message}" for rel, message in misfiled))
     return {"index": write_index(campaign, records=records), "readme": write_readme(campaign, records=records),
             "manifest": write_manifest(campaign)}
 
@@ -1850,7 +1856,7 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
                 problems.append(Problem(MANIFEST, f"line {n} names a path outside the campaign: {rel!r}"))
                 continue
             listed[rel] = m.group(1)
-        for rel, digest in listed.items():
+        for rel, digest in progress(listed.items(), desc="sha256", unit="file"):
             file = campaign / rel
             if not file.is_file():
                 problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
@@ -1865,13 +1871,22 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
     trials = [_rel(campaign, f) for f in _trial_files(campaign)]
     for rel, found in zip(trials, _inspect_isolated_many([campaign / rel for rel in trials])):
         problems += [Problem(rel, p) for p in found]
+    readable = []
+    for rel in trials:
+        try:
+            readable.append(_filing_record(_record(campaign, campaign / rel)))
+        except TrialFileError:
+            pass  # reported by the inspection above
     index = campaign / INDEX
+    rows = None
     if index.is_file():
         try:
             with open(index, newline="", encoding="utf-8") as fh:
-                indexed = {row["path"] for row in csv.DictReader(fh)}
+                rows = list(csv.DictReader(fh))
+            indexed = {row["path"] for row in rows}
         except (KeyError, csv.Error, UnicodeDecodeError) as exc:
             problems.append(Problem(INDEX, f"unreadable: {exc}"))
+            rows = None
         else:
             for rel in sorted(indexed - set(trials)):
                 problems.append(Problem(INDEX, f"lists {rel}, which is not a trial file of this campaign"))
@@ -1879,4 +1894,11 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
                 problems.append(Problem(rel, f"trial file not listed in {INDEX}"))
     elif manifest.is_file():
         problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
+    problems += [Problem(rel, message) for rel, message in filing_problems(campaign, readable, rows)]
     return problems
+
+
+def _filing_record(rec: TrialRecord) -> dict[str, Any]:
+    """What :func:`campaign.filing.filing_problems` reads of a trial."""
+    return {"path": rec.path, "base": rec.base, "config": rec.config, "gain": rec.gain, "speed": rec.speed,
+            "repeat": rec.repeat, "seed": rec.seed, "scene_json": rec.scene_json}

@@ -12,38 +12,27 @@ identification options (pinocchio) are imported only when the configuration sets
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-from .errors import InputError
+from .errors import InputError, allowed_names
 
 __all__ = [
-    "SEED_MAX", "SPEED_DECIMALS", "allowed_names", "check_seed", "check_rig_params", "pendulum_reach", "check_speeds",
+    "SPEED_DECIMALS", "check_seed", "check_rig_params", "pendulum_reach", "check_speeds",
     "check_identify_options", "check_output_file", "check_output_dir", "check_positive_int",
     "parse_typed_strings", "check_schema", "check_workflow_config",
 ]
 
-#: largest seed a trial file can store (its attributes are signed 64-bit integers)
-SEED_MAX = 2**63 - 1
 #: decimals of a speed in a trial's path (``v1.500``); speeds must differ at this precision
 SPEED_DECIMALS = 3
 
 
-def allowed_names(value: str, known: Sequence[str], *, limit: int = 12) -> str:
-    """``did you mean ...?`` for a near miss, else the allowed names (at most ``limit``)."""
-    close = difflib.get_close_matches(value, known, n=3, cutoff=0.6)
-    if close:
-        return f"did you mean {', '.join(close)}?"
-    shown = ", ".join(sorted(known)[:limit])
-    more = f", ... ({len(known)} in all)" if len(known) > limit else ""
-    return f"known: {shown}{more}"
-
-
 def check_seed(seed: Any, *, key: str = "seed") -> int:
     """A seed: an integer in [0, 2**63 - 1] (what a trial file's int64 attribute holds)."""
+    from .scene import SEED_MAX
+
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= SEED_MAX:
         raise InputError(f"{key} = {seed!r} is not an integer in [0, 2**63 - 1]")
     return seed

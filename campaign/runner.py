@@ -36,9 +36,11 @@ import traceback
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping, Sequence, TextIO
 
+from .cellpath import misfiled
+
 __all__ = [
     "TRIAL_SUFFIX", "IDENTIFY_COLUMNS", "Timer", "cell_dir", "trial_relpath", "cell_trials", "find_cell_trials",
-    "index_cells", "gain_counts", "run_cells", "run_cell", "identify_trials", "read_identification", "fit_lambda", "load_fits",
+    "index_cells", "misfiled", "gain_counts", "run_cells", "run_cell", "identify_trials", "read_identification", "fit_lambda", "load_fits",
     "make_table", "job_log", "package_file", "write_atomic",
 ]
 
@@ -498,6 +500,9 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
             name = str(attrs.get("robot") or measured.attrs.get("robot") or "")
             if not name:
                 raise TrialFileError(f"{path}: no 'robot' attribute in the trial")
+            wrong = misfiled(path, attrs)   # a trial of another cell would bias this cell's m*
+            if wrong:
+                raise TrialFileError(wrong)
             if name not in robots:
                 robots[name] = load_robot(name)
             try:

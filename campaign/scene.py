@@ -19,11 +19,10 @@ import math
 from pathlib import Path
 from typing import Any, Mapping
 
-from .checks import SEED_MAX, allowed_names
-from .errors import InputError
+from .errors import InputError, allowed_names
 from .paper import config_dir, load_paper, read_yaml
 
-__all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES"]
+__all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX"]
 
 BASES = ("fixed", "flexible")
 GAINS = ("zero", "low", "high")
@@ -46,6 +45,10 @@ _NONNEGATIVE = (
     "sensors.ft_noise_force", "sensors.ft_noise_torque", "trial.contact_jitter", "flexible.damping_ratio",
     "ves.latency", "flexible.mount_height",
 )
+
+
+#: largest seed a trial file can store (its attributes are signed 64-bit integers)
+SEED_MAX = 2**63 - 1
 
 
 def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
