@@ -6,8 +6,9 @@ option, the bad value and what is allowed. The CLI turns it into ``campaign <cmd
 :func:`check_workflow_config`, so ``snakemake -n`` fails the same way before any job.
 
 Only the standard library and PyYAML are imported at the top: Snakemake evaluates the
-workflow's helpers on every start, a dry run included. The scene (numpy) and the
-identification options (pinocchio) are imported only when the configuration sets them.
+workflow's helpers on every start, a dry run included. The scene (numpy) is imported when
+a check needs it, the identification options (pinocchio) only when the configuration sets
+them; the rig itself never.
 """
 
 from __future__ import annotations
@@ -62,12 +63,11 @@ def check_rig_params(params: Mapping[str, Any] | None, *, rig: str | os.PathLike
 def pendulum_reach(values: Mapping[str, Any]) -> float:
     """Largest head speed [m/s] the pendulum of the rig values ``values`` reaches (``inf``
     without gravity, where the hammer is launched at the asked speed)."""
-    from .rig.pendulum import Pendulum
+    from .scene import hammer_reach
 
-    pend = Pendulum(float(values["pendulum.head_mass"]), float(values["pendulum.rod_mass"]),
-                    float(values["pendulum.radius"]), float(values["gravity"]),
-                    float(values["pendulum.max_release_deg"]))
-    return pend.max_speed
+    return hammer_reach(float(values["pendulum.head_mass"]), float(values["pendulum.rod_mass"]),
+                        float(values["pendulum.radius"]), float(values["gravity"]),
+                        float(values["pendulum.max_release_deg"]))
 
 
 def check_speeds(speeds: Iterable[Any], *, key: str = "speeds", reach: float = math.inf) -> list[float]:

@@ -22,7 +22,7 @@ from typing import Any, Mapping
 from .errors import InputError, allowed_names
 from .paper import config_dir, load_paper, read_yaml
 
-__all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX"]
+__all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX", "hammer_reach"]
 
 BASES = ("fixed", "flexible")
 GAINS = ("zero", "low", "high")
@@ -76,6 +76,21 @@ def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, 
     scenes = tree.pop("scenes", {}) or {}
     tree.pop("calibration", None)
     return _flatten(tree), {k: dict(v.get("overrides", {})) for k, v in scenes.items()}
+
+
+def hammer_reach(head_mass: float, rod_mass: float, radius: float, gravity: float, max_release_deg: float) -> float:
+    """Largest head speed [m/s] of the pendulum released at rest from its largest angle.
+
+    Energy balance of the pendulum (:mod:`campaign.rig.pendulum`): a point head at
+    ``radius`` on a uniform rod, ``I_p w^2 / 2 = m g l_c (1 - cos theta_0)``, head speed
+    ``radius w``; ``inf`` without gravity, where the hammer is launched at the asked speed.
+    Standard library only, so the workflow's start-up checks speeds without the rig.
+    """
+    if gravity == 0:
+        return math.inf
+    inertia = head_mass * radius**2 + rod_mass * radius**2 / 3.0
+    mgl = (head_mass * radius + 0.5 * rod_mass * radius) * gravity
+    return radius * math.sqrt(2.0 * mgl * (1.0 - math.cos(math.radians(max_release_deg))) / inertia)
 
 
 def derive_seed(*parts: Any) -> int:

@@ -216,3 +216,19 @@ def test_config_values_typed_on_the_command_line_parse():
     with pytest.raises(InputError, match="configuration key simulate: 'maybe'"):
         ci = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
         checks.check_schema(checks.parse_typed_strings({**ci, "simulate": "maybe"}, schema), schema)
+
+
+def test_the_start_up_reach_agrees_with_the_pendulum():
+    """The workflow checks speeds with campaign.scene.hammer_reach (no rig import); the
+    simulated pendulum refuses exactly the speeds beyond it."""
+    from campaign.rig.pendulum import Pendulum
+    from campaign.scene import load_rig
+
+    values, _ = load_rig()
+    reach = checks.pendulum_reach(values)
+    pend = Pendulum(values["pendulum.head_mass"], values["pendulum.rod_mass"], values["pendulum.radius"],
+                    values["gravity"], values["pendulum.max_release_deg"])
+    assert 1.0 < reach < 10.0 and pend.max_speed == reach
+    pend.release_angle(reach * (1 - 1e-9))
+    with pytest.raises(InputError, match="beyond what the pendulum can reach"):
+        pend.release_angle(reach * (1 + 1e-9))

@@ -27,6 +27,7 @@ import numpy as np
 from scipy.special import ellipj, ellipk
 
 from ..errors import InputError
+from ..scene import hammer_reach
 
 __all__ = ["Pendulum"]
 
@@ -85,10 +86,7 @@ class Pendulum:
     def max_speed(self) -> float:
         """Head speed at the bottom from the largest release angle [m/s] (``inf`` without
         gravity, where the hammer is launched at the asked speed)."""
-        if self.gravity == 0:
-            return math.inf
-        drop = 1.0 - math.cos(math.radians(self.max_release_deg))
-        return self.radius * math.sqrt(2.0 * self.mgl * drop / self.inertia)
+        return hammer_reach(self.head_mass, self.rod_mass, self.radius, self.gravity, self.max_release_deg)
 
     def release_angle(self, speed: float) -> float:
         """Release angle [rad] that gives head speed ``speed`` [m/s] at the bottom.
