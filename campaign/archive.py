@@ -10,8 +10,9 @@ One trial is one NetCDF4/HDF5 file (design brief section 6)::
 
 Every variable carries CF ``units`` and ``long_name``; every time coordinate is float64
 seconds from the start of the recording (``units = "s"``, no ``standard_name``: CF keeps
-``time`` for coordinates with a ``since`` epoch, and a simulated trial has none). Time series are chunked along time and compressed
-losslessly (deflate + shuffle, the filters every netCDF-4 reader has). Anyone opens a trial
+``time`` for coordinates with a ``since`` epoch, and a simulated trial has none). Time
+series are chunked along time and compressed losslessly (deflate + shuffle, the filters
+every netCDF-4 reader has). Anyone opens a trial
 with plain xarray, no project import needed::
 
     xr.open_dataset(path, engine="h5netcdf", group="measured")

@@ -17,7 +17,8 @@ paper, without refitting anything.
 
 Every evaluation simulates the sweep from scratch (deterministic seeds), using the
 simulator's true edge velocities for m* and e: identification accuracy is validated
-separately (benchmarks/README.md, *Identification accuracy*) and would only add its own few-percent scatter to the objective.
+separately (benchmarks/README.md, *Identification accuracy*) and would only add its own
+few-percent scatter to the objective.
 """
 
 from __future__ import annotations
