@@ -46,7 +46,7 @@ CELLS = [  # a small campaign: both bases, two configurations, two gains, two sp
 @pytest.fixture(autouse=True)
 def _fixed_clock(monkeypatch):
     """date_created is the one attribute that changes run to run; freeze it for comparisons."""
-    monkeypatch.setattr(archive, "_now", lambda: "2026-01-01T00:00:00Z")
+    monkeypatch.setattr(archive.fileformat, "_now", lambda: "2026-01-01T00:00:00Z")
 
 
 @pytest.fixture(scope="module")
@@ -280,7 +280,7 @@ def test_open_trial_returns_measured_by_default_with_the_file_attributes(tmp_pat
 
 def test_determinism_same_scene_same_channels(tmp_path, monkeypatch):
     a = write_trial(synthetic_trial(seed=11, duration=DURATION), tmp_path / "a.nc")
-    monkeypatch.setattr(archive, "_now", lambda: "2030-06-01T12:00:00Z")  # written at another time
+    monkeypatch.setattr(archive.fileformat, "_now", lambda: "2030-06-01T12:00:00Z")  # written at another time
     b = write_trial(synthetic_trial(seed=11, duration=DURATION), tmp_path / "b.nc")
     ta, tb = open_trial_tree(a), open_trial_tree(b)
     for group in archive.GROUPS:
@@ -364,7 +364,7 @@ sys.path.insert(0, {tests!r})
 from campaign import archive
 from synthetic import synthetic_trial
 tree = synthetic_trial(duration={duration})
-real = archive._create_dataset
+real = archive.write._create_dataset
 count = [0]
 def slow(*args, **kwargs):
     count[0] += 1
@@ -372,7 +372,7 @@ def slow(*args, **kwargs):
         print("writing", flush=True)
         time.sleep(60)
     return real(*args, **kwargs)
-archive._create_dataset = slow
+archive.write._create_dataset = slow
 archive.write_trial(tree, sys.argv[1])
 """
 
@@ -403,7 +403,7 @@ def test_failed_write_removes_its_temp_file_and_keeps_the_old_file(tmp_path, mon
     def broken(*args, **kwargs):
         raise OSError("disk full")
 
-    monkeypatch.setattr(archive, "_create_dataset", broken)
+    monkeypatch.setattr(archive.write, "_create_dataset", broken)
     with pytest.raises(OSError, match="disk full"):
         write_trial(synthetic_trial(seed=5, duration=DURATION), final)
     assert final.read_bytes() == before
@@ -604,7 +604,7 @@ def test_verify_survives_a_file_that_crashes_the_hdf5_library(campaign, monkeypa
             os.kill(os.getpid(), signal.SIGSEGV)
         return real(path, **kwargs)
 
-    monkeypatch.setattr(archive, "_inspect", crashing)
+    monkeypatch.setattr(archive.read, "_inspect", crashing)
     problems = verify(campaign)
     assert [str(p) for p in problems] == [
         "fixed/config1/zero/v1.500/r00.nc: reading it crashed the HDF5 library (signal 11): the file is corrupt"]
@@ -630,7 +630,7 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
             os.kill(os.getpid(), signal.SIGSEGV)
         return real(path, **kwargs)
 
-    monkeypatch.setattr(archive, "_inspect", crashing)
+    monkeypatch.setattr(archive.read, "_inspect", crashing)
     found = archive._inspect_isolated_many(files)
     assert len(found) == len(files)
     assert "crashed the HDF5 library (signal 11)" in found[0][0]
@@ -639,7 +639,7 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
     pids = checkers.read_text().split()
     assert len(pids) == len(files) and str(os.getpid()) not in pids   # every check ran in a child:
     assert len(set(pids)) == 2           # one for the crash, one for the files after it ...
-    monkeypatch.setattr(archive, "_inspect", real)
+    monkeypatch.setattr(archive.read, "_inspect", real)
     calls = []
     monkeypatch.setattr(os, "fork", lambda real_fork=os.fork: calls.append(1) or real_fork())
     archive._inspect_isolated_many(files[1:-1])

@@ -32,7 +32,7 @@ from ..robot import Robot
 from .contact import Contact
 from .pendulum import Pendulum
 
-__all__ = ["FixedBasePlant", "FrictionState"]
+__all__ = ["FixedBasePlant", "FrictionState", "base_wrench"]
 
 _EMPTY = np.zeros(0)
 _LWA = pin.LOCAL_WORLD_ALIGNED
@@ -409,13 +409,11 @@ class FixedBasePlant:
 
     def rest_wrench(self):
         """F/T reading with the arm at rest on its commanded pose."""
-        from .sensors import base_wrench
         z = np.zeros(self.nv)
         return base_wrench(self, self.q0, z, z, 0.0)
 
     def mount_wrench(self, x, xd, F, t=None):
         """Wrench of the arm on its mounting (base F/T sensor): (force [N], moment [N m])."""
-        from .sensors import base_wrench
         nv = self.nv
         return base_wrench(self, x[:nv], x[self.i_v], xd[self.i_v], F)
 
@@ -434,3 +432,23 @@ class FixedBasePlant:
         pe = float(pin.computePotentialEnergy(self.model, self.data, q)) + self._mgl * (1.0 - math.cos(th))
         delta = self._r * math.sin(th) - self.tip(q)[0]
         return ke + pe + float(self.contact.energy(delta))
+
+
+def base_wrench(plant: FixedBasePlant, q, v, a, F):
+    """Wrench of the arm on its mounting, base frame, about the base origin: (force [N],
+    moment [N m]). Newton-Euler (RNEA) with the contact force as an external force on the
+    link that carries the impact point; the arm's weight is included (the sensor reads it)."""
+    model, data = plant.model, plant.data
+    jid = model.frames[plant.fid].parentJoint
+    placement = model.frames[plant.fid].placement
+    fext = [pin.Force.Zero() for _ in range(model.njoints)]
+    pin.forwardKinematics(model, data, q)
+    R = data.oMi[jid].rotation
+    f_local = R.T @ (plant.n * F)
+    r = placement.translation
+    torque = np.array([r[1] * f_local[2] - r[2] * f_local[1], r[2] * f_local[0] - r[0] * f_local[2],
+                       r[0] * f_local[1] - r[1] * f_local[0]])
+    fext[jid] = pin.Force(f_local, torque)
+    pin.rnea(model, data, q, v, a, fext)
+    w = data.oMi[1].act(data.f[1])
+    return -np.array(w.linear), -np.array(w.angular)

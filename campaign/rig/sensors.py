@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from .integrate import Trajectory
-from .plant import FixedBasePlant
+from .plant import FixedBasePlant, base_wrench
 
 __all__ = ["StateSampler", "sample_grid", "quantize", "noise_streams", "base_wrench", "mount_wrenches", "truth_terms"]
 
@@ -109,26 +109,6 @@ class StateSampler:
             F[inside] = ((6 * s2 - 6 * s) * (tr.x[i, iP] - tr.x[i + 1, iP]) / h + (3 * s2 - 4 * s + 1) * tr.xd[i, iP]
                          + (3 * s2 - 2 * s) * tr.xd[i + 1, iP])
         return np.maximum(F, 0.0)
-
-
-def base_wrench(plant: FixedBasePlant, q, v, a, F):
-    """Wrench of the arm on its mounting, base frame, about the base origin: (force [N],
-    moment [N m]). Newton-Euler (RNEA) with the contact force as an external force on the
-    link that carries the impact point; the arm's weight is included (the sensor reads it)."""
-    model, data = plant.model, plant.data
-    jid = model.frames[plant.fid].parentJoint
-    placement = model.frames[plant.fid].placement
-    fext = [pin.Force.Zero() for _ in range(model.njoints)]
-    pin.forwardKinematics(model, data, q)
-    R = data.oMi[jid].rotation
-    f_local = R.T @ (plant.n * F)
-    r = placement.translation
-    torque = np.array([r[1] * f_local[2] - r[2] * f_local[1], r[2] * f_local[0] - r[0] * f_local[2],
-                       r[0] * f_local[1] - r[1] * f_local[0]])
-    fext[jid] = pin.Force(f_local, torque)
-    pin.rnea(model, data, q, v, a, fext)
-    w = data.oMi[1].act(data.f[1])
-    return -np.array(w.linear), -np.array(w.angular)
 
 
 # -- fast recording: the per-sample Pinocchio evaluations of :func:`.simulate.record` ----------

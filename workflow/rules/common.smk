@@ -66,10 +66,13 @@ PAPER_FILE = str(runner.package_file("paper.yaml"))
 def source_files(*patterns):
     """Files of the campaign package a rule's jobs run (glob patterns relative to the package)."""
     package = Path(runner.__file__).resolve().parent
-    files = sorted({f for pattern in patterns for f in package.glob(pattern) if f.is_file()})
-    if not files:
-        raise WorkflowError(f"no package source matches {patterns} under {package}")
-    return files
+    files = set()
+    for pattern in patterns:
+        matched = {f for f in package.glob(pattern) if f.is_file()}
+        if not matched:   # a moved module must not drop out of its stage's digest unnoticed
+            raise WorkflowError(f"no package source matches {pattern!r} under {package}")
+        files |= matched
+    return sorted(files)
 
 
 def code_digest(*patterns):
@@ -92,10 +95,12 @@ def code_digest(*patterns):
 
 
 # the code behind each stage (see code_digest)
-CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive.py")
-CODE_IDENTIFY = code_digest("identify.py", "robot/*.py", "robot/*/*", "archive.py", "runner.py")
-CODE_FIT = code_digest("fit.py", "exiit.py")
-CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py")
+CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive/*.py",
+                            "checks.py", "cellpath.py")
+CODE_IDENTIFY = code_digest("identify/*.py", "robot/*.py", "robot/*/*", "archive/*.py", "runner.py", "checks.py",
+                            "cellpath.py")
+CODE_FIT = code_digest("fit.py", "exiit.py", "runner.py")
+CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py", "runner.py", "htmlpage.py")
 
 
 def figure_code(name, *more):

@@ -33,7 +33,7 @@ rule fig5_joint3_motion:
         pdf=report(f"{RESULTS}/figures/fig5.pdf", caption="../report/fig5.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 5", "format": "PDF"}),
     params:
-        code=figure_code("fig5", "archive.py", "identify.py"),
+        code=figure_code("fig5", "archive/*.py", "identify/*.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
@@ -129,7 +129,7 @@ rule fig9_base_motion:
         pdf=report(f"{RESULTS}/figures/fig9.pdf", caption="../report/fig9.rst", category="Flexible base",
                    subcategory="Figures", labels={"figure": "Figure 9", "format": "PDF"}),
     params:
-        code=figure_code("fig9", "archive.py", "identify.py"),
+        code=figure_code("fig9", "archive/*.py", "identify/*.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1

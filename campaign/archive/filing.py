@@ -23,7 +23,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import h5py
 
-from .cellpath import misfiled
+from ..cellpath import misfiled
 
 __all__ = ["CELL_FIELDS", "filing_problems", "group_digests"]
 

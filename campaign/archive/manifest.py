@@ -1,0 +1,309 @@
+"""A campaign folder's index, README and manifest, finalisation and verification."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import io
+import json
+import os
+import re
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+from ..errors import InputError, TrialFileError
+from ..scene import BASES
+from ..schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
+from .fileformat import INDEX, INDEX_COLUMNS, MANIFEST, README, TRIAL_SUFFIX, _LABEL_LONG_NAMES, _TEMP_RE
+from ..progress import progress
+from .filing import filing_problems
+from .folder import TrialRecord, _campaign, _record, _rel, _trial_files, list_trials
+from .read import _inspect_isolated_many
+from .write import _replace_atomically
+
+
+@dataclasses.dataclass(frozen=True)
+class Problem:
+    """One problem :func:`verify` found: the file (relative to the campaign) and what is wrong."""
+
+    file: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.file}: {self.message}"
+
+
+# ---------------------------------------------------------------------------------------
+# manifest, index, README
+# ---------------------------------------------------------------------------------------
+def _sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _all_files(campaign: Path) -> list[Path]:
+    return sorted(p for p in campaign.rglob("*") if p.is_file() and p.name != MANIFEST)
+
+
+def _write_text(path: Path, text: str) -> Path:
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+    return _replace_atomically(path, write)
+
+
+def write_manifest(campaign_dir: str | os.PathLike) -> Path:
+    """Write ``MANIFEST.sha256``: the sha256 of every file of the campaign folder.
+
+    The format is ``sha256sum``'s (``<hex>  <relative path>``, sorted), so
+    ``cd <campaign_dir> && sha256sum -c MANIFEST.sha256`` checks it without this package.
+
+    Raises
+    ------
+    InputError
+        Not a campaign folder, or it holds a temporary file of an interrupted write (named)
+        or a file name ``sha256sum`` cannot list plainly (newline or backslash).
+    """
+    campaign = _campaign(campaign_dir)
+    lines = []
+    for file in progress(_all_files(campaign), desc="sha256", unit="file"):
+        rel = _rel(campaign, file)
+        if _TEMP_RE.match(file.name):
+            raise InputError(f"{campaign / rel} is a temporary file of an interrupted write: delete it "
+                             "(or rerun that trial) before finalizing")
+        if "\n" in rel or "\\" in rel:
+            raise InputError(f"{campaign / rel}: file names with newlines or backslashes cannot be listed")
+        lines.append(f"{_sha256_file(file)}  {rel}\n")
+    return _write_text(campaign / MANIFEST, "".join(lines))
+
+
+def write_index(campaign_dir: str | os.PathLike, *, records: Sequence[TrialRecord] | None = None) -> Path:
+    """Write ``index.csv``: one row per trial (:data:`INDEX_COLUMNS`), sorted by path.
+
+    ``records`` are the folder's :func:`list_trials`, when the caller has them already."""
+    campaign = _campaign(campaign_dir)
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=INDEX_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for rec in (list_trials(campaign) if records is None else records):
+        writer.writerow(rec.row())
+    return _write_text(campaign / INDEX, buf.getvalue())
+
+
+def _md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
+    rates: dict[str, set] = {dim: set() for dim in CLOCKS}
+    for rec in records:
+        params = json.loads(rec.scene_json)["params"]
+        for dim, clock in CLOCKS.items():
+            if clock.rate_key in params:
+                rates[dim].add(float(params[clock.rate_key]))
+    counts = {b: sum(r.base == b for r in records) for b in BASES}
+    clock_rows = [(f"`{dim}`", c.long_name, f"`{c.rate_key}`",
+                   ", ".join(f"{r:g}" for r in sorted(rates[dim])) or "-") for dim, c in CLOCKS.items()]
+
+    def var_rows(table):
+        return [(f"`{v.name}`", "(" + ", ".join(v.dims) + ")" if v.dims else "scalar", f"`{v.units}`",
+                 v.long_name, ", ".join(v.bases)) for v in table]
+
+    label_rows = [(f"`{d}`", _LABEL_LONG_NAMES[d], ", ".join(COORDS[d]) if COORDS[d] else "the robot's active joints")
+                  for d in COORDS]
+    header = ("variable", "dims", "units", "long_name", "bases")
+    parts = [
+        f"# Campaign archive `{name}`",
+        "",
+        f"Generated from `campaign/schema.py` (schema {SCHEMA_VERSION}) by `campaign archive finalize`; "
+        "do not edit, regenerate it.",
+        "",
+        f"{len(records)} trials: " + ", ".join(f"{counts[b]} {b}-base" for b in BASES) + ".",
+        "",
+        "## Files",
+        "",
+        f"- `<base>/config<N>/<gain>/v<speed m/s>/r<repeat>{TRIAL_SUFFIX}`: one trial, NetCDF4/HDF5 "
+        "(`config-custom` for a pose that is not a paper configuration).",
+        f"- `{INDEX}`: one row per trial: " + ", ".join(f"`{c}`" for c in INDEX_COLUMNS) + ".",
+        f"- `{MANIFEST}`: sha256 of every other file; check with `sha256sum -c {MANIFEST}` in this folder, "
+        "or `campaign archive verify <folder>` (also checks every trial against the schema).",
+        "",
+        "## Opening a trial",
+        "",
+        "```python",
+        "import xarray as xr",
+        f'with xr.open_dataset("fixed/config1/zero/v1.500/r00{TRIAL_SUFFIX}", engine="h5netcdf", group="measured") as ds:',
+        "    ds.load()",
+        "```",
+        "",
+        "Group `measured` holds what a real VES-II records (noisy, quantised, each channel on its own "
+        "clock) plus the instrument constants an experimenter knows; group `truth` holds the simulator's "
+        "exact states, kept apart (identification never reads it). The root group holds the global "
+        "attributes: ACDD-1.3 (`title`, `summary`, `keywords`, `Conventions`, `id`, `date_created`, "
+        "`creator_name`, `project`, `references`, `license`, `processing_level`), `schema_version`, the "
+        "full scene as `scene_json` with its `scene_sha256`, the RNG `seed`, the cell (`base`, `config`, "
+        "`gain`, `speed`, `repeat`, `robot`) and provenance (`campaign_version`, `git_commit`, library "
+        "versions). Each group also stores `content_sha256`, a digest of its attributes and data that "
+        "`campaign` checks on every read.",
+        "",
+        "## Clocks (time dimensions)",
+        "",
+        "Each time coordinate is float64 seconds from the start of the recording (`units = \"s\"`; no "
+        "`standard_name`, which CF keeps for times with a `since` epoch); the contact happens at a seeded, "
+        "jittered instant inside it.",
+        "",
+        _md_table(("dimension", "clock", "rate key (scene parameter)", "rate in this campaign [Hz]"), clock_rows),
+        "",
+        "## Label dimensions",
+        "",
+        _md_table(("dimension", "long_name", "values"), label_rows),
+        "",
+        "## Group `/measured`",
+        "",
+        _md_table(header, var_rows(MEASURED)),
+        "",
+        "## Group `/truth`",
+        "",
+        _md_table(header, var_rows(TRUTH)),
+        "",
+    ]
+    return "\n".join(parts)
+
+
+def write_readme(campaign_dir: str | os.PathLike, *, records: Sequence[TrialRecord] | None = None) -> Path:
+    """Write ``README.md``: every variable, unit, dims and clock of the schema, and the rates used.
+
+    Generated from :mod:`campaign.schema` and the trials' scenes, without a date, so the same
+    campaign always gets the same README. ``records`` as in :func:`write_index`.
+    """
+    campaign = _campaign(campaign_dir)
+    return _write_text(campaign / README, _readme_text(campaign.resolve().name,
+                                                       list_trials(campaign) if records is None else records))
+
+
+def finalize_campaign(campaign_dir: str | os.PathLike) -> dict[str, Path]:
+    """Check every trial, then write ``index.csv``, ``README.md`` and ``MANIFEST.sha256`` (last).
+
+    Returns
+    -------
+    dict
+        ``{"index": path, "readme": path, "manifest": path}``.
+
+    Raises
+    ------
+    TrialFileError
+        A trial fails its schema or content check (each named): a broken file is never
+        entered into the manifest.
+    InputError
+        Not a campaign folder, or a leftover temporary file.
+    """
+    campaign = _campaign(campaign_dir)
+    bad = []
+    files = list(_trial_files(campaign))
+    for file, found in zip(files, _inspect_isolated_many(files)):
+        bad += [f"{file}: {p}" for p in found]
+    if bad:
+        raise TrialFileError("cannot finalize, broken trial files: " + "; ".join(bad))
+    # the index and the README describe the same trials: their root attributes are read once
+    # (a few ms per file; 216 files in the full campaign)
+    records = list_trials(campaign)
+    misfiled = filing_problems(campaign, [_filing_record(r) for r in records])
+    if misfiled:
+        raise TrialFileError("cannot finalize, misfiled or duplicate trials: "
+                             + "; ".join(f"{campaign / rel}: {message}" for rel, message in misfiled))
+    return {"index": write_index(campaign, records=records), "readme": write_readme(campaign, records=records),
+            "manifest": write_manifest(campaign)}
+
+
+_MANIFEST_LINE = re.compile(r"^([0-9a-f]{64}) [ *](.+)$")
+
+
+def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
+    """Check a campaign folder against its manifest and every trial against the schema.
+
+    Reports, each with the file it concerns: a missing or malformed manifest, a file listed
+    but missing, a sha256 mismatch (altered, flipped bytes, truncated), a file not in the
+    manifest (including temporary files of interrupted writes), and for every trial file an
+    unreadable or truncated file, a schema version of another major, a missing channel or
+    group, content that does not match its ``content_sha256``; and an index that disagrees
+    with the trial files. Nothing is skipped: every file is looked at.
+
+    Returns
+    -------
+    list of Problem
+        Empty when the campaign is intact.
+
+    Raises
+    ------
+    InputError
+        Not a campaign folder.
+    """
+    campaign = _campaign(campaign_dir)
+    problems: list[Problem] = []
+    listed: dict[str, str] = {}
+    manifest = campaign / MANIFEST
+    if not manifest.is_file():
+        problems.append(Problem(MANIFEST, "missing: the campaign is not finalized (campaign archive finalize)"))
+    else:
+        for n, line in enumerate(manifest.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+            m = _MANIFEST_LINE.match(line)
+            if not m:
+                problems.append(Problem(MANIFEST, f"line {n} is not '<sha256>  <path>': {line[:80]!r}"))
+                continue
+            rel = m.group(2)
+            if rel.startswith("/") or ".." in Path(rel).parts:
+                problems.append(Problem(MANIFEST, f"line {n} names a path outside the campaign: {rel!r}"))
+                continue
+            listed[rel] = m.group(1)
+        for rel, digest in progress(listed.items(), desc="sha256", unit="file"):
+            file = campaign / rel
+            if not file.is_file():
+                problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
+            elif _sha256_file(file) != digest:
+                problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
+    on_disk = {_rel(campaign, f) for f in _all_files(campaign)}
+    for rel in sorted(on_disk - set(listed)):
+        if _TEMP_RE.match(Path(rel).name):
+            problems.append(Problem(rel, "temporary file of an interrupted write (delete it)"))
+        elif manifest.is_file():
+            problems.append(Problem(rel, f"not in {MANIFEST}"))
+    trials = [_rel(campaign, f) for f in _trial_files(campaign)]
+    for rel, found in zip(trials, _inspect_isolated_many([campaign / rel for rel in trials])):
+        problems += [Problem(rel, p) for p in found]
+    readable = []
+    for rel in trials:
+        try:
+            readable.append(_filing_record(_record(campaign, campaign / rel)))
+        except TrialFileError:
+            pass  # reported by the inspection above
+    index = campaign / INDEX
+    rows = None
+    if index.is_file():
+        try:
+            with open(index, newline="", encoding="utf-8") as fh:
+                rows = list(csv.DictReader(fh))
+            indexed = {row["path"] for row in rows}
+        except (KeyError, csv.Error, UnicodeDecodeError) as exc:
+            problems.append(Problem(INDEX, f"unreadable: {exc}"))
+            rows = None
+        else:
+            for rel in sorted(indexed - set(trials)):
+                problems.append(Problem(INDEX, f"lists {rel}, which is not a trial file of this campaign"))
+            for rel in sorted(set(trials) - indexed):
+                problems.append(Problem(rel, f"trial file not listed in {INDEX}"))
+    elif manifest.is_file():
+        problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
+    problems += [Problem(rel, message) for rel, message in filing_problems(campaign, readable, rows)]
+    return problems
+
+
+def _filing_record(rec: TrialRecord) -> dict[str, Any]:
+    """What :func:`campaign.archive.filing.filing_problems` reads of a trial."""
+    return {"path": rec.path, "base": rec.base, "config": rec.config, "gain": rec.gain, "speed": rec.speed,
+            "repeat": rec.repeat, "seed": rec.seed, "scene_json": rec.scene_json}

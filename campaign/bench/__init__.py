@@ -1,0 +1,59 @@
+"""Benchmarks of the simulated VES-II: work-precision, per-trial cost, stress (issue 8).
+
+Library code behind ``benchmarks/work_precision.py``, ``benchmarks/stress.py`` and
+``campaign bench``; nothing here is used by the campaign itself.
+
+Work-precision (:func:`work_precision`)
+    For representative scenes, every integration setting the rig supports
+    (``substeps_contact`` x ``substeps_free`` of its event-located RK4, see
+    :mod:`campaign.rig.integrate`), a uniform 0.1 ms step of the same integrator, and a
+    straightforward fixed-step RK4 (:func:`naive_rk4`, no event location, no analytic
+    swing, fixed horizon) are timed (median wall time per trial, settings interleaved
+    round-robin so a load change on the shared machine hits all of them alike) and compared
+    with a converged reference (the same scene at 32x the default substeps in and out of
+    contact) in (a) the identified m* and e, (b) the true post-impact velocities, (c) the
+    recorded channels (max error over the samples relative to the channel's peak-to-peak
+    excursion, measured and truth groups separately).
+
+Per-trial cost (:func:`trial_cost`)
+    Median simulation time per trial at the default setting and, separately, the time to
+    write its file (:func:`campaign.archive.write_trial`), beside the naive baseline in the
+    same run.
+
+Stress (:func:`stress_cases`, :func:`run_stress`)
+    Corners of the input space. Every case either passes the invariants of
+    :func:`check_invariants` or is refused before simulating (``InputError``) with a
+    message naming the cause. A ``SimulationError`` after work started is a reported
+    blow-up (no file written) and counts against the suite, as does anything else.
+
+Closed-form stress (:func:`closed_form_stress`)
+    Ex-IIT (eq 7, 11) towards the stretched singularity: finite or ``inf``, never NaN or
+    garbage; the conditioning of eq 11; the lambda fit on ill-conditioned designs.
+"""
+
+from __future__ import annotations
+
+from .common import (
+    write_section, machine_line, TARGET_FIXED, TARGET_FLEXIBLE, TARGET_WRITE, BASELINE_AT_TARGETS,
+    XARRAY_WRITE_AT_TARGETS, H5PY_WRITE_AT_TARGETS, TARGET_REL_ERR, REF_FACTOR, ERR_FLOOR, _md,
+)
+from .naive import naive_rk4, naive_trial
+from .work_precision import (
+    WPScene, Setting, wp_scenes, wp_settings, work_precision, pareto_front, format_wp_table,
+    plot_work_precision, rig_available, trial_errors, timing_noise, assign_fronts, wp_verdict,
+    format_wp_references,
+)
+from .cost import trial_cost, format_cost, truth_m_impulse, write_probe, cost_scenes
+from .stress import (
+    StressCase, StressResult, stress_cases, run_case, run_stress, check_invariants, format_stress,
+    ENERGY_RTOL, POST_SAMPLES, GROWTH_TOL, MEFF_LOWER, E_UPPER, LIMIT_TOL, PAPER_HIGH, stress_summary,
+)
+from .closed_form import closed_form_stress, format_closed_form, singular_pose, _q_dh
+
+__all__ = [
+    "naive_rk4", "naive_trial", "WPScene", "Setting", "wp_scenes", "wp_settings", "work_precision",
+    "pareto_front", "format_wp_table", "plot_work_precision", "trial_cost", "format_cost",
+    "StressCase", "StressResult", "stress_cases", "run_case", "run_stress", "check_invariants",
+    "format_stress", "closed_form_stress", "format_closed_form", "write_section", "machine_line",
+    "truth_m_impulse", "write_probe",
+]

@@ -1,0 +1,189 @@
+"""Arm velocity from the wrist F/T sensor: the arm's momentum change."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .._lazy import LazyModule
+from ..errors import InputError
+from .channels import _check_channels, _time
+from .contact import Contact
+from .options import FT_CHANNELS, IdentifyOptions
+
+#: imported on first use: the campaign's identification jobs read trials as plain arrays
+#: (``load_trial(path, arrays=True)``) and so never pay ~0.6 s for xarray and pandas
+xr = LazyModule("xarray")
+
+
+def _cross(a, b) -> np.ndarray:
+    """``a x b`` of 3-vectors, or column by column of stacks (3, k) broadcast against each
+    other: numpy.cross's products and differences in its order (the same numbers), without
+    its ~30 us of axis handling per call (the F/T momentum balance calls it three times per
+    F/T sample)."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
+def _momentum_map(model, data, q, frame_id: int):
+    """The arm's spatial-momentum map about the base origin and the impact point's kinematics.
+
+    Returns ``(A, p, Jt, com)``: ``A`` (6 x nv) with ``h = A v`` = (linear momentum [N s],
+    angular momentum about the base origin [N m s]), base axes; the impact point ``p`` [m];
+    its translational Jacobian ``Jt`` (3 x nv, base axes); the arm's centre of mass [m].
+    Pinocchio's centroidal map (about the centre of mass) shifted to the base origin. Link
+    inertias only: the armature (reflected rotor inertia) is a joint-space term, and the
+    mounting's F/T sensor does not see it either (:func:`campaign.rig.sensors.base_wrench`).
+    """
+    Ag = np.array(pin.computeCentroidalMap(model, data, q))
+    com = np.array(data.com[0])
+    A = Ag.copy()
+    A[3:] += _cross(com[:, None], Ag[:3])   # L_O = L_G + c x P
+    pin.updateFramePlacements(model, data)
+    p = np.array(data.oMf[frame_id].translation)
+    Jt = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+    return A, p, Jt, com
+
+
+def _zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Integral from ``ts[0]`` to each ``t`` of the zero-order-hold signal ``tau`` (value
+    ``tau[j]`` held on ``[ts[j], ts[j+1])``), shape (len(t), ncols)."""
+    cum = np.vstack([np.zeros((1, tau.shape[1])), np.cumsum(tau[:-1] * np.diff(ts)[:, None], axis=0)])
+    j = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, ts.size - 1)
+    return cum[j] + tau[j] * (t - ts[j])[:, None]
+
+
+def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: np.ndarray, Q: np.ndarray,
+                     opt: IdentifyOptions, where: str, info: dict | None = None):
+    """Tip velocities along n at the contact edges from the arm's momentum balance.
+
+    ``dh/dt = (contact wrench) + (gravity wrench change) - (F/T reading change)`` on the
+    F/T clock (module docstring, step 3). Returns ``(v_a, v'_a, "")``, or
+    ``(nan, nan, why)`` when the F/T channels cannot be used (the caller falls back to
+    the encoders and records why). ``info`` receives ``sd_delta`` (the F/T noise's
+    standard deviation of ``v'_a - v_a``) and ``v_post_start_jacobian``, the end
+    velocities mapped by the start pose's Jacobian, ``n . J(q_s) v(t_e)``
+    (``m_eff_estimator="impulse"``).
+    """
+    nan = float("nan")
+    if not all(name in measured.variables for name in FT_CHANNELS):
+        return nan, nan, "no F/T channels (ft_force, ft_torque)"
+    _check_channels(measured, FT_CHANNELS, where)
+    tft = _time(measured, "t_ft", where)
+    W = np.hstack([np.asarray(measured["ft_force"].values, float), np.asarray(measured["ft_torque"].values, float)])
+    if not np.all(np.isfinite(W)):
+        raise InputError(f"{where}: F/T channels have non-finite samples")
+    rest = (tft <= c.start - opt.ft_guard) & (tft >= c.start - opt.ft_guard - opt.ft_rest_window)
+    if rest.sum() < 5:
+        return nan, nan, f"only {int(rest.sum())} F/T samples in the {opt.ft_rest_window:g} s before the contact"
+    if not (tft[0] < c.start and tft[-1] >= c.end):
+        return nan, nan, "the F/T record does not cover the contact"
+    n_in = int(((tft >= c.start) & (tft <= c.end)).sum())
+    if n_in < opt.ft_min_samples:
+        # a contact of a few F/T samples is not resolved by trapezoids (ideal scene: 1 ms)
+        return nan, nan, f"the contact spans only {n_in} F/T samples (need {opt.ft_min_samples})"
+    pre = (tj < c.start) & (tj >= c.start - opt.joint_pre_window)
+    if pre.sum() < 2:
+        return nan, nan, "fewer than 2 joint samples before the contact"
+    W_rest = W[rest].mean(axis=0)
+    sig = W[rest].std(axis=0)
+    during = (tft >= c.start) & (tft <= c.end)
+    dF = np.abs(W[during, :3] - W_rest[:3]).max() if during.any() else 0.0
+    # on a fixed base the mounting carries the joint-1 reaction: tens of per cent of the
+    # contact force; a channel that does not move is not a sensor reading (e.g. zeros)
+    if not dF > max(5.0 * sig[:3].max(), 0.01 * c.peak):
+        return nan, nan, (f"the F/T force does not respond to the contact (change {dF:.3g} N, "
+                          f"noise {sig[:3].max():.3g} N, contact peak {c.peak:.3g} N)")
+
+    model = robot.model
+    data = model.createData()
+    # pre-contact state from the encoders: a line per joint over the pre window
+    x = tj[pre] - c.start
+    qs, qd = np.empty(model.nv), np.empty(model.nv)
+    for i in range(model.nv):
+        qs[i], qd[i] = np.polynomial.polynomial.polyfit(x, Q[pre, i], 1)
+    A, p, Jt, com0 = _momentum_map(model, data, qs, robot.impact_frame_id)
+    v_a = float(n @ Jt @ qd)
+    Jn_s = n @ Jt              # the start pose's Jacobian (m_eff_estimator="impulse")
+
+    # contact impulse along n from the piezo (baseline-corrected, clipped at 0), cumulative
+    tf = _time(measured, "t_force", where)
+    r = np.asarray(measured["f_piezo"].values, float) - c.baseline
+    inside = (tf > c.start) & (tf < c.end)
+    tt = np.concatenate([[c.start], tf[inside], [c.end]])
+    rr = np.concatenate([[0.0], np.clip(r[inside], 0.0, None), [0.0]])
+    I = np.concatenate([[0.0], np.cumsum(0.5 * (rr[1:] + rr[:-1]) * np.diff(tt))])
+
+    k0 = int(np.searchsorted(tft, c.start)) - 1          # last F/T sample before the start
+    k1 = int(np.searchsorted(tft, c.end))                # first F/T sample at/after the end
+    grid = tft[k0:k1 + 1]
+    dW = W[k0:k1 + 1] - W_rest
+    Ig = np.interp(grid, tt, I, left=0.0, right=I[-1])
+    mg = W_rest[:3]        # the arm's weight as the sensor reads it at rest (gravity's size and sign)
+    # servo torques are held between ticks, and each tick steps the reading by -A H^-1 dtau;
+    # a trapezoid across those steps is off by half a tick per step (1-3 % of h at High
+    # gains), so the held part is integrated exactly and only the rest by trapezoids
+    servo = "tau_cmd" in measured.variables and tuple(measured["tau_cmd"].dims) == ("t_servo", "joint")
+    if servo:
+        ts = _time(measured, "t_servo", where)
+        tau = np.asarray(measured["tau_cmd"].values, float)
+        servo = bool(np.all(np.isfinite(tau)) and ts[0] <= grid[0])
+    if servo:
+        tau0 = tau[int(np.searchsorted(ts, grid[0], side="right")) - 1]
+        Tcum = _zoh_integral(ts, tau - tau0, grid)
+        # a sample on a tick reads the new torque (the command written at the tick)
+        tau_at = tau[np.clip(np.searchsorted(ts, grid + 1e-9 * (grid[1] - grid[0]), side="right") - 1, 0, None)] - tau0
+    rows = {"all": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}[opt.ft_rows]
+    wrow = 1.0 / np.maximum(sig, np.array([1e-3] * 3 + [1e-4] * 3))[rows]
+
+    def wtau(Ak, Hk, dtau):
+        return -Ak @ np.linalg.solve(Hk, dtau)
+
+    q = qs + qd * (grid[0] - c.start)
+    v = qd.copy()
+    A, p, Jt, com = _momentum_map(model, data, q, robot.impact_frame_id)
+    h = A @ v
+    H = pin.crba(model, data, q)
+    u = np.empty(grid.size)
+    u[0] = n @ Jt @ v
+    u_lin = np.empty(grid.size)
+    u_lin[0] = Jn_s @ v
+    prev_smooth = dW[0] - (wtau(A, H, tau_at[0]) if servo else 0.0)
+    v_prev = v
+    for k in range(1, grid.size):
+        dt = grid[k] - grid[k - 1]
+        dI = Ig[k] - Ig[k - 1]
+        # the joints barely move: second-order Adams-Bashforth for q is ample; the moments
+        # of the contact force and of gravity take the mean of the step's end points (the
+        # gravity term is 10-20 % of the angular momentum at the contact end, so a step of lag
+        # in the centre of mass would cost 1-2 %)
+        p0, com_prev = p, com
+        q = q + (1.5 * v - 0.5 * v_prev) * dt
+        A_prev, H_prev = A, H
+        A, p, Jt, com = _momentum_map(model, data, q, robot.impact_frame_id)
+        dh = np.concatenate([n * dI, _cross(0.5 * (p0 + p), n) * dI])
+        dh[3:] += _cross(0.5 * (com_prev + com) - com0, mg) * dt
+        if servo:
+            H = pin.crba(model, data, q)
+            smooth = dW[k] - wtau(A, H, tau_at[k])
+            dh -= 0.5 * (smooth + prev_smooth) * dt + wtau(0.5 * (A_prev + A), 0.5 * (H_prev + H), Tcum[k] - Tcum[k - 1])
+            prev_smooth = smooth
+        else:
+            dh -= 0.5 * (dW[k] + dW[k - 1]) * dt
+        h = h + dh
+        v_prev = v
+        Aw = A[rows] * wrow[:, None]
+        v = np.linalg.lstsq(Aw, h[rows] * wrow, rcond=None)[0]
+        u[k] = n @ Jt @ v
+        u_lin[k] = Jn_s @ v
+    v_post = float(np.interp(c.end, grid, u))
+    if info is not None:
+        info["v_post_start_jacobian"] = float(np.interp(c.end, grid, u_lin))
+        # the F/T noise (the rest window's scatter per row) integrated over the contact:
+        # a random walk of var sig^2 dt^2 per sample in h, mapped to the tip like v
+        dt = float(np.median(np.diff(grid)))
+        Aw = A[rows] * wrow[:, None]
+        gtip = (n @ Jt) @ np.linalg.pinv(Aw) * wrow
+        info["sd_delta"] = float(np.sqrt(np.sum((gtip * sig[rows]) ** 2) * dt * dt * (grid.size - 1)))
+    return v_a, v_post, ""

@@ -1,0 +1,238 @@
+"""Tip-space arm velocity: fits of the impact point's position along n (LTI, polynomial, one-sided)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+from scipy.optimize import least_squares
+
+from .contact import _ContactInput
+from .options import IdentifyOptions
+
+
+# ----------------------------------------------------------------------------------------
+# arm
+# ----------------------------------------------------------------------------------------
+def _rotate(rotvec: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rotate ``v`` ((3,) or (N, 3)) by the rotation vectors ``rotvec`` (N, 3) (Rodrigues)."""
+    rotvec = np.atleast_2d(np.asarray(rotvec, float))
+    v = np.broadcast_to(np.asarray(v, float), rotvec.shape)
+    th = np.linalg.norm(rotvec, axis=1)[:, None]
+    k = rotvec / np.where(th > 0, th, 1.0)
+    c, s = np.cos(th), np.sin(th)
+    return v * c + np.cross(k, v) * s + k * np.sum(k * v, axis=1, keepdims=True) * (1 - c)
+
+
+def _tip_positions(robot, Q: np.ndarray) -> np.ndarray:
+    """Impact-point positions (N, 3) in the arm's base frame [m] (forward kinematics)."""
+    model = robot.model
+    data = model.createData()
+    out = np.empty((Q.shape[0], 3))
+    for i, q in enumerate(Q):
+        pin.framesForwardKinematics(model, data, q)
+        out[i] = data.oMf[robot.impact_frame_id].translation
+    return out
+
+
+def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: IdentifyOptions, fit: bool = True,
+             info: dict | None = None):
+    """Velocities along n at the contact edges from a position series ``s(t)`` [m].
+
+    Returns ``(v_a, v'_a, n_pre, n_contact, n_post, reason)``; ``reason`` is non-empty
+    (and the velocities nan) when a window has too few samples. With ``fit=False`` only the
+    windows are checked (velocities nan).
+    """
+    pre = (t < t_s) & (t >= t_s - opt.joint_pre_window)
+    contact = (t >= t_s) & (t <= t_e)
+    post = (t > t_e) & (t <= t_e + post_window)
+    n_pre, n_con, n_post = int(pre.sum()), int(contact.sum()), int(post.sum())
+    k = opt.resistance_order
+    reasons = []
+    if n_pre < opt.min_pre_samples:
+        reasons.append(f"only {n_pre} joint samples in the {opt.joint_pre_window:g} s before the contact "
+                       f"(need {opt.min_pre_samples})")
+    need_post = max(opt.min_post_samples, k + 2 if opt.arm_model == "onesided" else 0)
+    if n_post < need_post:
+        reasons.append(f"only {n_post} joint samples in the {post_window:g} s after the contact "
+                       f"(need {need_post})")
+    if reasons:
+        return float("nan"), float("nan"), n_pre, n_con, n_post, "; ".join(reasons)
+    if not fit:
+        return float("nan"), float("nan"), n_pre, n_con, n_post, ""
+    T = t_e - t_s
+    sel = pre | contact | post
+    if opt.arm_model in ("lti", "joint"):     # "joint" without a servo channel or on a flexible base
+        v_pre, v_post = _lti_fit(t[sel], s[sel], t_s, t_e, cin, info=info)
+    elif opt.arm_model == "poly":
+        tt, ss = t[sel], s[sel]
+        u = tt - t_s
+        up = np.clip(u, 0.0, None)
+        cols = [np.ones_like(u), u, cin.phi(tt)]
+        for m in range(1, k + 1):
+            cols.append(up ** (m + 1) / math.factorial(m + 1))
+        A = np.column_stack(cols)
+        sc = np.abs(A).max(axis=0)
+        sc[sc == 0] = 1.0
+        p, *_ = np.linalg.lstsq(A / sc, ss, rcond=None)
+        p = p / sc
+        v_pre = float(p[1])
+        v_post = float(p[1] + p[2] + sum(p[2 + m] * T**m / math.factorial(m) for m in range(1, k + 1)))
+    else:  # onesided
+        c = np.polynomial.polynomial.polyfit(t[pre] - t_s, s[pre], 1)
+        v_pre = float(c[1])
+        c = np.polynomial.polynomial.polyfit((t[post] - t_e) / post_window, s[post], k + 1)
+        v_post = float(c[1]) / post_window
+    return v_pre, v_post, n_pre, n_con, n_post, ""
+
+
+def _lti_kernels(a1: float, a0: float, x: np.ndarray):
+    """Impulse responses of ``y'' + a1 y' + a0 y = delta``: position ``h`` and velocity ``h'``.
+
+    Closed form with the (possibly complex) roots of ``s^2 + a1 s + a0``; the repeated-root
+    limit ``t exp(r t)`` is used when the roots nearly coincide (including a1 = a0 = 0,
+    the free double integrator ``h = t``).
+    """
+    disc = complex(a1 * a1 - 4.0 * a0)
+    sq = np.sqrt(disc)
+    r1, r2 = (-a1 + sq) / 2.0, (-a1 - sq) / 2.0
+    span = float(x[-1]) if x.size else 0.0
+    if abs(r1 - r2) * max(span, 1e-12) < 1e-6:
+        r = -a1 / 2.0
+        e = np.exp(r * x)
+        return x * e, (1.0 + r * x) * e
+    e1, e2 = np.exp(r1 * x), np.exp(r2 * x)
+    h = ((e1 - e2) / (r1 - r2)).real
+    hd = ((r1 * e1 - r2 * e2) / (r1 - r2)).real
+    return h, hd
+
+
+def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool, velocity: bool = True):
+    """Position and velocity responses of ``y'' + a1 y' + a0 y = input`` on ``cin.grid``.
+
+    Inputs: the normalised contact force ``g`` (integral 1) and, with ``with_step``, a
+    unit step from the contact start. Trapezoid-rule convolutions with the closed-form
+    impulse responses. Returns a list of (position, velocity) arrays; the force's velocity
+    response is None unless ``velocity`` (the fit's residuals need positions only, and each
+    convolution of a flexible-base trial's long grid costs ~0.5 ms).
+    """
+    dt = cin.dt
+    x = cin.grid - cin.grid[0]
+    h, hd = _lti_kernels(a1, a0, x)
+    n = x.size
+    out = []
+    pos = np.convolve(cin.g, h)[:n] * dt                              # h(0) = 0
+    vel = None
+    if velocity:
+        vel = np.convolve(cin.g, hd)[:n] * dt - 0.5 * dt * cin.g * hd[0]  # trapezoid end weight
+    out.append((pos, vel))
+    if with_step:
+        # response to a unit step: the integrals of h and h' from 0 to t
+        ipos = np.concatenate([[0.0], np.cumsum(0.5 * (h[1:] + h[:-1]) * dt)])
+        ivel = h
+        out.append((ipos, ivel))
+    return out
+
+
+#: starting points (a1 [1/s], a0 [1/s^2]) of the resistance-law fit: nearly free, and damped
+#: servo-like; the better end point wins
+_LTI_STARTS = ((1.0, 0.0), (30.0, 300.0))
+
+
+def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: dict | None = None):
+    """Fit ``s = s_s + v_a u + w y_f(t) + c y_step(t)`` (module docstring, ``arm_model="lti"``).
+
+    ``y_f`` and ``y_step`` are the responses of the joint-resistance law
+    ``y'' + a1 y' + a0 y = input`` to the normalised measured force and to a unit step
+    (Coulomb friction) from the contact start; ``(a1, a0) >= 0`` by bounded nonlinear least
+    squares, the linear coefficients by variable projection, three starting points.
+    Returns ``(v_a, v'_a)`` [m/s].
+    """
+    u = t - t_s
+    after = t >= t_s
+
+    def design(x, velocity=False):
+        resp = _lti_responses(cin, x[0], x[1], with_step, velocity)
+        cols = [np.ones_like(u), u]
+        for pos, _ in resp:
+            col = np.zeros_like(u)
+            col[after] = np.interp(t[after], cin.grid, pos)
+            cols.append(col)
+        return np.column_stack(cols), resp
+
+    def solve(x, velocity=False):
+        A, resp = design(x, velocity)
+        sc = np.abs(A).max(axis=0)
+        sc[sc == 0] = 1.0
+        p, *_ = np.linalg.lstsq(A / sc, s, rcond=None)
+        return p / sc, A, resp
+
+    def resid(x):
+        p, A, _ = solve(x)
+        return A @ p - s
+
+    best = None
+    for x0 in _LTI_STARTS:
+        r = least_squares(resid, x0, bounds=([0.0, 0.0], [1000.0, 1e5]), x_scale=[10.0, 500.0], method="trf")
+        if best is None or r.cost < best.cost:
+            best = r
+    p, A, resp = solve(best.x, velocity=True)
+    g_end = [float(np.interp(t_e, cin.grid, vel)) for _, vel in resp]
+    v_post = p[1] + sum(p[2 + i] * g for i, g in enumerate(g_end))
+    if info is not None:
+        # standard deviation of v'_a - v_a from the residual scatter (linear coefficients at
+        # the fitted a1, a0; 2 more degrees of freedom for those)
+        res = A @ p - s
+        dof = max(s.size - A.shape[1] - 2, 1)
+        sc = np.abs(A).max(axis=0)
+        sc[sc == 0] = 1.0
+        gvec = np.zeros(A.shape[1])
+        gvec[2:] = g_end
+        row = np.linalg.pinv(A / sc).T @ (gvec / sc)
+        info["sd_delta"] = float(math.sqrt(float(res @ res) / dof) * np.linalg.norm(row))
+    return float(p[1]), float(v_post)
+
+
+def _start_jacobian_series(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, t_s: float,
+                           rb_w: np.ndarray | None = None, tip0: np.ndarray | None = None) -> np.ndarray:
+    """The impact point's position along n with the joint motion mapped linearly through
+    the Jacobian at the contact start: ``n . (p(q_s) + J(q_s) (q(t) - q_s))`` [m].
+
+    The tip-space models (``lti``, ``poly``, ``onesided``) fitted to this series give
+    ``n . J(q_s) qd`` at both edges, the tip velocity change of eq 11's impulsive limit
+    (``m_eff_estimator="impulse"``), where forward kinematics gives ``n . J(q(t)) qd``.
+    ``q_s`` is a line per joint over the pre-contact samples, evaluated at ``t_s``. On a
+    flexible base (``rb_w``: the base rotation at the samples, ``tip0``: the tip at
+    ``q_cmd``) the arm part is rotated into the inertial frame as the forward-kinematics
+    series is; the base's own rotation over the contact is left as measured.
+    """
+    pre = t < t_s
+    if pre.sum() >= 2:
+        x = t[pre] - t_s
+        q_s = np.array([np.polynomial.polynomial.polyfit(x, Q[pre, i], 1)[0] for i in range(Q.shape[1])])
+    else:
+        q_s = Q[pre].mean(axis=0) if pre.any() else Q[0]
+    model = robot.model
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q_s)
+    p_s = np.array(data.oMf[robot.impact_frame_id].translation)
+    Jt_s = pin.computeFrameJacobian(model, data, q_s, robot.impact_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+    P = p_s + (Q - q_s) @ Jt_s.T
+    if rb_w is None:
+        return P @ n
+    return _rotate(rb_w, P - tip0) @ n
+
+
+def _tip_displacement(robot, q_cmd, n, t, s, t_s, t_e, post_window, opt):
+    """Largest tip displacement along n after the contact relative to the pre-contact mean
+    [m], and the joint encoders' resolution projected on the tip along n [m]."""
+    from ..exiit import impact_jacobian
+
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q_cmd)
+    Jn = n @ impact_jacobian(robot.model, data, q_cmd, robot.impact_frame_id)[:3]
+    quantum = float(np.sum(np.abs(Jn) * robot.encoder_resolution))
+    pre = (t < t_s) & (t >= t_s - opt.joint_pre_window)
+    post = (t > t_e) & (t <= t_e + post_window)
+    return float(np.max(s[post]) - np.mean(s[pre])), quantum
