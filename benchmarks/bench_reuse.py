@@ -94,7 +94,9 @@ def main(argv: list[str] | None = None) -> int:
                 "its 26 trials can make, the archive verified, nothing simulated. CPU [s] is Snakemake and all its "
                 "jobs (user + system); the stage columns split it by the jobs' `TIMING` lines (CPU seconds), "
                 "`Snakemake` being what no job spent. `load` is the 1-minute load average when the run ended: "
-                "other work on the machine stretches the wall time, not the CPU time.\n\n"
+                "other work on the machine stretches the wall time, not the CPU time. `CPU / cores` is what the "
+                "run needs of an otherwise idle 2-core machine if both cores stay busy, the floor of its wall "
+                "time there; start-up + imports (a fresh interpreter per job) is the largest part.\n\n"
                 f"{body}\n\n{machine()}")
         write_section(args.readme, HEADING, text)
     return 0
