@@ -1,4 +1,4 @@
-"""The committed reference archive as a regression baseline (issue 5, item 6).
+"""The committed reference archive as a regression baseline.
 
 ``archive/reference`` was produced by the project's own commands (the reduced campaign,
 see archive/README.md). Re-simulating its stored scenes must reproduce its channels, and
@@ -25,6 +25,14 @@ from campaign.scene import Scene
 ROOT = Path(__file__).resolve().parents[1] / "archive"
 REFERENCE = ROOT / "reference"
 STORED = ROOT / "reference.identification.csv"
+
+#: How closely identification on another machine reproduces the stored results. The
+#: joint-space fit's bounded scalar search of the viscous scale stops at xatol = 1e-3, so
+#: its result follows the last bits of a least-squares objective evaluated through the
+#: CPU's BLAS kernels: across CPUs m* agrees to ~3e-7 relative and a velocity near zero to
+#: ~1e-9 m/s, not bit for bit. Far below identification's accuracy (about 1e-3), far above
+#: what a change of method moves.
+IDENTIFY_REL, IDENTIFY_ABS = 1e-6, 1e-8
 
 #: a spread of the reference's cells: both bases, every gain, three configurations
 RESIMULATED = (
@@ -70,7 +78,7 @@ def test_identification_on_the_reference_reproduces_its_stored_results():
             if math.isnan(want):
                 assert math.isnan(got), (path, key)
             else:
-                assert got == pytest.approx(want, rel=1e-9, abs=1e-12), (path, key)
+                assert got == pytest.approx(want, rel=IDENTIFY_REL, abs=IDENTIFY_ABS), (path, key)
 
 
 def test_the_reference_reproduces_the_papers_fixed_base_effective_masses_within_10_percent():
