@@ -98,6 +98,10 @@ def test_reduced_campaign_makes_every_product(ci_run):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
         assert pdf.read_bytes()[:5] == b"%PDF-", pdf
         assert png.stat().st_size > 20_000, f"{png} is suspiciously small"
+    for name in ("plan_workspace", "plan_directions"):   # the impact planner's maps
+        png, pdf = results / "figures" / f"{name}.png", results / "figures" / f"{name}.pdf"
+        assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000, png
+        assert pdf.read_bytes()[:5] == b"%PDF-", pdf
     for t in (2, 3, 4):
         assert (results / "tables" / f"table{t}.md").read_text().startswith(f"### Table {t}")
     for log in (results / "logs").rglob("*.log"):
@@ -176,10 +180,12 @@ def test_report_builds(ci_run):
     text = report.read_text(errors="replace")
     assert report.stat().st_size > 100_000 and "Table 2" in text and "Figure 9" in text
     categories = json.loads(re.search(r"var categories = (\{.*?\});\n", text).group(1))
-    assert set(categories) == {"Fixed base", "Flexible base", "Virtual rotor inertia (lambda)", "Calibration"}
+    assert set(categories) == {"Fixed base", "Flexible base", "Virtual rotor inertia (lambda)", "Calibration",
+                               "Impact planner"}
     items = {Path(p).name for sub in categories.values() for files in sub.values() for p in files}
     assert {"table2.html", "table3.html", "table4.html", "calibration.html"} <= items
     assert {f"fig{i}.pdf" for i in range(4, 10)} | {f"fig{i}.png" for i in range(4, 10)} <= items
+    assert {"plan_workspace.pdf", "plan_directions.pdf"} <= items
     assert not any(name.endswith((".csv", ".md")) for name in items)
     table = (ci_run / "results" / "ci" / "tables" / "table2.html").read_text()
     assert table.count("<tr>") == 1 + 3 and "<th>Config</th>" in table  # header + configurations 1-3

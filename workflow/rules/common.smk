@@ -283,11 +283,6 @@ def fit_classes():
     return {k: [g for g in v if g in have] for k, v in GAIN_CLASSES.items() if any(g in have for g in v)}
 
 
-def fit_results():
-    """{gain class: the lambda fit's JSON} for Tables 3 and 4, in the paper's order."""
-    return {k: f"{RESULTS}/fit/lambda_{k}.json" for k in fit_classes()}
-
-
 def all_trials():
     """Every trial of the campaign (the archive's finalisation input)."""
     return [t for base in SWEEPS for b, c, g in cells(base) for t in cell_trials(b, c, g)]
@@ -296,12 +291,19 @@ def all_trials():
 # ----------------------------------------------------------------------------------------
 # products and what each needs
 # ----------------------------------------------------------------------------------------
-FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9")
+FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "plan_maps")
 TABLES = ("table2", "table3", "table4")
 
 
 def figure_files(name):
+    if name == "plan_maps":     # one job draws the planner's two maps
+        return figure_files("plan_workspace") + figure_files("plan_directions")
     return [f"{RESULTS}/figures/{name}.png", f"{RESULTS}/figures/{name}.pdf"]
+
+
+def fit_jsons():
+    """{gain class: lambda fit JSON} of the campaign, in the paper's order."""
+    return {k: f"{RESULTS}/fit/lambda_{k}.json" for k in fit_classes()}
 
 
 def table_files(name):
@@ -329,6 +331,9 @@ def missing_requirement(product):
         need = [("flexible", c, g) for c in (1, 2) for g in ("low", "high")]
         return "" if all(n in cells("flexible") for n in need) else \
             "needs bases.flexible with configurations 1, 2 and gains low, high"
+    if product == "plan_maps":
+        return "" if _fixed_complete() else \
+            "needs the fixed-base fit (bases.fixed with configurations 1-3, gain high and zero or low)"
     if product in ("table2", "table3"):
         return "" if _fixed_complete() else "needs bases.fixed with configurations 1-3, gain high and zero or low"
     if product == "table4":
@@ -339,7 +344,7 @@ def missing_requirement(product):
 
 
 def product_files(product):
-    return figure_files(product) if product.startswith("fig") else table_files(product)
+    return figure_files(product) if product.startswith(("fig", "plan")) else table_files(product)
 
 
 def requires(product):

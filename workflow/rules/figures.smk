@@ -1,5 +1,5 @@
-# Figures 4-9 of the paper (campaign.figures: one module per figure, one thin script each),
-# PNG for the report and PDF beside it.
+# Figures 4-9 of the paper and the impact planner's maps (campaign.figures: one module per
+# figure, one thin script each), PNG for the report and PDF beside it.
 
 
 rule fig4_arm_configurations:
@@ -142,3 +142,39 @@ rule fig9_base_motion:
         "../envs/campaign.yaml"
     script:
         "../scripts/fig9.py"
+
+
+rule planner_maps:
+    input:
+        unpack(lambda wc: fit_jsons()),
+        rig=RIG_FILE,
+        paper=PAPER_FILE,
+    output:
+        workspace=report(f"{RESULTS}/figures/plan_workspace.png", caption="../report/plan_workspace.rst",
+                         category="Impact planner", subcategory="Maps",
+                         labels={"map": "workspace", "format": "PNG"}),
+        workspace_pdf=report(f"{RESULTS}/figures/plan_workspace.pdf", caption="../report/plan_workspace.rst",
+                             category="Impact planner", subcategory="Maps",
+                             labels={"map": "workspace", "format": "PDF"}),
+        directions=report(f"{RESULTS}/figures/plan_directions.png", caption="../report/plan_directions.rst",
+                          category="Impact planner", subcategory="Maps",
+                          labels={"map": "directions", "format": "PNG"}),
+        directions_pdf=report(f"{RESULTS}/figures/plan_directions.pdf", caption="../report/plan_directions.rst",
+                              category="Impact planner", subcategory="Maps",
+                              labels={"map": "directions", "format": "PDF"}),
+    params:
+        code=figure_code("plan_maps", "plan.py", "exiit.py", "robot/*.py", "robot/*/*", "rig/contact.py",
+                         "rig/beam.py", "commands/plan.py", "scene.py", "paper.py"),
+        fits=lambda wc: list(fit_jsons().values()),
+        rig=config["rig"],
+        resolution=config.get("plan_maps", {}).get("resolution", 0.05),
+        config_=config.get("plan_maps", {}).get("config", 1),
+    log:
+        log_file("plan_maps"),
+    resources:
+        runtime=10,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/plan_maps.py"

@@ -28,7 +28,7 @@ rule table2_effective_mass:
 
 rule table3_virtual_rotor_inertia:
     input:
-        unpack(lambda wc: fit_results()),
+        unpack(lambda wc: fit_jsons()),
         paper=PAPER_FILE,
     output:
         csv=f"{RESULTS}/tables/table3.csv",
@@ -37,7 +37,7 @@ rule table3_virtual_rotor_inertia:
                     subcategory="Tables", labels={"table": "Table 3"}),
     params:
         code=CODE_TABLES,
-        classes=lambda wc: list(fit_results()),
+        classes=lambda wc: list(fit_jsons()),
     log:
         log_file("table3"),
     resources:
@@ -51,7 +51,7 @@ rule table3_virtual_rotor_inertia:
 
 rule table4_flexible_effective_mass:
     input:
-        unpack(lambda wc: fit_results()),
+        unpack(lambda wc: fit_jsons()),
         tables=lambda wc: ident_tables("flexible"),
         paper=PAPER_FILE,
     output:
@@ -61,7 +61,7 @@ rule table4_flexible_effective_mass:
                     subcategory="Tables", labels={"table": "Table 4"}),
     params:
         code=CODE_TABLES,
-        classes=lambda wc: list(fit_results()),
+        classes=lambda wc: list(fit_jsons()),
     log:
         log_file("table4"),
     resources:
