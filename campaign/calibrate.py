@@ -92,42 +92,61 @@ def load_calibration(path: str | Path | None = None) -> dict:
     return cfg
 
 
-def _trial_record(args) -> dict:
-    """Simulate one trial and keep what the objective needs (runs in a worker process)."""
-    base, config, gain, speed, repeat, params, rig = args
-    from .rig import simulate
+def _batch_records(jobs) -> list[dict]:
+    """Simulate trials together (the batched rig) and keep what the objective needs; runs
+    in a worker process when the sweep is split across workers."""
+    from .errors import SimulationError
+    from .rig.batch import simulate_batch
     from .scene import make_scene
 
-    scene = make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat, params=params, rig=rig)
-    tree = simulate(scene)
-    tr, m = tree["truth"], tree["measured"]
-    vb, vbp, va, vap = (float(tr[k]) for k in ("v_b_pre", "v_b_post", "v_a_pre", "v_a_post"))
-    m_b = float(m.hammer_mass_eff)
-    q3 = tr.q.isel(joint=-1).values
+    scenes = [make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat, params=params, rig=rig)
+              for base, config, gain, speed, repeat, params, rig in jobs]
+    trials = simulate_batch(scenes)
+    for scene, trial in zip(scenes, trials):
+        if isinstance(trial, SimulationError):
+            raise SimulationError(f"{scene.cell}: {trial}")
+    return [_record(job, trial) for job, trial in zip(jobs, trials)]
+
+
+def _record(job, trial) -> dict:
+    """The objective's numbers of one simulated trial (campaign.schema.TrialArrays)."""
+    base, config, gain, speed, repeat = job[:5]
+    tr, m = trial["truth"].data_vars, trial["measured"].data_vars
+    vb, vbp, va, vap = (float(tr[k].values) for k in ("v_b_pre", "v_b_post", "v_a_pre", "v_a_post"))
+    m_b = float(m["hammer_mass_eff"].values)
+    q3 = tr["q"].values[:, -1]
     rec = {
         "base": base, "config": config, "gain": gain, "speed": speed, "repeat": repeat,
         "m_eff": m_b * (vb - vbp) / (vap - va) if vap != va else math.inf,
         "e": (vap - vbp) / (vb - va),
-        "peak_force": float(tr.peak_force),
+        "peak_force": float(tr["peak_force"].values),
         "joint3_excursion_deg": float(np.degrees(np.max(np.abs(q3 - q3[0])))),
     }
     if base == "flexible":
-        x = m.base_position.sel(axis="x").values
+        x = m["base_position"].values[:, 0]     # axis x
         rec["peak_base_x"] = float(np.max(np.abs(x)))
     return rec
 
 
 def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = "fixed", rig=None,
                   configs=None, gains=None, workers: int | None = None) -> list[dict]:
-    """Simulate the sweep with rig parameter overrides ``params``; one record per trial."""
+    """Simulate the sweep with rig parameter overrides ``params``; one record per trial.
+
+    The trials run through the batched rig (:func:`campaign.rig.batch.simulate_batch`),
+    split into one batch per worker process when ``workers`` > 1."""
     jobs = [(base, int(c), g, float(v), int(r), dict(params), rig)
             for c in (configs or sweep["configurations"]) for g in (gains or sweep["gains"])
             for v in sweep["speeds"] for r in range(int(sweep.get("repeats", 1)))]
     workers = int(workers or sweep.get("workers", 1))
     if workers <= 1:
-        return [_trial_record(j) for j in jobs]
+        return _batch_records(jobs)
+    chunks = [jobs[i::workers] for i in range(workers)]
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(_trial_record, jobs, chunksize=max(1, len(jobs) // (4 * workers))))
+        parts = list(pool.map(_batch_records, chunks))
+    records: list = [None] * len(jobs)
+    for i, part in enumerate(parts):
+        records[i::workers] = part      # chunk i holds jobs i, i + workers, ...
+    return records
 
 
 def _summary(records: list[dict]) -> dict:

@@ -34,7 +34,7 @@ import sys
 import time
 import traceback
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Mapping, Sequence, TextIO
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence, TextIO
 
 from .cellpath import misfiled
 
@@ -339,8 +339,12 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job", exit_process: b
 def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike, speeds: Sequence[float],
               repeats: int, campaign_seed: int = 0, gain_overrides: Mapping | None = None,
               rig: str | os.PathLike | None = None, params: Mapping[str, Any] | None = None,
-              expected: Iterable[str] | None = None, timer: Timer | None = None) -> list[Path]:
+              expected: Iterable[str] | None = None, timer: Timer | None = None, threads: int = 1,
+              progress: Callable[[int, int, str], None] | None = None) -> list[Path]:
     """Simulate every speed x repeat of sweep cells and write one trial file per trial.
+
+    The trials are integrated together, in lock-step, by the batched rig
+    (:func:`campaign.rig.batch.simulate_batch`: the same numbers as one trial at a time).
 
     Parameters
     ----------
@@ -365,6 +369,11 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
         them, or a declared file no scene writes, raises before anything is simulated.
     timer : Timer, optional
         Receives the seconds spent in ``simulate`` and ``write``.
+    threads : int
+        OpenMP threads of the batched Pinocchio calls (one: jobs already run side by side).
+    progress : callable, optional
+        Called as ``progress(done, total, cell)`` as each trial finishes (``campaign sweep``
+        draws its progress line from it).
 
     Returns
     -------
@@ -377,13 +386,15 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
         A bad cell, speed, repeat count or rig parameter (before any simulation), or a
         mismatch with ``expected``.
     campaign.errors.SimulationError
-        A trial failed to integrate; trials already written stay (each is complete).
+        One or more trials failed to integrate, each named with its cell and its message;
+        every other trial of the batch is written (each is complete).
     """
     timer = timer if timer is not None else Timer()
     with timer.imports():
         from .archive import trial_path, write_trial
         from .checks import check_rig_params, check_speeds, pendulum_reach
-        from .rig import simulate_arrays   # plain arrays: the job never imports xarray
+        from .errors import SimulationError
+        from .rig.batch import simulate_batch   # plain arrays: the job never imports xarray
         from .scene import make_scene
     # every speed within the pendulum's reach and distinct in its path, before any trial
     speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
@@ -410,12 +421,24 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
             raise ValueError("the trials to simulate differ from the declared outputs: "
                              + (f"not declared {extra[:3]} " if extra else "")
                              + (f"never written {missing[:3]}" if missing else ""))
-    written = []
     n = len(plan)
-    for i, (scene, path) in enumerate(plan, 1):
-        t0 = time.perf_counter()
-        with timer("simulate"):
-            trial = simulate_arrays(scene)
+    finished = [0]
+    t_start = time.perf_counter()
+
+    def done(i, _result):
+        finished[0] += 1
+        if progress is not None:
+            progress(finished[0], n, plan[i][0].cell)
+
+    with timer("simulate"):
+        results = simulate_batch([scene for scene, _ in plan], threads=threads, on_done=done)
+    per_trial = 1e3 * (time.perf_counter() - t_start) / max(n, 1)
+    written, failed = [], []
+    for i, ((scene, path), trial) in enumerate(zip(plan, results), 1):
+        if isinstance(trial, SimulationError):
+            failed.append(f"{scene.cell}: {trial}")
+            print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, FAILED: {trial}", flush=True)
+            continue
         t1 = time.perf_counter()
         with timer("write"):
             write_trial(trial, path)
@@ -423,9 +446,12 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
         truth = trial["truth"].data_vars
         duration = 1e3 * float(truth["contact_end"].values - truth["contact_start"].values)
         print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, contact {duration:.1f} ms, peak "
-              f"{float(truth['peak_force'].values):.1f} N; simulated {1e3 * (t1 - t0):.0f} ms, written "
+              f"{float(truth['peak_force'].values):.1f} N; simulated {per_trial:.0f} ms (batch mean), written "
               f"{1e3 * (t2 - t1):.0f} ms -> {path}", flush=True)
         written.append(path)
+    if failed:
+        raise SimulationError(f"{len(failed)} of {n} trials failed (the other {n - len(failed)} are written): "
+                              + "; ".join(failed))
     return written
 
 

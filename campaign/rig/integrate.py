@@ -28,7 +28,7 @@ from ..errors import SimulationError
 from .controller import PID
 from .plant import FixedBasePlant
 
-__all__ = ["Trajectory", "integrate_trial"]
+__all__ = ["Lane", "Trajectory", "integrate_trial", "trial_steps"]
 
 #: more events than this inside one servo tick is chattering (Zeno), not physics
 _MAX_EVENTS_PER_TICK = 50
@@ -79,17 +79,48 @@ def _hermite(x0, f0, x1, f1, h, s):
     return h00 * x0 + h10 * h * f0 + h01 * x1 + h11 * h * f1
 
 
+class Lane:
+    """A trial's integration state where a caller may take over its plain steps.
+
+    :func:`trial_steps` with ``lane=True`` yields this object at the top of every step
+    iteration of a fixed-base arm (``plant.batchable``) with not every joint stuck. There
+    the next iteration is one RK4 step of the arm, the hammer (swinging, in contact or
+    caught) and the contact, the event checks (a slipping joint's velocity or a stuck
+    joint's holding torque crossing its threshold, the contact's start or end, the
+    rebounding hammer's top) and possibly a servo tick, which :mod:`.batch` evaluates for
+    many trials at once. The caller either sends ``False`` (the generator takes the step
+    itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
+    lists, updating ``pid`` and ``gap_end`` in place), sets ``ticked`` if a servo tick
+    passed, ``k1_cached`` if its last evaluation was at the current state (the loop's
+    cache would have served the next step's first stage from it), and sends ``True``.
+    """
+
+    __slots__ = ("plant", "pid", "ts", "xs", "xds", "servo_t", "servo_tau", "T", "sub", "t_min_end",
+                 "t_max_end", "settle_velocity", "friction_events", "x", "t", "k_tick", "tau", "fs",
+                 "n_steps", "n_rhs", "ticked", "k1_cached", "caught", "t_catch", "reuse_eval", "sub_contact",
+                 "gap_end", "contact_v0", "contact_t0")
+
+
 def integrate_trial(plant, pid, **kwargs) -> Trajectory:
-    """Integrate one trial (see :func:`_integrate`); a diverging state is reported as a
+    """Integrate one trial (see :func:`trial_steps`); a diverging state is reported as a
     :class:`SimulationError` by the per-step finiteness check, not as NumPy warnings."""
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        return _integrate(plant, pid, **kwargs)
+        steps = trial_steps(plant, pid, **kwargs)
+        try:
+            next(steps)     # without ``lane`` it never yields: it returns the trajectory
+        except StopIteration as done:
+            return done.value
+        raise AssertionError("trial_steps yielded without lane=True")
 
 
-def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
-                    substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
-                    settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf) -> Trajectory:
-    """Integrate one trial from the first touch at ``t_contact`` until its outputs are recorded.
+def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
+                substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
+                settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf,
+                lane: bool = False):
+    """Integrate one trial from the first touch at ``t_contact`` until its outputs are
+    recorded; a generator whose return value (``StopIteration.value``) is the
+    :class:`Trajectory`. With ``lane`` it yields a :class:`Lane` wherever a caller may take
+    over plain steps (the batched integrator, :mod:`.batch`); without it, it never yields.
 
     The hammer is caught (held still) at the top of its rebound or ``catch_delay`` after it
     leaves the arm, whichever comes first, so it cannot strike twice.
@@ -157,9 +188,13 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
         c = last
         if (c is not None and c[0] is xx and c[1] is tau and c[2] is f and c[3] == contact_v0
                 and c[4] == caught and c[5] == tt):
-            return c[6]
-        out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
-        n_rhs += 1
+            if c[6] is not None:
+                return c[6]
+            # evaluated and counted by the caller the steps were handed to (Lane), not kept
+            out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
+        else:
+            out = plant.evaluate(xx, tau, f, contact_v0, caught, tt)
+            n_rhs += 1
         last = (xx, tau, f, contact_v0, caught, tt, out)
         return out
 
@@ -247,6 +282,16 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
     if friction_events:
         settle_modes(x)
 
+    handoff = None
+    if lane and getattr(plant, "batchable", False) and T_emu is None:
+        handoff = Lane()
+        handoff.plant, handoff.pid = plant, pid
+        handoff.ts, handoff.xs, handoff.xds, handoff.servo_t, handoff.servo_tau = ts, xs, xds, servo_t, servo_tau
+        handoff.T, handoff.sub, handoff.sub_contact = T, substeps_free, substeps_contact
+        handoff.reuse_eval, handoff.gap_end = reuse_eval, gap_end
+        handoff.t_min_end, handoff.t_max_end = t_min_end, t_max_end
+        handoff.settle_velocity, handoff.friction_events = settle_velocity, friction_events
+
     while True:
         # -- stop? ---------------------------------------------------------------------------
         if contact_v0 is None:
@@ -263,6 +308,24 @@ def _integrate(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: floa
             if t >= t_min_end - 1e-12 and (static or t >= t_max_end - 1e-12):
                 settled = static
                 break
+        if handoff is not None and not fs.all_stuck:
+            # a step the caller may take (see Lane)
+            c = last
+            handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, k_tick, tau, fs
+            handoff.n_steps, handoff.n_rhs, handoff.ticked = n_steps, n_rhs, False
+            handoff.caught, handoff.t_catch = caught, (math.inf if t_catch is None else t_catch)
+            handoff.contact_v0, handoff.contact_t0 = contact_v0, contacts[-1][0]
+            handoff.k1_cached = (c is not None and c[0] is x and c[1] is tau and c[2] is fs
+                                 and c[3] == contact_v0 and c[4] == caught and c[5] == t)
+            if (yield handoff):
+                x, t, k_tick, tau = handoff.x, handoff.t, handoff.k_tick, handoff.tau
+                n_steps, n_rhs = handoff.n_steps, handoff.n_rhs
+                if handoff.ticked:
+                    tick_events = 0
+                # the caller's last evaluation at this state (counted there) does not
+                # cross over: ev() makes it again without counting it twice
+                last = (x, tau, fs, contact_v0, caught, t, None) if handoff.k1_cached else None
+                continue
 
         # -- one step to the next boundary (a servo tick or a substep) -------------------------
         sub = substeps_contact if contact_v0 is not None else substeps_free

@@ -36,6 +36,10 @@ __all__ = ["FixedBasePlant", "FrictionState", "base_wrench"]
 
 _EMPTY = np.zeros(0)
 _LWA = pin.LOCAL_WORLD_ALIGNED
+#: ABA's world-frame convention: the one ``pinocchio.abaInParallel`` evaluates, so the
+#: batched integrator (:mod:`.batch`) and this one-trial path give the same bits (the local
+#: convention differs from it in the last digits)
+_WORLD = pin.Convention.WORLD
 
 
 def unit_axis(n) -> tuple[int, float] | None:
@@ -62,18 +66,21 @@ class FrictionState:
     coulomb : ndarray
         Coulomb torque of the slipping dofs (:meth:`FixedBasePlant.coulomb`) [N m].
     all_stuck, none_stuck : bool
+    stuck_mask : ndarray of bool
+        ``modes == 0``.
     reduced : tuple or None
         ``(model, data)`` of the arm with the stuck joints locked at their angles (Pinocchio
-        ``buildReducedModel``), for a partly stuck fixed-base arm: its ABA gives the free
-        joints' accelerations of the constrained dynamics directly.
+        ``buildReducedModel``), for a partly stuck arm: its ABA gives the free joints'
+        accelerations of the constrained dynamics directly.
     """
 
     __slots__ = ("modes", "stuck", "free", "coulomb", "all_stuck", "none_stuck", "reduced", "iv_free", "key",
-                 "stuck_limits", "slipping")
+                 "stuck_limits", "slipping", "stuck_mask")
 
     def __init__(self, modes, coulomb, iv0: int, tc_pos=None, tc_neg=None, sticky=None):
         self.modes = np.asarray(modes, dtype=int)
-        self.stuck = np.flatnonzero(self.modes == 0)
+        self.stuck_mask = self.modes == 0
+        self.stuck = np.flatnonzero(self.stuck_mask)
         self.free = np.flatnonzero(self.modes != 0)
         self.coulomb = coulomb
         self.all_stuck = self.free.size == 0
@@ -232,6 +239,9 @@ class FixedBasePlant:
 
     #: a fixed-base arm's constrained dynamics use reduced models (see :meth:`constrained`)
     _locks_stuck_joints = True
+    #: its plain steps (no joint stuck, out of contact) are the batched integrator's
+    #: (:mod:`.batch`): the right-hand side there is :meth:`rhs` with ``fs.none_stuck``
+    batchable = True
 
     def constrained(self, q, v, tau, fs: FrictionState):
         """Friction ``lam`` holding the stuck joints and the accelerations ``a`` of the
@@ -241,7 +251,7 @@ class FixedBasePlant:
         two Pinocchio calls instead of a CRBA, the bias terms and a small solve."""
         model, data = self.model, self.data
         if fs.none_stuck:
-            return _EMPTY, pin.aba(model, data, q, v, tau)
+            return _EMPTY, pin.aba(model, data, q, v, tau, _WORLD)
         a = np.zeros(self.nv)
         if not fs.all_stuck:
             rm, rd = fs.reduced
@@ -347,7 +357,7 @@ class FixedBasePlant:
         """Accelerations of the constrained dynamics (:meth:`constrained` without ``lam``):
         ABA on the full model, on the model with the stuck joints locked, or zero."""
         if fs.none_stuck:
-            return pin.aba(self.model, self.data, q, v, tau)
+            return pin.aba(self.model, self.data, q, v, tau, _WORLD)
         a = np.zeros(self.nv)
         if not fs.all_stuck:
             rm, rd = fs.reduced

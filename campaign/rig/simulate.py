@@ -284,18 +284,20 @@ def simulate_arrays(scene: Scene, *, integration: dict | None = None) -> TrialAr
     simulation jobs use it and never import xarray (~0.7 s per job, more than a fixed-base
     trial takes to simulate). :func:`to_tree` gives the DataTree :func:`simulate` returns."""
     rig = build(scene, integration=integration)
-    p = scene.p
-    subs = dict(substeps_contact=rig.substeps_contact, substeps_free=rig.substeps_free)
-    traj = integrate_trial(
-        rig.plant, rig.pid, t_contact=rig.t_contact, speed=scene.speed, servo_period=rig.servo_period,
-        min_post=rig.min_post, max_post=rig.max_post,
-        settle_velocity=float(p("trial.settle_velocity")), stick_velocity=float(p("arm.stick_velocity")),
-        catch_delay=float(p("pendulum.catch_delay")), **subs,
-    )
+    traj = integrate_trial(rig.plant, rig.pid, **integration_args(rig))
     trial = record_arrays(rig, traj)
     trial.attrs["integration_steps"] = int(traj.n_steps)
     trial.attrs["integration_rhs_evaluations"] = int(traj.n_rhs)
     return trial
+
+
+def integration_args(rig: Rig) -> dict:
+    """The integrator's keyword arguments for ``rig`` (:func:`.integrate.trial_steps`)."""
+    p = rig.scene.p
+    return dict(t_contact=rig.t_contact, speed=rig.scene.speed, servo_period=rig.servo_period,
+                min_post=rig.min_post, max_post=rig.max_post, substeps_contact=rig.substeps_contact,
+                substeps_free=rig.substeps_free, settle_velocity=float(p("trial.settle_velocity")),
+                stick_velocity=float(p("arm.stick_velocity")), catch_delay=float(p("pendulum.catch_delay")))
 
 
 def record(rig: Rig, traj) -> xr.DataTree:

@@ -1,7 +1,10 @@
 # Simulation: one job per unit of the sweep (job_unit sweep: base x gain set; cell: base x
 # configuration x gain set), writing one trial file per speed x repeat (atomically, through
-# campaign.archive.write_trial). Absent when `simulate: false`: the trials then come from
-# `reuse_archive` as plain source files.
+# campaign.archive.write_trial). A job integrates its trials together, in lock-step, through
+# Pinocchio's batched ABA (campaign.rig.batch); `threads:` is the OpenMP threads of those
+# calls: one, since Snakemake already runs jobs side by side (a profile giving a job more
+# cores may raise it; benchmarks/README.md measures 1 against 2). Absent when
+# `simulate: false`: the trials then come from `reuse_archive` as plain source files.
 #
 # A rerun is triggered by the rig or paper file (inputs) and by this unit's gain counts,
 # seed, speeds, repeats and rig overrides (params), so editing one gain set's counts reruns

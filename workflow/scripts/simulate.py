@@ -16,4 +16,5 @@ with runner.job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wil
         params=p.rig_params,
         expected=list(snakemake.output),  # noqa: F821
         timer=timer,
+        threads=snakemake.threads,  # noqa: F821
     )
