@@ -12,12 +12,13 @@ STAMP  := $(VENV)/.campaign-installed
 # 2 cores (profiles/default), then its HTML report, whose path it prints.
 CAMPAIGN_CMD = $(VENV)/bin/snakemake --cores 2 && $(VENV)/bin/snakemake --report results/full/report.html && echo "campaign report: $(CURDIR)/results/full/report.html"
 
-.PHONY: campaign test bench install lock help
+.PHONY: campaign test bench docs install lock help
 
 help:
 	@echo "make campaign   set up .venv if needed, then run the campaign ($(CAMPAIGN_CMD))"
 	@echo "make test       set up .venv if needed, then run the test suite (pytest)"
 	@echo "make bench      run every benchmarks/bench_*.py (timings; see benchmarks/README.md)"
+	@echo "make docs       build the user guide into docs/_build/html (Sphinx, warnings are errors)"
 	@echo "make install    only (re)install the project into .venv from $(LOCK)"
 	@echo "make lock       re-resolve pyproject.toml in a scratch venv and rewrite $(LOCK)"
 
@@ -29,6 +30,11 @@ test: $(STAMP)
 
 bench: $(STAMP)
 	@set -e; for script in benchmarks/bench_*.py; do echo "== $$script"; $(PY) $$script; done
+
+# The user guide (docs/): every warning, a broken cross-reference included, fails the build.
+docs: $(STAMP)
+	$(VENV)/bin/sphinx-build -b html -W --keep-going -n docs docs/_build/html
+	@echo "user guide: $(CURDIR)/docs/_build/html/index.html"
 
 install: $(STAMP)
 

@@ -27,7 +27,7 @@ With ``--repeats N`` each campaign runs N times, one after the other; the table 
 with the median wall time (its CPU split) and the range of the N wall times: on a machine
 shared with other work one run's wall and CPU times move by 10 % and more.
 
-Targets (issue 7, 2-core machine): full campaign <= 60 s, reduced <= 20 s. The script exits
+Targets (2-core machine): full campaign <= 60 s, reduced <= 20 s. The script exits
 with status 1 if a run fails; missing a target is reported, not an error.
 """
 
@@ -55,7 +55,7 @@ from campaign.bench import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 HEADING = "## Campaign wall time"
-TARGETS = {"full": 60.0, "ci": 20.0}  # seconds, issue 7
+TARGETS = {"full": 60.0, "ci": 20.0}  # seconds, 2-core machine
 CONFIGS = {"full": REPO / "config" / "config.yaml", "ci": REPO / "config" / "ci.yaml"}
 
 
@@ -96,7 +96,7 @@ def trials_per_job(results: Path) -> dict[str, int]:
 
 
 def machine_probe(repeats: int = 3) -> dict[str, float]:
-    """How fast the machine runs now: issue 3's write references
+    """How fast the machine runs now: the write references
     (:func:`campaign.bench.write_probe`: one NetCDF4 group through xarray/h5netcdf, about
     35 ms where the targets were set, and through plain h5py, about 3 ms) and its naive
     RK4 baseline (0.5 s of fixed-base trial at 0.1 ms steps; about 350 ms there for the
@@ -251,15 +251,15 @@ def main(argv: list[str] | None = None) -> int:
         "`Snakemake` being the CPU not spent in any job (DAG, scheduling, spawning, the script preambles' "
         "pickles). `CPU / cores` is what the run costs on an otherwise idle machine if both cores stay busy; "
         "`load` is the machine's 1-minute load average when the run ended (other work on the machine "
-        "stretches the wall time, not the CPU time). `xarray write probe` is issue 3's own machine reference, "
+        "stretches the wall time, not the CPU time). `xarray write probe` is the machine-speed reference of the rig's targets, "
         "one NetCDF4 group of a few channels written through xarray/h5netcdf (`campaign.bench.write_probe`; "
         f"about {XARRAY_WRITE_AT_TARGETS * 1e3:.0f} ms where the targets were set), the mean of its median just "
         "before and just after the run (in brackets); `scaled` is the run with its report times "
         f"{XARRAY_WRITE_AT_TARGETS * 1e3:.0f} ms / the probe, what it would take on that machine. The scaling suits "
         "Python-bound work and the rest (process start-up, two jobs sharing the cores) only roughly. "
-        "`naive baseline` is issue 3's straightforward RK4 (0.5 s of fixed-base trial at 0.1 ms steps) as "
+        "`naive baseline` is the straightforward RK4 (0.5 s of fixed-base trial at 0.1 ms steps) as "
         f"`campaign.bench.naive_rk4` implements it; it is not used for scaling, since ours does more per step "
-        f"than the issue's (about {BASELINE_AT_TARGETS * 1e3:.0f} ms there).",
+        f"than the one the targets were set against (about {BASELINE_AT_TARGETS * 1e3:.0f} ms there).",
         table(rows),
         "Per-job overhead against per-trial cost (the measurement behind `job_unit`):\n\n" + granularity(rows),
         machine() + " Rerun: `.venv/bin/python benchmarks/bench_campaign.py"

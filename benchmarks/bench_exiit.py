@@ -10,7 +10,7 @@ Usage::
     python benchmarks/bench_exiit.py                       # print the table
     python benchmarks/bench_exiit.py --readme benchmarks/README.md   # also record it there
 
-The target of issue 2 is at least 100,000 configurations per second on one core; the
+The target is at least 100,000 configurations per second on one core; the
 script exits with status 1 if the PUMA 560 batch at the largest size misses it.
 """
 
@@ -36,7 +36,7 @@ from campaign import __version__, exiit  # noqa: E402
 from campaign.robot import load_robot  # noqa: E402
 
 HEADING = "## Ex-IIT batch evaluation"
-TARGET = 100_000.0  # configurations per second, issue 2
+TARGET = 100_000.0  # configurations per second, one core
 
 
 

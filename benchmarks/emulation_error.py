@@ -3,7 +3,7 @@
 Simulates one flexible-base trial twice -- the VES-II emulation loop at its default rate,
 latency and bandwidth (``ves.mode = loop``), and arm + structure integrated as one system
 (``ves.mode = ideal``) -- and compares the emulated base displacement along x after the
-impact. Prints the peak displacements and their relative difference (issue 4 requires
+impact. Prints the peak displacements and their relative difference (the target is
 < 5 %), writes a PNG of both traces and, with ``--readme``, its section of
 benchmarks/README.md.
 

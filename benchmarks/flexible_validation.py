@@ -1,4 +1,4 @@
-"""Flexible-base validation: why the held-out Table 4 and Figure 9 comparisons miss (issue 9).
+"""Flexible-base validation: why the held-out Table 4 and Figure 9 comparisons miss.
 
 The rig is calibrated on fixed-base observations only; Table 4 (flexible-base m*) and
 Figure 9 (Low-vs-High reduction of the peak base amplitude) are held out. This diagnostic
@@ -402,7 +402,7 @@ def format_report(a: list[dict], b: dict, c: dict, servo: dict, seconds: float) 
     lo_f, hi_f = paper["impact_force_range_N"]
     lo_v, hi_v = paper["impact_speed_range_m_s"]
 
-    L = ["Held-out comparisons of the calibration (issue 9): why the rig's flexible-base m* misses the paper's "
+    L = ["Held-out comparisons of the calibration: why the rig's flexible-base m* misses the paper's "
          "Table 4 and why its Low-vs-High reduction misses Figure 9. Script: `benchmarks/flexible_validation.py` "
          "(its docstring describes the parts). m* *truth*: `m_b (v_b - v'_b) / (v'_a - v_a)` from the simulator's "
          "exact edge velocities; *identified*: `campaign.identify` on the measured channels; *eq 8*: "

@@ -1,4 +1,4 @@
-"""Identification accuracy against the simulator truth (issue 6).
+"""Identification accuracy against the simulator truth.
 
 Simulates the fixed-base sweep -- configurations 1-3 x gains zero/low/high x impact speeds
 1.0/1.5/2.0/2.5 m/s x 2 repeats, default scene -- at the paper's 50 Hz joint-encoder rate
@@ -10,11 +10,12 @@ Also checks the ideal scene (configurations 1-3 x 1.0/2.5 m/s).
 Variants:
 
 * ``old``: joint encoders (``lti``) with straight-line contact edges and the cubic pendulum
-  fit (the default before the F/T method);
+  fit (the simplest encoder method, for comparison);
 * ``previous``: joint encoders, power-law edges, cubic pendulum fit on 50 ms, 20 ms post-contact
-  joint window at 1 kHz (the 1 kHz default before the pendulum ODE fit);
-* ``before``: the default before the joint-dynamics model (``arm_model="lti"``: at 1 kHz the
-  tip-position LTI fit on a 40 ms post-contact window; at 50 Hz the F/T method, as now);
+  joint window at 1 kHz (what the pendulum ODE fit and the longer window improve on);
+* ``before``: the defaults with the tip-space model instead of the joint-dynamics model
+  (``arm_model="lti"``: at 1 kHz the tip-position LTI fit on a 40 ms post-contact window; at
+  50 Hz the F/T method, as the default);
 * ``encoders``: joint encoders with the default ``arm_model="joint"`` (joint-space dynamics
   driven by the measured servo torque, 60 ms post-contact window at 1 kHz);
 * ``ft``: the arm's momentum from the base F/T sensor and the piezo force;

@@ -1,4 +1,4 @@
-"""Numerical-stability stress suite of the simulated VES-II and the closed forms (issue 8).
+"""Numerical-stability stress suite of the simulated VES-II and the closed forms.
 
 A grid over the corners of the input space (``campaign.bench.stress_cases``): poses at and
 near the stretched singularity and at the joint limits; gains 0 to 1000x High; contact
@@ -15,7 +15,7 @@ pipeline (scene -> rig -> simulate -> invariants -> file) and ends as one of
 - reported blow-up: a ``SimulationError`` after the work started (no file written);
 - failed: anything else (an invariant broken, another exception, a file left behind).
 
-The issue asks for 0 failed (and a blow-up should be a refusal up front). The closed-form
+The target is 0 failed (and a blow-up should be a refusal up front). The closed-form
 part evaluates the Ex-IIT towards the stretched singularity, eq 11's conditioning, and the
 lambda fit on ill-conditioned designs.
 

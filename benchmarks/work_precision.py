@@ -1,4 +1,4 @@
-"""Work-precision of the simulated VES-II, and its per-trial cost (issue 8; issues 3 and 4).
+"""Work-precision of the simulated VES-II, and its per-trial cost.
 
 For representative scenes (fixed and flexible base, ideal and default scenes,
 configurations 2 and 3, Zero/Low/High gains) every integration setting of the rig's
@@ -98,7 +98,7 @@ def main(argv: list[str] | None = None) -> int:
             "Median wall time per trial at the default integration setting over the campaign's trials "
             "(configurations 1-3 fixed / 1-2 flexible, their gain sets, 1.0 and 2.5 m/s; "
             f"{cost['repeats']} timed runs each after a warm-up), the trial file written by "
-            "`campaign.archive.write_trial` timed separately, and the naive baseline of issue 3 in the same run. "
+            "`campaign.archive.write_trial` timed separately, and the naive baseline in the same run. "
             "Targets: simulation <= 25 ms (fixed) / <= 150 ms (flexible), writing <= 50 ms.",
             bench.format_cost(cost), bench.machine_line(),
         ])

@@ -1,24 +1,15 @@
 """Calibration of the simulated rig to the paper's fixed-base observations.
 
-A digital twin earns trust by fitting its unknowns on one set of observations and
-predicting another. :func:`calibrate` fits the unpublished rig parameters listed in
-``config/calibration.yaml`` by bounded nonlinear least squares
-(``scipy.optimize.least_squares`` in log-parameter space) so that a reduced fixed-base
-sweep matches the paper's Table 2 (m2, m3), the mean restitution of Figure 7, the force
-range of section 3 and the joint-3 excursion of Figure 5. The force range enters as a
-one-sided (hinge) residual, zero while every trial's peak force lies inside 30-70 N
-narrowed by a stated margin (:func:`force_band`), so the fit aims strictly inside the
-paper's range instead of onto its edges. It writes the fitted values back
-into ``config/rig.yaml`` with the date, the objective and the package version.
+:func:`calibrate` fits the unpublished rig parameters of ``config/calibration.yaml`` by
+bounded least squares so that a reduced fixed-base sweep matches the paper's Table 2 (m2,
+m3), Figure 7's mean restitution, section 3's force range and Figure 5, and
+:func:`write_back` records them in ``config/rig.yaml``. :func:`validate` then simulates
+what was held out (Table 4, Figure 9) and :func:`assess_held_out` marks each comparison
+met or missed, without refitting anything. Each evaluation uses the simulator's true edge
+velocities, since identification is validated on its own.
 
-:func:`validate` then simulates what was held out -- Table 4 (flexible base) and
-Figure 9's Low-vs-High reduction of the peak base amplitude -- and compares with the
-paper, without refitting anything.
-
-Every evaluation simulates the sweep from scratch (deterministic seeds), using the
-simulator's true edge velocities for m* and e: identification accuracy is validated
-separately (benchmarks/README.md, *Identification accuracy*) and would only add its own
-few-percent scatter to the objective.
+The objective, the targets and the measured results: user guide, *Calibration and
+validation* (``docs/calibration.rst``).
 """
 
 from __future__ import annotations
@@ -36,22 +27,22 @@ import numpy as np
 
 from . import __version__
 from .errors import InputError
-from .paper import config_dir, load_paper, read_yaml, yaml_load
+from .paper import config_dir, load_paper, yaml_load
 
 __all__ = ["CalibrationResult", "load_calibration", "sweep_records", "residuals", "residual_terms", "force_band",
            "hinge_log", "calibrate", "validate", "write_back", "assess_held_out", "impulsive_base_speed",
            "TABLE4_TOLERANCE", "TABLE4_ORDER", "FIGURE9_REDUCTION_BAND", "DIAGNOSIS"]
 
 # Targets of the held-out comparisons (the rig is calibrated on fixed-base observations and
-# validated on the flexible-base results it never saw); they are checked, never fitted.
+# validated on held-out flexible-base results); they are checked, never fitted.
 #: each simulated Table 4 cell (flexible-base m*) within this relative distance of the
 #: paper's experiment column
 TABLE4_TOLERANCE = 0.15
-#: the ordering Table 4 must keep (configuration 2 > configuration 1, High > Low, as the paper's):
+#: the ordering Table 4 must keep (configuration 2 > configuration 1, High > Low):
 #: pairs (larger cell, smaller cell)
 TABLE4_ORDER = (("2-low", "1-low"), ("2-high", "1-high"), ("1-high", "1-low"), ("2-high", "2-low"))
 #: band of the Low-vs-High reduction of the peak base amplitude, configurations 1 and 2
-#: (15-35 %: Figure 9's reported 20-30 % with a margin for reading the figure)
+#: (15-35 %, a band around Figure 9's reported 20-30 %)
 FIGURE9_REDUCTION_BAND = (0.15, 0.35)
 #: where the reasons of a missed held-out comparison are diagnosed with numbers
 DIAGNOSIS = "benchmarks/README.md, 'Flexible-base validation (held-out diagnosis)'"
@@ -66,20 +57,13 @@ def load_calibration(path: str | Path | None = None) -> dict:
     path = Path(path) if path is not None else config_dir() / "calibration.yaml"
     if not path.is_file():
         raise InputError(f"calibration file {path} does not exist")
-    cfg = read_yaml(path)
-    if not isinstance(cfg, dict):
-        raise InputError(f"calibration file {path}: expected a mapping of sections, got {type(cfg).__name__}")
+    with open(path) as fh:
+        cfg = yaml_load(fh)
     for key in ("sweep", "parameters", "observations", "optimizer"):
         if key not in cfg:
             raise InputError(f"{path}: missing section {key!r}")
-    if not isinstance(cfg["parameters"], dict) or not isinstance(cfg["observations"], dict):
-        raise InputError(f"{path}: sections 'parameters' and 'observations' must be mappings")
     for name, spec in cfg["parameters"].items():
-        bounds = spec.get("bounds") if isinstance(spec, dict) else None
-        if not (isinstance(bounds, list) and len(bounds) == 2
-                and all(isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)):
-            raise InputError(f"{path}: parameter {name} needs bounds: [low, high], got {bounds!r}")
-        lo, hi = bounds
+        lo, hi = spec["bounds"]
         if not (0 < lo < hi):
             raise InputError(f"{path}: parameter {name} needs bounds 0 < low < high, got {spec['bounds']}")
     missing = set(OBSERVATIONS) - set(cfg["observations"])
@@ -450,7 +434,7 @@ def _pct(x: float) -> str:
 
 
 def assess_held_out(table4: Mapping[str, Mapping], figure9: Mapping[Any, Mapping]) -> list[dict]:
-    """Mark each held-out comparison met or missed against their targets, with the
+    """Mark each held-out comparison met or missed against the validation targets, with the
     reason of a miss (pointing to :data:`DIAGNOSIS` for its numbers).
 
     Parameters
@@ -552,7 +536,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
     comparisons come from the campaign's own Table 4 (identified flexible-base m*, and the
     eq 8 prediction with the identified lambda) and its Figure 9 trials (``{"1-low": path,
     "1-high": ..., "2-low": ..., "2-high": ...}``), each marked met or missed against
-    the held-out targets (:func:`assess_held_out`) with the reason of a miss.
+    the validation targets (:func:`assess_held_out`) with the reason of a miss.
 
     Returns
     -------
@@ -633,7 +617,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
              f"Fit of {', '.join(record['values'])} on the paper's fixed-base observations "
              f"(`campaign calibrate`, {record['date']}, package {record['package_version']}, objective "
              f"{record['objective']}, {record['evaluations']} sweeps). Held-out rows are never fitted: they "
-             "come from this campaign's flexible-base trials, and are marked against their targets "
+             "come from this campaign's flexible-base trials, and are marked against the validation targets "
              f"(each Table 4 cell within {100 * TABLE4_TOLERANCE:.0f} % of the paper's experiment column with "
              f"its ordering kept; a Low-vs-High reduction of {100 * FIGURE9_REDUCTION_BAND[0]:.0f}-"
              f"{100 * FIGURE9_REDUCTION_BAND[1]:.0f} % for Figure 9). Held out: {n_met} of {len(held)} "

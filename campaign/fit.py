@@ -2,32 +2,14 @@
 
 :class:`LambdaFit` is a scikit-learn-shaped estimator: construct it with its settings,
 ``fit(Q, m_eff)`` does the work, fitted values end in ``_``, ``predict(Q)`` gives m*
-from eq 11. It fits
+from eq 11. It fits ``ln m*`` of eq 11 (with eq 7) over the trials of one gain class by
+nonlinear least squares on the log, with an analytic Jacobian; ``lambda`` is diagonal and
+>= 0 by default (eq 15), or a full symmetric positive semi-definite matrix. Confidence
+intervals come from a bootstrap stratified by configuration; a component the design cannot
+determine is flagged (:class:`IdentifiabilityWarning`, ``identifiable_``).
 
-    ln m*_i = -ln( n^T J_i (H_i + lambda)^-1 J_i^T n ) + r_i        (eq 11 with eq 7)
-
-over the trials of one gain class (all configurations, speeds and repeats of the fixed
-base) by nonlinear least squares on the log (``scipy.optimize.least_squares``): relative
-errors weigh the light folded arm and the heavy stretched arm alike. ``lambda`` is
-diagonal and >= 0 by default (eq 15; bounds), or a full symmetric positive semi-definite
-matrix ``L L^T`` (Cholesky factor ``L`` as the parameters). The Jacobian is analytic:
-with ``x = (H + lambda)^-1 J^T n`` and ``s = n^T J x = 1/m*``,
-``d ln m* / d lambda_jk = x_j x_k / s``.
-
-Uncertainty: a bootstrap over trials, stratified by configuration (each resample draws,
-with replacement, as many trials of each configuration as the data has, so no resample
-loses a configuration and turns the problem singular); percentile intervals.
-
-Identifiability: the sensitivity matrix ``S_cj = d ln m*_c / d ln lambda_j`` at the
-solution, one row per distinct configuration, and its 2-norm condition number. A component
-is flagged as not identifiable (a :class:`IdentifiabilityWarning` and the attributes
-``identifiable_`` / ``identifiability_`` / ``warnings_``) when its largest sensitivity is
-below ``min_sensitivity`` (doubling it changes no configuration's m* by more than that
-fraction) or its confidence interval is wider than ``max_relative_ci`` times its value.
-With the paper's three configurations and n = -x, d ln m*/d ln lambda is about
-0.005-0.024 for lambda_1 and lambda_2 but about 0.43 for lambda_3 (condition number
-about 350): lambda_1 and lambda_2 are nearly unidentifiable from that design, and the fit
-says so.
+The objective, the bootstrap, the identifiability test and the measured recovery: user
+guide, *The lambda fit* (``docs/lambda_fit.rst``).
 """
 
 from __future__ import annotations

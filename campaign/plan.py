@@ -36,7 +36,8 @@ from .exiit import RANGE_RTOL, impulse, lambda_matrix
 from .robot import Robot
 
 __all__ = ["PoseTerms", "Predictions", "pose_terms", "predict", "ImpactPlanner", "OBJECTIVES",
-           "horizontal_directions", "cone_directions", "peak_amplitude_factor", "check_object"]
+           "horizontal_directions", "cone_directions", "peak_amplitude_factor", "check_object",
+           "workspace_map", "direction_map"]
 
 #: quantities a plan can be ranked by (minimised)
 OBJECTIVES = ("impulse", "force", "displacement", "weighted")

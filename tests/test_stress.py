@@ -149,7 +149,7 @@ def test_cost_verdict_scales_by_the_write_reference_of_the_same_run():
     assert "ran at 1.00x" in bench.format_cost(cost(0.040, ref))
     assert "raw times are what the targets mean" in bench.format_cost(cost(0.040, ref))
     assert "raw times are what the targets mean" not in bench.format_cost(cost(0.040, 2 * ref))
-    assert "2.0x the issue's 350 ms" in bench.format_cost(cost(0.040, ref))
+    assert "2.0x the targets' 350 ms" in bench.format_cost(cost(0.040, ref))
 
 
 def test_write_probe_times_both_references():

@@ -1,4 +1,4 @@
-"""Benchmarks of the simulated VES-II: work-precision, per-trial cost, stress (issue 8).
+"""Benchmarks of the simulated VES-II: work-precision, per-trial cost, stress.
 
 Library code behind ``benchmarks/work_precision.py``, ``benchmarks/stress.py`` and
 ``campaign bench``; nothing here is used by the campaign itself.

@@ -13,17 +13,17 @@ from pathlib import Path
 from typing import Any
 
 
-#: per-trial simulation time targets of the rig issues (3 and 4) [s]
+#: per-trial simulation time targets of the rig (fixed and flexible base) and the trial write [s]
 TARGET_FIXED = 0.025
 TARGET_FLEXIBLE = 0.150
 TARGET_WRITE = 0.050
-#: the naive baseline's time on the machine the rig issue's targets were set on ("about
-#: 350 ms", issue 3) [s]; printed beside the rig's times as the issue asks, but not used to
-#: scale them: our naive RK4 (:func:`naive_rk4`) does more per step than the issue's
+#: the naive baseline's time on the machine the rig's targets were set on (about 350 ms)
+#: [s]; printed beside the rig's times, but not used to
+#: scale them: our naive RK4 (:func:`naive_rk4`) does more per step than that
 #: unpublished one (a FrictionState and the contact kinematics at every stage) and takes
-#: 2-2.6x that here, while the issue's write references below take 0.5-1.4x theirs
+#: 2-2.6x that here, while the write references below take 0.5-1.4x theirs
 BASELINE_AT_TARGETS = 0.350
-#: issue 3's own reference costs on the machine its targets were set on [s]: one NetCDF4
+#: the reference costs stated for the machine the targets were set on [s]: one NetCDF4
 #: group of a few channels written through xarray/h5netcdf ("about 35 ms whatever its
 #: size") and the same arrays through plain h5py ("about 3 ms"). Fixed library work that
 #: :func:`write_probe` repeats exactly, so ``probe / reference`` says how this machine, at
@@ -31,7 +31,7 @@ BASELINE_AT_TARGETS = 0.350
 #: scaled by the xarray figure (the Python-bound one, like the rig)
 XARRAY_WRITE_AT_TARGETS = 0.035
 H5PY_WRITE_AT_TARGETS = 0.003
-#: accuracy target of issue 8 for m* and e at the default setting (relative)
+#: accuracy target for m* and e at the default integration setting (relative)
 TARGET_REL_ERR = 1e-3
 #: the reference is the same scene at this multiple of the default substeps (in and out of contact)
 REF_FACTOR = 32

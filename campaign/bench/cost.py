@@ -36,7 +36,7 @@ def cost_scenes(*, quick: bool = False) -> list[tuple[str, dict]]:
 
 
 def write_probe(*, repeats: int = 7, samples: int = 500) -> dict[str, float]:
-    """Issue 3's two write references, timed here: median wall time [s] of writing one
+    """The two machine-speed write references, timed here: median wall time [s] of writing one
     NetCDF4 group of a few channels through xarray's h5netcdf engine (``"xarray"``) and of
     the same arrays through plain h5py (``"h5py"``), each into a fresh file.
 
@@ -92,7 +92,7 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
     writes: dict[str, list] = {}
     idents: list[float] = []
     skipped = []
-    # issue 3's xarray write reference is timed after every scene, so each trial's time can
+    # the xarray write reference is timed after every scene, so each trial's time can
     # be scaled by the machine's speed of the same minute: it drifts by 1.5x within a run
     naive_scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
     naive_rk4(naive_scene)   # warm-up
@@ -157,7 +157,7 @@ def _spread(values: Sequence[float]) -> tuple[float, float, float]:
 
 
 def _verdict(measured: float, scaled: float, target: float) -> str:
-    """Met here, met only once scaled to the machine the targets were set on (by issue 3's
+    """Met here, met only once scaled to the machine the targets were set on (by the
     xarray write reference), or missed."""
     if measured <= target:
         return "met"
@@ -197,7 +197,7 @@ def format_cost(c: dict[str, Any]) -> str:
     px, ph = c["probe_xarray"], c["probe_h5py"]
     rx = px[0] / XARRAY_WRITE_AT_TARGETS
     scale_note = (
-        f"Machine speed: issue 3 states two write costs measured where its targets were set, one NetCDF4 "
+        f"Machine speed: two write costs are stated for the machine the targets were set on, one NetCDF4 "
         f"group of a few channels through xarray/h5netcdf (about {XARRAY_WRITE_AT_TARGETS * 1e3:.0f} ms) and the "
         f"same arrays through plain h5py (about {H5PY_WRITE_AT_TARGETS * 1e3:.0f} ms). Timed after every scene of "
         f"this run (`campaign.bench.write_probe`) they took {px[0] * 1e3:.1f} ms ({px[1] * 1e3:.1f}-"
@@ -206,8 +206,8 @@ def format_cost(c: dict[str, Any]) -> str:
         + ("; within 25 % of that machine, so the raw times are what the targets mean. " if 0.8 <= rx <= 1.25 else ". ")
         + "The scaled column divides each trial's time by its scene's xarray ratio (the Python-bound "
         "reference, like the rig). The naive RK4 below is not used for scaling: ours took "
-        f"{b['naive_integration'] / BASELINE_AT_TARGETS:.1f}x the issue's {BASELINE_AT_TARGETS * 1e3:.0f} ms here "
-        "because it does more per step than the issue's unpublished one (a friction state and the contact "
+        f"{b['naive_integration'] / BASELINE_AT_TARGETS:.1f}x the targets' {BASELINE_AT_TARGETS * 1e3:.0f} ms here "
+        "because it does more per step than that unpublished one (a friction state and the contact "
         "kinematics at every stage); the machine-independent figure is the rig's ratio to it in the same run.")
     return "\n\n".join([table1, scale_note, table2, table3,
                         f"Identification of one trial (not part of the simulation time): median "

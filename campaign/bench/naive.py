@@ -14,7 +14,7 @@ from ..errors import InputError, SimulationError
 # the naive baseline: a straightforward fixed-step RK4
 # ---------------------------------------------------------------------------------------
 def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
-    """A straightforward fixed-step RK4 of a fixed-base trial, the baseline of issues 3 and 8.
+    """A straightforward fixed-step RK4 of a fixed-base trial, the baseline the rig's timing targets are set against.
 
     What "straightforward" means here (everything the rig's integrator avoids):
 
@@ -35,7 +35,7 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     -------
     (rig, Trajectory)
         The assembled rig (:func:`campaign.rig.build`) and a
-        :class:`campaign.rig.integrate.Trajectory` that :func:`campaign.rig.simulate.record`
+        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.simulate.record``
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
     from ..rig.integrate import Trajectory

@@ -85,7 +85,7 @@ def _x(gains, k):
 
 
 def stress_cases(*, reduced: bool = False, flexible: bool = True) -> list[StressCase]:
-    """The corners of the input space (issue 8): poses at and near the stretched singularity
+    """The corners of the input space: poses at and near the stretched singularity
     and at the joint limits; gains 0 to 1000x High; contact stiffness 0.01x to 1000x; speeds
     0.01 to 10 m/s; hammer mass 0.01x to 100x m*; servo 100 Hz to 10 kHz; soft and stiff
     beams; coarse integration overrides; and some crossings of those corners."""

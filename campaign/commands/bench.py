@@ -1,4 +1,4 @@
-"""``campaign bench``: work-precision and per-trial cost, stress suite (issue 8).
+"""``campaign bench``: work-precision and per-trial cost, stress suite.
 
 ``campaign bench work-precision [--quick] [--out DIR]`` times every integration setting of
 the rig (and a naive fixed-step RK4) on representative scenes against a converged
@@ -22,7 +22,7 @@ def register(sub) -> None:
     p = sub.add_parser(
         "bench",
         help="work-precision / per-trial cost benchmark and the numerical stress suite",
-        description="Benchmarks of the simulated VES-II (issue 8). Timings are medians of repeated trials on "
+        description="Benchmarks of the simulated VES-II. Timings are medians of repeated trials on "
         "this machine; they are not tests.",
     )
     bsub = p.add_subparsers(dest="bench_command", metavar="BENCH", required=True)

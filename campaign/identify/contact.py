@@ -70,9 +70,9 @@ def _edge_zero(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_cross: float, si
 
     A straight line is fitted to the edge samples ``(t[idx], r[idx])``; the edge is where
     it reaches zero, provided its slope has the expected ``sign`` (+1 on the rising edge,
-    -1 on the falling edge). Falls back to the threshold crossing ``t_cross``. (A quadratic
-    was tried: on noisy 10 kHz records it scatters the start by up to 0.25 ms and does not
-    improve the end, so the line stays.)
+    -1 on the falling edge). Falls back to the threshold crossing ``t_cross``. (Not a quadratic:
+    on noisy 10 kHz records it scatters the start by up to 0.25 ms and does not improve the
+    end.)
     """
     if idx.size < 2:
         return float(t_cross)

@@ -1,4 +1,5 @@
-"""Arm velocity from the wrist F/T sensor: the arm's momentum change."""
+"""Arm velocity from the base F/T sensor: the arm's momentum, integrated from the measured wrench
+and the piezo force (user guide, *Identification*, step 3)."""
 
 from __future__ import annotations
 
@@ -59,7 +60,7 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
     """Tip velocities along n at the contact edges from the arm's momentum balance.
 
     ``dh/dt = (contact wrench) + (gravity wrench change) - (F/T reading change)`` on the
-    F/T clock (module docstring, step 3). Returns ``(v_a, v'_a, "")``, or
+    F/T clock (user guide, *Identification*, step 3). Returns ``(v_a, v'_a, "")``, or
     ``(nan, nan, why)`` when the F/T channels cannot be used (the caller falls back to
     the encoders and records why). ``info`` receives ``sd_delta`` (the F/T noise's
     standard deviation of ``v'_a - v_a``) and ``v_post_start_jacobian``, the end

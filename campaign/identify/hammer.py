@@ -52,7 +52,7 @@ def hammer_velocity(t, theta, t_edge: float, side: str, radius: float,
     ``theta'(t_edge) = b - w^2 S1(t_edge)``. The model holds over the whole free swing (no
     truncation), so the windows can be long enough to average the encoder's quantisation.
     ``pendulum_model="poly"``: a polynomial of degree ``pendulum_degree`` on a window of
-    ``pendulum_window``, evaluated at ``t_edge`` (the previous method, for comparison).
+    ``pendulum_window``, evaluated at ``t_edge`` (kept for comparison).
     Either way ``v = r theta' cos(theta)`` [m/s]. A run of one count lasting
     ``pendulum_stop_time`` (the brake holding the hammer) ends the window.
 

@@ -30,11 +30,13 @@ PENDULUM_MODELS = ("ode", "poly")
 ARM_VELOCITIES = ("auto", "ft", "encoders", "combined")
 FT_ROWS = ("all", "linear", "angular")
 JOINT_COULOMB = ("global", "joint", "sign")
-#: m* estimators (``IdentifyOptions.m_eff_estimator``; module docstring, step 4)
+#: m* estimators (``IdentifyOptions.m_eff_estimator``; user guide, *Identification*, step 4)
 M_EFF_ESTIMATORS = ("eq10", "impulse")
 #: channels the F/T momentum method reads (``tau_cmd`` optional: the servo-step split)
 FT_CHANNELS = {"ft_force": ("t_ft", "axis"), "ft_torque": ("t_ft", "axis")}
 
+#: measured accuracy of the default identification against the simulator truth (user guide,
+#: *Identification*, "Measured accuracy"; reproduce with benchmarks/identification_accuracy.py)
 ACCURACY_NOTE = """\
 |relative error| of m* (eq 10) and e (eq 12) against eq 10/12 on the simulator's true edge
 velocities, default options (arm_velocity="auto", arm_model="joint", power-law contact
@@ -51,7 +53,7 @@ noise and quantisation), median / 90th percentile / worst (benchmarks/identifica
   joint encoders at 1 kHz: encoder method, joint-dynamics model, 60 ms post window
     Zero  m* 0.07 / 0.18 / 0.31 %  Low m* 0.07 / 0.26 / 0.49 %  High m* 0.14 / 0.68 / 0.86 %
     e 0.01 % median, worst 0.09 %; every trial within the 1 % target
-    (before, arm_model="lti": Zero 0.39, Low 0.65, High 1.53 % worst; the misses were
+    (arm_model="lti": Zero 0.39, Low 0.65, High 1.53 % worst; the misses were
     config 2 High 1.0 m/s, +1.53 / -1.02 %, where the tip gains only 15 mm/s of a 57 mm/s
     impulse the servo and friction take back within the contact; noise-free encoders give
     the joint model v'_a - v_a within 0.41 % over the sweep, so the rest is the encoders'
@@ -107,7 +109,7 @@ class IdentifyOptions:
         Order of the polynomial resistance deceleration (``poly``; the ``onesided`` fit
         after the contact has degree ``resistance_order + 1``).
     arm_model : {"joint", "lti", "poly", "onesided"}
-        The encoder method's tip-velocity model (module docstring, step 3): ``joint``
+        The encoder method's tip-velocity model (user guide, *Identification*, step 3): ``joint``
         (default) the joint-space dynamics driven by the measured servo torque; it falls
         back to ``lti`` on a flexible base or without a usable ``tau_cmd`` channel. The
         others for comparison.
@@ -141,7 +143,7 @@ class IdentifyOptions:
         The tip must move along n by at least this many encoder steps (projected on the
         tip) after the contact, or the trial is excluded.
     arm_velocity : {"auto", "ft", "encoders", "combined"}
-        Tip-velocity method (module docstring, step 3): F/T momentum, joint encoders, both
+        Tip-velocity method (user guide, *Identification*, step 3): F/T momentum, joint encoders, both
         weighted by their variances, or
         ``auto`` (default): F/T when the joint samples are coarser than
         ``auto_joint_interval``, else the encoders. F/T falls back to the encoders with the
@@ -156,7 +158,7 @@ class IdentifyOptions:
         The static F/T reference is the mean over up to ``ft_rest_window`` ending
         ``ft_guard`` before the contact start [s].
     m_eff_estimator : {"eq10", "impulse"}
-        What ``m_eff`` estimates (module docstring, step 4). ``"eq10"`` (default, the
+        What ``m_eff`` estimates (user guide, *Identification*, step 4). ``"eq10"`` (default, the
         paper's): ``m_b (v_b - v'_b) / (v'_a - v_a)`` on the measured edge velocities.
         ``"impulse"``: the contact impulse over the tip's velocity change at the start
         pose, ``P / n.J(q_s)(qd' - qd)`` with ``P`` the hammer's momentum change less

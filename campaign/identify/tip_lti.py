@@ -141,7 +141,7 @@ _LTI_STARTS = ((1.0, 0.0), (30.0, 300.0))
 
 
 def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: dict | None = None):
-    """Fit ``s = s_s + v_a u + w y_f(t) + c y_step(t)`` (module docstring, ``arm_model="lti"``).
+    """Fit ``s = s_s + v_a u + w y_f(t) + c y_step(t)`` (user guide, *Identification*, step 3, ``arm_model="lti"``).
 
     ``y_f`` and ``y_step`` are the responses of the joint-resistance law
     ``y'' + a1 y' + a0 y = input`` to the normalised measured force and to a unit step

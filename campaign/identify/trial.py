@@ -266,8 +266,8 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
 
     dva = v_a_post - v_a
     if impulse_estimator:
-        # P / n.J(q_s)(qd' - qd): the contact impulse from the hammer (module docstring,
-        # step 4) over the impulsive-limit tip velocity change (the base's part as measured)
+        # P / n.J(q_s)(qd' - qd): the contact impulse from the hammer (user guide,
+        # *Identification*, step 4) over the impulsive-limit tip velocity change (the base's part as measured)
         imp_mom = _contact_impulse(m_b, radius, v_b, th_s, v_b_post, th_e, (w2_pre, w2_post), tp, theta, cin)
         dv_m = delta_lin + (vbase_post - vbase_pre)
     else:

@@ -2,9 +2,11 @@
 
 ``simulate(scene) -> xarray.DataTree`` with ``/measured`` (raw channels) and ``/truth``;
 ``simulate_arrays(scene)`` gives the same as plain arrays (``campaign.schema.TrialArrays``).
-Modules: :mod:`.contact`, :mod:`.pendulum`, :mod:`.controller`, :mod:`.plant`,
-:mod:`.integrate`, :mod:`.sensors`, :mod:`.simulate`; the flexible base adds
-:mod:`.beam`, :mod:`.ves`.
+Modules: :mod:`~campaign.rig.contact`, :mod:`~campaign.rig.pendulum`,
+:mod:`~campaign.rig.controller`, :mod:`~campaign.rig.plant`, :mod:`~campaign.rig.integrate`,
+:mod:`~campaign.rig.sensors`, :mod:`~campaign.rig.simulate`; the flexible base adds
+:mod:`~campaign.rig.beam`, :mod:`~campaign.rig.ves`, :mod:`~campaign.rig.ideal_base`,
+:mod:`~campaign.rig.flexible`. The methods: user guide, *The rig* (``docs/rig.rst``).
 """
 
 from .simulate import build, simulate, simulate_arrays

@@ -1,71 +1,15 @@
 """The flexible long-reach structure: a vertical cantilever beam with the arm's base at its tip.
 
-The paper (section 4.2) emulates "a vertical flexible cylindrical beam with EI = 2.5e8"
-supporting the PUMA 560; its eq 8 and Figure 2 describe the structure at the arm's base by
-a stiffness ``K``, a damping ``B`` and a mass ``M``. This module gives those three 6x6
-matrices at the beam tip for the two consumers of the flexible base: the VES-II emulation
-loop (:mod:`campaign.rig.ves`) and the ideal coupling (:mod:`campaign.rig.ideal_base`).
+The paper (section 4.2, eq 8, Figure 2) describes the structure at the arm's base by a
+stiffness ``K``, a damping ``B`` and a mass ``M``. This module gives those three 6x6
+matrices at the beam tip (Euler-Bernoulli stiffness, the Hermite consistent tip mass stored
+as a rigid body, modal damping) for the VES-II emulation loop (:mod:`campaign.rig.ves`) and
+the ideal coupling (:mod:`campaign.rig.ideal_base`). Tip displacements are
+``(u_x, u_y, u_z, theta_x, theta_y, theta_z)`` in Pinocchio's ``[linear; angular]`` order,
+``z`` up along the beam; the conjugate force is the wrench at the tip.
 
-Frames and coordinates
-----------------------
-The *tip frame* has its origin at the beam tip and its axes parallel to the world's, ``z``
-up along the beam. The tip displacement is ``x = (u_x, u_y, u_z, theta_x, theta_y,
-theta_z)``: translation [m] then a small rotation vector [rad], the same ``[linear;
-angular]`` order as Pinocchio's ``Motion`` and ``Force``. The generalised force conjugate
-to ``x`` is the wrench ``w = (f, m)`` applied at the tip (moment about the tip).
-
-Stiffness ``K`` (Euler-Bernoulli cantilever, clamped at its foot)
-    In each bending plane a tip force ``F`` and moment ``M`` give the tip deflection ``u``
-    and slope ``phi`` through the flexibility (e.g. Gere & Timoshenko, *Mechanics of
-    Materials*, cantilever tables)::
-
-        [u  ]   [L^3/(3EI)  L^2/(2EI)] [F]
-        [phi] = [L^2/(2EI)  L/EI     ] [M]
-
-    whose inverse is the coupled translation-rotation stiffness
-    ``EI/L^3 [[12, -6L], [-6L, 4L^2]]`` written in ``(u, phi)``. In the x-z plane the
-    slope is ``phi = +theta_y``; in the y-z plane it is ``phi = -theta_x``, which flips the
-    sign of the coupling term. Axial ``EA/L`` and torsion ``GJ/L`` complete ``K``. A tip
-    force alone deflects the tip by exactly ``F L^3 / (3 EI)``.
-
-Mass ``M_s`` (the structure as the arm feels it)
-    The beam's distributed mass is reduced to the tip with the cubic Hermite shape
-    functions of one beam element, i.e. the consistent mass of Przemieniecki (*Theory of
-    Matrix Structural Analysis*, 1968, eq 11.44)::
-
-        m/420 [[156, -22L], [-22L, 4L^2]]    in (u, phi).
-
-    Those cubics are the exact static deflection shapes under a tip force and moment, so
-    this is also Guyan's static condensation of any finer beam model onto the tip, and it
-    is the Rayleigh-Ritz model whose first-mode effective mass under a tip force is the
-    classical ``33/140 m`` (the static shape ``phi = 3u/(2L)`` gives ``99/420 m``). It
-    keeps the rotation inertia of the beam (``4 m L^2 / 420``), which matters once the
-    tip body is light. The 2x2 block is exactly that of a rigid body of mass
-    ``156/420 m`` whose centre of mass is ``22 L/156 = 0.141 L`` below the tip with a
-    bending inertia ``(4 - 484/156) m L^2 / 420`` about it, so the beam's share is stored
-    as a :class:`pinocchio.Inertia` and the emulated base (beam share + platform body) is
-    one rigid body, usable as the free-flyer base body of the ideal coupling. Two
-    components are approximated to keep it rigid: the axial mass is ``156/420 m``
-    instead of the consistent ``140/420 m`` (the axial mode is two orders of magnitude
-    above the first bending mode and far beyond any platform's bandwidth), and the
-    torsional inertia is ``m r_p^2 / 3`` (the consistent value of a uniform shaft), with
-    the polar radius of gyration of an axisymmetric section ``r_p^2 = 2 I / A =
-    2 EI/EA``.
-
-    With a tip body the first-mode frequency of this model is within 0.5 % of the exact
-    continuous Euler-Bernoulli value (:func:`exact_first_frequency`); the error is largest
-    (0.48 %) for a bare cantilever and falls as the tip body grows.
-
-Damping ``B`` (modal)
-    Every mode of the structure alone (``K phi = omega^2 M_s phi``, mass-normalised
-    ``Phi^T M_s Phi = I``) gets the damping ratio ``zeta``::
-
-        B = M_s Phi diag(2 zeta omega_i) Phi^T M_s.
-
-    Stiffness-proportional (Rayleigh) damping would give ``zeta omega_i / omega_1`` to the
-    higher modes (over-critical for the axial mode); modal damping keeps the one
-    published-style number for every mode. ``B`` is a property of the structure: with the
-    arm on top the coupled modes see nearly, not exactly, ``zeta``.
+Derivations and the accuracy of the mass model: user guide, *The rig*, section "The
+flexible long-reach structure" (``docs/rig.rst``).
 """
 
 from __future__ import annotations
@@ -276,8 +220,8 @@ class Beam:
 
     Notes
     -----
-    The model and its sources are in the module docstring. All matrices are read-only
-    arrays, computed once.
+    The model and its sources: user guide, *The rig*, "The flexible long-reach
+    structure". All matrices are read-only arrays, computed once.
     """
 
     EI: float

@@ -1,8 +1,8 @@
 """Ideal coupling: the beam's spring and damper acting on the free-flyer base.
 
 In the ideal (exactly coupled) mode of the flexible rig, arm and structure are integrated
-as one system: the Pinocchio free-flyer model of :func:`campaign.robot.floating.
-attach_to_floating_base` with the base body of :meth:`campaign.rig.beam.Beam.base_body`
+as one system: the Pinocchio free-flyer model of
+:func:`campaign.robot.floating.attach_to_floating_base` with the base body of :meth:`campaign.rig.beam.Beam.base_body`
 (beam share + platform, frame = beam tip frame) and, as the external force on the base
 joint, the wrench of :class:`IdealBase`. It is the reference against which the VES-II
 loop (:mod:`campaign.rig.ves`) is measured, so it removes the static load exactly as the

@@ -17,7 +17,7 @@ joint is in mode ``+1``/``-1`` (slipping, friction ``-(b v +- Tc)``) or ``0`` (s
 events: a slipping joint sticks where its velocity crosses zero and the holding torque is
 within the static limit; a stuck joint breaks away where the holding torque reaches it.
 
-Contact (see :mod:`.contact`): penetration ``delta = r sin(theta) - n.(p_tip - p_tip0)``;
+Contact (see :mod:`campaign.rig.contact`): penetration ``delta = r sin(theta) - n.(p_tip - p_tip0)``;
 the force ``F`` pushes the tip along ``+n`` and the hammer along ``-n``.
 """
 

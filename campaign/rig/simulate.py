@@ -180,7 +180,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                 "whose emulator steps the structure exactly, or a softer beam (flexible.beam_EI, beam_EA_ratio)")
         sub_f = max(sub_f, sub_free_min)
         # in contact the structure is integrated with the same RK4 step: it must resolve that
-        # mode as well (with 1 step per tick the ideal coupling's m* was 18 % off, benchmarks/)
+        # mode as well (with 1 step per tick the ideal coupling's m* is 18 % off, benchmarks/)
         sub_c = max(sub_c, sub_free_min)
     for key, value in (integration or {}).items():
         if key not in ("substeps_contact", "substeps_free") or not (isinstance(value, int) and value >= 1):

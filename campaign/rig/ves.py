@@ -1,71 +1,17 @@
 """The VES-II emulation loop: F/T wrench -> structure model -> delayed, band-limited platform.
 
-The MIT VES-II (paper section 3; Dubowsky et al., IROS 1994) measures the wrench between
-its Stewart platform and the arm with a 6-axis F/T sensor, integrates a computer model of
-the flexible structure under that wrench, and commands the platform to reproduce the
-computed motion in real time; in microgravity emulation the static gravity load measured
-before the experiment is removed (Corrigan & Dubowsky 1994). This module is that loop,
-pure and deterministic, one emulator tick per :meth:`VesLoop.step`:
+One emulator tick per :meth:`VesLoop.step`: the measured wrench (static load removed) is
+held over the tick and drives the structure model ``M_s x'' + B x' + K x = w`` advanced
+exactly (one precomputed matrix exponential); the computed pose reaches the platform
+``latency`` later (whole ticks) through a second-order Butterworth position servo of
+bandwidth ``f_b`` following a first-order-hold set-point. All of it is linear and
+time-invariant, so a tick is one matrix-vector product. ``w_meas`` is the wrench of the arm
+on the platform about the sensor origin (the mount); poses are the tip frame's
+``(position, rotation vector)`` from its initial pose, small-angle.
+:meth:`VesLoop.closed_loop_poles` checks a setting's stability against a rigid arm.
 
-1. **Structure** (6-DOF tip pose ``x``, :class:`~campaign.rig.beam.Beam`)::
-
-       M_s x'' + B x' + K x = w_meas - w_static,
-
-   the wrench sampled at the tick and held over it (zero-order hold: the emulator reads
-   the sensor once per tick). The state ``s = (x, x')`` is advanced exactly,
-   ``s_{k+1} = Phi s_k + Gamma (w_k - w_static)`` with ``Phi = expm(A h)`` and
-   ``Gamma = int_0^h expm(A t) dt B_u`` taken from one block-matrix exponential (Van
-   Loan 1978), precomputed once: exact for a held wrench and unconditionally stable, so
-   the stiff torsion and axial modes (hundreds of Hz) cost nothing.
-2. **Latency**: the pose computed at a tick reaches the platform ``N = round(latency *
-   rate)`` ticks later (a ring buffer); the emulator commands on its ticks only, so the
-   latency is quantised to whole ticks.
-3. **Platform**: a position servo per axis of finite bandwidth ``f_b``, a second-order
-   Butterworth low-pass ``p'' = w_b^2 (c - p) - sqrt(2) w_b p'`` (``w_b = 2 pi f_b``,
-   -3 dB exactly at ``f_b``, 4 % step overshoot, low-frequency lag ``sqrt(2)/w_b``).
-   Its set-point is the delayed structure pose, linearly interpolated between ticks
-   (first-order hold, as motion-platform controllers interpolate set-points): with zero
-   latency the set-point over tick ``k`` runs from ``x_k`` to ``x_{k+1}``, both known at
-   tick ``k``, so the hold adds no delay, and the platform acceleration the arm feels is
-   continuous (a held set-point would make it jump by ``w_b^2 dx`` at every tick). The
-   servo is discretised exactly for that ramp input (Franklin, Powell & Workman, *Digital
-   Control of Dynamic Systems*, sec. 6.3.2).
-
-All of it is linear and time-invariant, so one tick is one matrix-vector product on a
-stacked vector ``[s, p, w, ring entries, 1]`` (the ``1`` carries ``-w_static``): a few
-microseconds from Python.
-
-The loop closed through the arm
--------------------------------
-The arm's inertial reaction reaches the structure model only after the loop's effective
-delay (latency + servo lag ``sqrt(2)/w_b`` + the F/T sample; about 10 ms at the defaults
-1 kHz, 2 ms, 30 Hz). On the first mode this acts as added damping of about ``m_a tau
-w_1 / (2 (M_s + m_a))``: with a rigid 23 kg arm on the default beam the first mode keeps
-its frequency (within 0.2 %) but its damping ratio goes from 0.018 to about 0.045, the
-peak base displacement after an impact drops by about 4 % and the later vibration decays
-faster than in the ideal coupling. At higher frequencies the delayed reaction can feed
-energy in: with 2 ms latency the torsion mode (about 190 Hz) loses its damping when the
-platform bandwidth nears 50-70 Hz and the loop goes unstable beyond. And a platform much
-faster than the set-point ramp moves in straight segments whose acceleration the
-tick-synchronous F/T sample never sees, so the structure stops feeling the arm's mass
-(about +11 % peak displacement with a 10 kHz servo). :meth:`VesLoop.closed_loop_poles`
-checks any setting against a rigid arm (the worst case; a backdrivable arm shows the
-base less inertia).
-
-Conventions and limits
-----------------------
-* ``w_meas`` is the wrench of the arm **on** the platform (what the base F/T sensor
-  reports, ``ft_force``/``ft_torque`` of the trial schema): force [N] and moment about the
-  sensor origin [N m], platform axes. The sensor origin is the arm's mount,
-  ``mount_height`` above the beam tip; the loop moves the moment to the tip.
-* Poses are ``(position [m], rotation vector [rad])`` of the tip frame (= the free-flyer
-  base frame of the ideal coupling) from its initial pose; twists are their time
-  derivatives and accelerations their second derivatives. The structure model is linear
-  (small-angle): its displacements are millimetres and milliradians (a 50 N, 20 ms
-  impact moves the default base by about 0.2 mm), where the rotation vector, its rate and
-  the angular velocity agree to ``O(theta) ~ 1e-3`` relative, and platform and world
-  axes may be used interchangeably for the wrench. :func:`platform_motion` turns a state
-  into the Pinocchio placement and base-frame twist/acceleration the arm's model needs.
+The loop's equations, its discretisation and what the delay does to the coupled modes:
+user guide, *The rig*, section "The VES-II emulation loop" (``docs/rig.rst``).
 """
 
 from __future__ import annotations
@@ -264,7 +210,8 @@ class PlatformServo:
 
 class VesLoop:
     """The VES-II emulator: one tick per :meth:`step`, a structure model under the measured
-    wrench, a latency and a band-limited platform (see the module docstring).
+    wrench, a latency and a band-limited platform (user guide, *The rig*, "The VES-II
+    emulation loop").
 
     Parameters
     ----------

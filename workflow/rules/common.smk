@@ -81,8 +81,8 @@ def code_digest(*patterns):
     Each rule takes the digest of its stage's code as the param ``code``, so editing that
     code reruns the stage and what depends on it (the params rerun trigger; Snakemake's own
     code trigger covers only the rule's script). A digest rather than the files as inputs:
-    listed as inputs, the 5-24 sources of every job were stat'ed, sized and checksummed by
-    Snakemake each time it scheduled or finished a job, about 300 extra input files in the
+    listed as inputs, the 5-24 sources of every job would be stat'ed, sized and checksummed by
+    Snakemake each time it schedules or finishes a job, about 300 extra input files in the
     reduced campaign.
     """
     package = Path(runner.__file__).resolve().parent
