@@ -3,7 +3,7 @@
 Snakemake's report shows an HTML result inline and offers anything else (CSV, Markdown)
 as a download only; the tables and the calibration notes are written as HTML beside their
 Markdown so that the report shows them. This renders the Markdown the campaign itself
-writes (:meth:`campaign.tables.Table.to_markdown`, the calibration report): headings,
+writes (``campaign.tables.Table.to_markdown``, the calibration report): headings,
 paragraphs, pipe tables, bullet lists, and inline ``code``, ``**bold**`` and ``*italic*``.
 Everything else passes through as escaped text; no third-party Markdown package needed.
 """
