@@ -17,6 +17,7 @@ include: "workflow/rules/tables.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/archive.smk"
 include: "workflow/rules/calibration.smk"
+include: "workflow/rules/designed.smk"
 
 
 rule all:

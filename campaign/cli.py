@@ -22,7 +22,7 @@ from . import __version__
 from .errors import CampaignError
 
 #: command modules under campaign.commands, in the order --help lists them
-COMMANDS = ("meff", "plan", "map", "trial", "sweep", "archive", "identify", "calibrate", "bench")
+COMMANDS = ("meff", "plan", "map", "trial", "sweep", "design", "archive", "identify", "calibrate", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:

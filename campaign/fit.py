@@ -39,8 +39,8 @@ def design_arrays(robot, Q, n):
     robot : campaign.robot.Robot
     Q : array_like, shape (N, nv)
         DH joint angles [rad].
-    n : array_like, shape (3,)
-        Unit impact direction, base frame.
+    n : array_like, shape (3,) or (N, 3)
+        Unit impact direction, base frame: one for all configurations, or one per row.
 
     Returns
     -------
@@ -56,12 +56,13 @@ def design_arrays(robot, Q, n):
     model = robot.model
     data = model.createData()
     Q = np.asarray(Q, float)
+    N = np.broadcast_to(np.asarray(n, float), (Q.shape[0], 3))
     H = np.empty((Q.shape[0], model.nv, model.nv))
     Jn = np.empty((Q.shape[0], model.nv))
     for i, q in enumerate(Q):
         H[i] = inertia(model, data, q)
         pin.framesForwardKinematics(model, data, q)
-        Jn[i] = n @ impact_jacobian(model, data, q, robot.impact_frame_id)[:3]
+        Jn[i] = N[i] @ impact_jacobian(model, data, q, robot.impact_frame_id)[:3]
     return H, Jn
 
 
@@ -125,6 +126,9 @@ class LambdaFit:
         structure; for ``full``, per independent element ``j <= k``).
     configurations_ : ndarray, shape (n_configurations, nv)
         The distinct configurations (rows of ``sensitivity_``).
+    directions_ : ndarray, shape (n_configurations, 3)
+        The impact direction of each distinct configuration (a pose struck along two
+        directions is two configurations).
     condition_number_ : float
         2-norm condition number of ``sensitivity_`` (``inf`` if rank deficient).
     residuals_ : ndarray, shape (N,)
@@ -254,7 +258,7 @@ class LambdaFit:
         return out
 
     # -- public --------------------------------------------------------------------------
-    def fit(self, Q, m_eff, sample_weight=None) -> LambdaFit:
+    def fit(self, Q, m_eff, sample_weight=None, *, directions=None) -> LambdaFit:
         """Fit lambda to effective masses identified at configurations ``Q``.
 
         Parameters
@@ -265,6 +269,9 @@ class LambdaFit:
             Identified effective masses [kg], finite and > 0.
         sample_weight : array_like, shape (N,), optional
             Weights of the log residuals (e.g. inverse variances), > 0.
+        directions : array_like, shape (N, 3), optional
+            Unit impact direction of each trial, base frame; by default every trial is
+            struck along the estimator's ``direction``.
 
         Returns
         -------
@@ -289,15 +296,19 @@ class LambdaFit:
         w = np.ones(Q.shape[0]) if sample_weight is None else np.asarray(sample_weight, float)
         if w.shape != (Q.shape[0],) or not np.all(np.isfinite(w) & (w > 0)):
             raise InputError("sample_weight must hold one finite weight > 0 per trial")
-        H, Jn = design_arrays(robot, Q, n)
+        Nd = self._directions(directions, Q.shape[0], n)
+        H, Jn = design_arrays(robot, Q, Nd)
         y = np.log(m)
         n_par = nv if self.structure == "diagonal" else nv * (nv + 1) // 2
 
-        # distinct configurations (strata of the bootstrap, rows of the sensitivity matrix)
-        keys = np.round(Q, 9)
-        configs, groups = np.unique(keys, axis=0, return_inverse=True)
+        # distinct configurations: pose and direction (strata of the bootstrap, rows of the
+        # sensitivity matrix)
+        keys = np.round(np.hstack([Q, Nd]), 9)
+        cells, groups = np.unique(keys, axis=0, return_inverse=True)
         groups = np.ravel(groups)
+        configs, cdirs = cells[:, :nv], cells[:, nv:]
         self.configurations_ = configs
+        self.directions_ = cdirs
 
         res = self._fit_once(H, Jn, y, w, self._starts(robot, nv))
         theta = res.x
@@ -315,7 +326,7 @@ class LambdaFit:
         self.success_ = bool(res.success)
 
         # sensitivity d ln m*/d ln lambda at the solution, per distinct configuration
-        Hc, Jc = design_arrays(robot, configs, n)
+        Hc, Jc = design_arrays(robot, configs, cdirs)
         xc, sc = _solve(Hc, Jc, lam_m)
         if self.structure == "diagonal":
             S = self.lambda_[None, :] * xc**2 / sc[:, None]
@@ -418,15 +429,35 @@ class LambdaFit:
         if not hasattr(self, "lambda_"):
             raise InputError("this LambdaFit is not fitted yet; call fit(Q, m_eff) first")
 
-    def predict(self, Q) -> np.ndarray:
-        """Effective mass from eq 11 with the fitted lambda [kg], shape (N,)."""
+    def predict(self, Q, *, directions=None) -> np.ndarray:
+        """Effective mass from eq 11 with the fitted lambda [kg], shape (N,); ``directions``
+        (shape (N, 3)) strikes each configuration along its own direction."""
         from .exiit import effective_mass_batch
 
         self._check_fitted()
         Q = np.asarray(Q, float)
         if Q.ndim == 1:
             Q = Q[None, :]
-        return effective_mass_batch(self.robot_, Q, self.direction_, self.lambda_matrix_)
+        if directions is None:
+            return effective_mass_batch(self.robot_, Q, self.direction_, self.lambda_matrix_)
+        Nd = self._directions(directions, Q.shape[0], self.direction_)
+        H, Jn = design_arrays(self.robot_, Q, Nd)
+        _, s = _solve(H, Jn, self.lambda_matrix_)
+        with np.errstate(divide="ignore"):
+            return np.where(s > 0, 1.0 / s, np.inf)
+
+    @staticmethod
+    def _directions(directions, N: int, default) -> np.ndarray:
+        """Per-trial unit directions, shape (N, 3), checked."""
+        if directions is None:
+            return np.broadcast_to(np.asarray(default, float), (N, 3)).copy()
+        D = np.asarray(directions, float)
+        if D.shape != (N, 3) or not np.all(np.isfinite(D)):
+            raise InputError(f"directions must have shape ({N}, 3) and be finite, got shape {D.shape}")
+        norm = np.linalg.norm(D, axis=1)
+        if np.any(norm == 0):
+            raise InputError(f"directions has zero vectors at rows {np.flatnonzero(norm == 0).tolist()}")
+        return D / norm[:, None]
 
     @classmethod
     def from_summary(cls, summary: dict, *, robot=None, direction=None) -> LambdaFit:
@@ -473,7 +504,8 @@ class LambdaFit:
         return {
             "structure": self.structure, "lambda": js(self.lambda_), "lambda_ci": js(self.lambda_ci_),
             "ci": self.ci, "n_bootstrap": int(self.n_bootstrap), "sensitivity": js(self.sensitivity_),
-            "configurations": js(self.configurations_), "condition_number": js(self.condition_number_),
+            "configurations": js(self.configurations_), "directions": js(getattr(self, "directions_", np.empty((0, 3)))),
+            "condition_number": js(self.condition_number_),
             "rms_log_residual": self.rms_log_residual_, "n_trials": self.n_trials_,
             "identifiable": [bool(x) for x in self.identifiable_], "identifiability": list(self.identifiability_),
             "warnings": list(self.warnings_),

@@ -22,7 +22,8 @@ from typing import Any, Mapping
 from .errors import InputError, allowed_names
 from .paper import config_dir, load_paper, read_yaml
 
-__all__ = ["Scene", "load_rig", "make_scene", "derive_seed", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX", "hammer_reach"]
+__all__ = ["Scene", "load_rig", "load_structures", "make_scene", "derive_seed", "check_direction", "direction_azimuth",
+           "direction_from_azimuth", "pose_tag", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX", "hammer_reach"]
 
 BASES = ("fixed", "flexible")
 GAINS = ("zero", "low", "high")
@@ -45,6 +46,10 @@ _NONNEGATIVE = (
     "sensors.ft_noise_force", "sensors.ft_noise_torque", "trial.contact_jitter", "flexible.damping_ratio",
     "ves.latency", "flexible.mount_height",
 )
+#: checked (> 0) where present: trials stored before the rig stated them carry no such key
+_OPTIONAL_POSITIVE = ("ves.stroke", "ves.stroke_rotation")
+#: a named structure may set only the structure's and the emulator's parameters
+_STRUCTURE_PREFIXES = ("flexible.", "ves.")
 
 
 #: largest seed a trial file can store (its attributes are signed 64-bit integers)
@@ -65,8 +70,7 @@ def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, dict]]:
-    """Read a rig file: (flat parameter values, named scene overrides)."""
+def _read_rig(path):
     path = Path(path) if path is not None else config_dir() / "rig.yaml"
     if not path.is_file():
         raise InputError(f"rig parameter file {path} does not exist")
@@ -74,7 +78,14 @@ def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, 
     if not isinstance(tree, dict):
         raise InputError(f"rig parameter file {path}: expected a mapping of parameters, got {type(tree).__name__}")
     scenes = tree.pop("scenes", {}) or {}
+    structures = tree.pop("structures", {}) or {}
     tree.pop("calibration", None)
+    return tree, scenes, structures
+
+
+def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, dict]]:
+    """Read a rig file: (flat parameter values, named scene overrides)."""
+    tree, scenes, _ = _read_rig(path)
     return _flatten(tree), {k: dict(v.get("overrides", {})) for k, v in scenes.items()}
 
 
@@ -91,6 +102,22 @@ def hammer_reach(head_mass: float, rod_mass: float, radius: float, gravity: floa
     inertia = head_mass * radius**2 + rod_mass * radius**2 / 3.0
     mgl = (head_mass * radius + 0.5 * rod_mass * radius) * gravity
     return radius * math.sqrt(2.0 * mgl * (1.0 - math.cos(math.radians(max_release_deg))) / inertia)
+
+
+def load_structures(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
+    """Named structures of a rig file: ``{name: {dotted key: value}}`` (the values a
+    structure sets over the ``flexible:`` leaves; ``{}`` for the leaves themselves)."""
+    _, _, structures = _read_rig(path)
+    out = {}
+    for name, node in structures.items():
+        over = {}
+        for key, leaf in ((node or {}).get("overrides") or {}).items():
+            if not str(key).startswith(_STRUCTURE_PREFIXES):
+                raise InputError(f"structure {name!r} sets {key!r}: a structure may set only flexible.* and ves.* "
+                                 "parameters")
+            over[str(key)] = leaf["value"] if isinstance(leaf, Mapping) and "value" in leaf else leaf
+        out[str(name)] = over
+    return out
 
 
 def derive_seed(*parts: Any) -> int:
@@ -120,6 +147,10 @@ class Scene:
     name : {"default", "ideal"}
     params : tuple of (key, value)
         Every rig parameter by dotted key, sorted.
+    direction : tuple of float or None
+        Unit impact direction n in the arm's base frame, horizontal (the hammer moves
+        horizontally at the bottom of its swing); None is the paper's direction
+        (``config/paper.yaml``), and is then left out of the scene's JSON.
     """
 
     base: str
@@ -132,6 +163,7 @@ class Scene:
     seed: int
     name: str
     params: tuple[tuple[str, Any], ...]
+    direction: tuple[float, float, float] | None = None
 
     def __post_init__(self):
         self.validate()
@@ -159,6 +191,9 @@ class Scene:
         for k, v in (changes.pop("params", None) or {}).items():
             if k not in params:
                 raise InputError(f"unknown rig parameter {k!r}")
+            if k == "flexible.structure" and v != params[k]:
+                raise InputError("flexible.structure names a set of values: build the scene with make_scene("
+                                 f"params={{'flexible.structure': {v!r}}}) instead of replacing it")
             params[k] = v
         return dataclasses.replace(self, params=tuple(sorted(params.items())), **changes)
 
@@ -170,6 +205,12 @@ class Scene:
         d["params"] = dict(self.params)
         d["q_paper_deg"] = list(self.q_paper_deg)
         d["gains_counts"] = list(self.gains_counts)
+        if self.direction is None:
+            # the paper's direction: the JSON (and sha256) of such a scene stays what it
+            # was before scenes could carry a direction
+            del d["direction"]
+        else:
+            d["direction"] = list(self.direction)
         return d
 
     def to_json(self) -> str:
@@ -186,13 +227,31 @@ class Scene:
         d["params"] = tuple(sorted(d["params"].items()))
         d["q_paper_deg"] = tuple(d["q_paper_deg"])
         d["gains_counts"] = tuple(d["gains_counts"])
+        if d.get("direction") is not None:
+            d["direction"] = tuple(d["direction"])
         return cls(**d)
 
     @property
+    def impact_direction(self) -> tuple[float, float, float]:
+        """Unit impact direction n, base frame: :attr:`direction`, or the paper's."""
+        if self.direction is not None:
+            return self.direction
+        from .paper import impact_direction
+        return tuple(float(x) for x in impact_direction())
+
+    @property
+    def pose_tag(self) -> str:
+        """Folder name of the pose: ``config<N>`` for a paper configuration with the paper's
+        direction, else ``pose-<q1>_<q2>_<q3>-n<azimuth>`` (paper degrees, the direction's
+        azimuth from -x about +z in degrees), so each custom pose has its own folder."""
+        if self.config and self.direction is None:
+            return f"config{self.config}"
+        return pose_tag(self.q_paper_deg, self.impact_direction)
+
+    @property
     def cell(self) -> str:
-        """Predictable relative path of the trial: base/config/gain/speed/repeat."""
-        cfg = f"config{self.config}" if self.config else "config-custom"
-        return f"{self.base}/{cfg}/{self.gain}/v{self.speed:.3f}/r{self.repeat:02d}"
+        """Predictable relative path of the trial: base/pose/gain/speed/repeat."""
+        return f"{self.base}/{self.pose_tag}/{self.gain}/v{self.speed:.3f}/r{self.repeat:02d}"
 
     # -- checks ---------------------------------------------------------------------
     def validate(self) -> None:
@@ -223,6 +282,11 @@ class Scene:
                 raise InputError(f"rig parameter {key!r} is missing")
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise InputError(f"rig parameter {key} must be >= 0, got {v!r}")
+        for key in _OPTIONAL_POSITIVE:
+            v = params.get(key)
+            if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0
+                                      and (math.isfinite(v) or v == math.inf)):
+                raise InputError(f"rig parameter {key} must be > 0, got {v!r}")
         e = params.get("contact.restitution")
         if not (isinstance(e, (int, float)) and 0 < e <= 1):
             raise InputError(f"contact.restitution must be in (0, 1], got {e!r}")
@@ -233,12 +297,61 @@ class Scene:
             raise InputError(f"flexible.platform_inertia must be 3 values > 0 kg m^2, got {inertia!r}")
         if self.p("trial.max_post_contact") < self.p("trial.min_post_contact"):
             raise InputError("trial.max_post_contact must be >= trial.min_post_contact")
+        if self.direction is not None:
+            n = tuple(self.direction)
+            if max(abs(a - b) for a, b in zip(check_direction(n), n)) > 1e-12:
+                raise InputError(f"scene direction {list(n)} must be a horizontal unit vector (check_direction)")
+
+
+#: tolerance of the unit-length and horizontality checks of an impact direction
+DIRECTION_TOL = 1e-3
+
+
+def check_direction(n) -> tuple[float, float, float]:
+    """An impact direction as a horizontal unit 3-vector, or InputError naming the bad value.
+
+    The hammer moves horizontally at the bottom of its swing, so n must lie in the base
+    frame's x-y plane (``|n_z| <= DIRECTION_TOL``) and have unit length within
+    ``DIRECTION_TOL`` (typed decimals such as ``0.866,0.5,0`` pass); it is returned
+    normalised with ``n_z = 0`` exactly.
+    """
+    try:
+        v = [float(x) for x in n]
+    except (TypeError, ValueError):
+        raise InputError(f"impact direction must be 3 numbers, got {n!r}") from None
+    if len(v) != 3 or not all(math.isfinite(x) for x in v):
+        raise InputError(f"impact direction must be 3 finite numbers, got {v}")
+    norm = math.sqrt(sum(x * x for x in v))
+    if abs(norm - 1.0) > DIRECTION_TOL:
+        raise InputError(f"impact direction {v} is not a unit vector (length {norm:.6g})")
+    if abs(v[2]) > DIRECTION_TOL:
+        raise InputError(f"impact direction {v} is not horizontal (n_z = {v[2]:g}): the hammer moves "
+                         "horizontally at the bottom of its swing")
+    h = math.hypot(v[0], v[1])
+    return (v[0] / h, v[1] / h, 0.0)
+
+
+def direction_azimuth(n) -> float:
+    """Angle of a horizontal direction from -x about +z [deg, (-180, 180]] (the paper's n is 0)."""
+    return math.degrees(math.atan2(-float(n[1]), -float(n[0])))
+
+
+def direction_from_azimuth(deg: float) -> tuple[float, float, float]:
+    """The horizontal unit direction at ``deg`` from -x about +z (inverse of :func:`direction_azimuth`)."""
+    a = math.radians(float(deg))
+    return (-math.cos(a), -math.sin(a), 0.0)
+
+
+def pose_tag(q_paper_deg, n) -> str:
+    """``pose-<q1>_<q2>_<q3>-n<azimuth>``: a custom pose's folder name (paper degrees, 3 decimals)."""
+    q = "_".join(f"{float(x):.3f}" for x in q_paper_deg)
+    return f"pose-{q}-n{direction_azimuth(n):.3f}"
 
 
 def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero", speed: float = 1.5,
                repeat: int = 0, seed: int | None = None, scene: str = "default",
                q_paper_deg=None, gains_counts=None, params: Mapping[str, Any] | None = None,
-               rig: str | Path | None = None, campaign_seed: int = 0) -> Scene:
+               rig: str | Path | None = None, campaign_seed: int = 0, direction=None) -> Scene:
     """Build a validated :class:`Scene` from the rig file, the paper's tables and overrides.
 
     Parameters
@@ -255,11 +368,17 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
     gains_counts : (P, D, I), optional
         Controller gains in counts; by default the paper's Table 1 row of ``gain``.
     params : mapping, optional
-        Dotted-key rig parameter overrides, applied last.
+        Dotted-key rig parameter overrides, applied last. ``flexible.structure`` names the
+        structure of the rig file's ``structures:`` whose values are applied before them.
     rig : path, optional
         Rig parameter file (default ``config/rig.yaml``).
+    direction : 3 numbers, optional
+        Horizontal unit impact direction n, base frame (:func:`check_direction`); by default
+        the paper's.
     """
     paper = load_paper()
+    if direction is not None:
+        direction = check_direction(direction)
     values, scenes = load_rig(rig)
     if scene not in SCENE_NAMES:
         raise InputError(f"unknown scene {scene!r}; expected one of {SCENE_NAMES}")
@@ -269,6 +388,16 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
         for k, v in over.items():
             if k not in values:
                 raise InputError(f"scene {scene!r} overrides unknown rig parameter {k!r}")
+            values[k] = v
+    # the named structure first, explicit overrides last (they win over the structure's values)
+    structure = (params or {}).get("flexible.structure", values.get("flexible.structure"))
+    if structure is not None:
+        structures = load_structures(rig)
+        if structure not in structures:
+            raise InputError(f"unknown flexible.structure {structure!r}; expected one of {sorted(structures)}")
+        for k, v in structures[structure].items():
+            if k not in values:
+                raise InputError(f"structure {structure!r} overrides unknown rig parameter {k!r}")
             values[k] = v
     for k, v in (params or {}).items():
         if k not in values:
@@ -295,9 +424,17 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
     except (TypeError, ValueError):
         raise InputError(f"impact speed must be a number in m/s, got {speed!r}") from None
     if seed is None:
-        seed = derive_seed(campaign_seed, base, config, gain, f"{speed:.6f}", repeat, scene)
+        parts = [campaign_seed, base, config, gain, f"{speed:.6f}", repeat, scene]
+        if config == 0 or direction is not None:   # a custom pose: its own seed per pose
+            parts.append(pose_tag(q_paper_deg, direction or _paper_direction()))
+        seed = derive_seed(*parts)
     return Scene(
         base=str(base), config=int(config), q_paper_deg=tuple(float(x) for x in q_paper_deg), gain=str(gain),
         gains_counts=tuple(float(x) for x in gains_counts), speed=speed, repeat=int(repeat), seed=int(seed),
-        name=scene, params=tuple(sorted(values.items())),
+        name=scene, params=tuple(sorted(values.items())), direction=direction,
     )
+
+
+def _paper_direction() -> tuple[float, float, float]:
+    from .paper import impact_direction
+    return tuple(float(x) for x in impact_direction())

@@ -45,6 +45,7 @@ __all__ = [
     "table2",
     "table3",
     "table4",
+    "structures_table",
     "tables_from_archive",
     "write_tables",
 ]
@@ -178,6 +179,14 @@ def _direction(recs):
     return np.array(dirs.pop()) if dirs else impact_direction()
 
 
+def _directions(recs) -> np.ndarray:
+    """Each record's impact direction, shape (N, 3) (the paper's where a record has none)."""
+    from .paper import impact_direction
+
+    n0 = impact_direction()
+    return np.array([r["impact_direction"] if r.get("impact_direction") else n0 for r in recs], float)
+
+
 def _class_of(gain: str, classes: Mapping[str, Sequence[str]]) -> str | None:
     for name, members in classes.items():
         if gain in members:
@@ -219,11 +228,11 @@ def fit_gain_classes(records, *, robot=None, gain_classes: Mapping[str, Sequence
         use = _usable(recs, base="fixed", gains=set(members))
         if not use:
             continue
-        n = _direction(use)
+        D = _directions(use)
         Q = np.array([r["q_cmd"] for r in use])
         m = np.array([r["m_eff"] for r in use])
-        fits[name] = LambdaFit(rob, direction=n, structure=structure, n_bootstrap=n_bootstrap,
-                               random_state=random_state, warn=warn).fit(Q, m)
+        fits[name] = LambdaFit(rob, direction=D[0], structure=structure, n_bootstrap=n_bootstrap,
+                               random_state=random_state, warn=warn).fit(Q, m, directions=D)
     return fits
 
 
@@ -407,6 +416,42 @@ def table4(records, fits: Mapping, *, robot=None, gain_classes=None) -> Table:
     if not flex:
         notes.append("the campaign has no flexible-base trials: the cells are empty.")
     return Table("table4", "Table 4: effective mass of the flexible-base manipulator", cols, rows, notes)
+
+
+def structures_table(path) -> Table:
+    """Table 4 and Figure 9's Low-vs-High reduction under both named structures (stiff mast,
+    space class), each beside the paper, from the CSV ``benchmarks/space_structure.py``
+    writes (``benchmarks/table4_structures.csv``: the campaign itself runs one structure)."""
+    from .paper import load_paper
+
+    paper = load_paper()
+    lo, hi = (float(x) for x in paper["figure9_low_vs_high_reduction"])
+    with open(path, newline="") as fh:
+        src = list(csv.DictReader(fh))
+    if not src:
+        raise ValueError(f"{path}: no rows; run benchmarks/space_structure.py --structures-csv {path}")
+    rows = []
+    for r in src:
+        f = {k: float(v) for k, v in r.items() if k not in ("structure", "cell")}
+        rows.append({"structure": r["structure"], "cell": r["cell"], "f1": f["f1_Hz"], "ratio": f["Tc_over_T1"],
+                     "eq8": f["eq8_kg"], "identified": f["identified_kg"],
+                     "ident_vs_eq8": f["identified_kg"] / f["eq8_kg"] - 1.0,
+                     "paper": f["paper_experiment_kg"],
+                     "ident_vs_paper": f["identified_kg"] / f["paper_experiment_kg"] - 1.0,
+                     "paper_eq8": f["paper_eq8_kg"], "fig9": f["fig9_reduction"], "fig9_eq8": f["fig9_eq8_reduction"]})
+    cols = [("structure", "structure"), ("cell", "cell"), ("f1", "f_1 [Hz]"), ("ratio", "T_c / T_1"),
+            ("eq8", "eq 8 [kg]"), ("identified", "identified m* [kg]"), ("ident_vs_eq8", "identified / eq 8 - 1"),
+            ("paper", "paper experiment [kg]"), ("ident_vs_paper", "identified / paper - 1"),
+            ("paper_eq8", "paper eq 8 [kg]"), ("fig9", "Figure 9 reduction (configuration)"),
+            ("fig9_eq8", "eq 8's Figure 9 reduction")]
+    notes = [f"from {Path(path).name}, written by benchmarks/space_structure.py (lambda identified on the rig's "
+             "fixed base; means over 1.5 and 2.5 m/s); the campaign's own Table 4 and Figure 9 use the structure "
+             "its config names (bases.flexible.structure)",
+             "f_1: first bending mode with the arm on top; T_c: contact duration",
+             f"Figure 9 reduction: 1 - peak |x| Low / High at 2.5 m/s for the cell's configuration (paper "
+             f"{100 * lo:.0f}-{100 * hi:.0f} %); eq 8's: the same of the base velocity right after an impulsive "
+             "contact with the identified lambda"]
+    return Table("table4_structures", "Table 4 and Figure 9 under both structures", cols, rows, notes)
 
 
 def write_tables(records, out_dir, *, robot=None, n_bootstrap: int = 200, random_state=0,

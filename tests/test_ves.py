@@ -26,11 +26,14 @@ from campaign.robot.floating import attach_to_floating_base
 from campaign.scene import make_scene
 
 RATE = 1000.0
+#: these checks of the emulator's arithmetic are sized to the stiff mast's ~4.4 Hz first mode
+#: (pulse lengths, record spans); the space-class structure's loop is checked below too
+STIFF = {"flexible.structure": "stiff_mast"}
 
 
 @pytest.fixture(scope="module")
 def beam() -> Beam:
-    return Beam.from_scene(make_scene(base="flexible"))
+    return Beam.from_scene(make_scene(base="flexible", params=STIFF))
 
 
 @pytest.fixture(scope="module")
@@ -234,7 +237,7 @@ def arm_inertia(beam):
 
 
 def test_default_loop_with_a_rigid_arm_is_stable_and_keeps_the_first_mode(beam, arm_inertia):
-    scene = make_scene(base="flexible")
+    scene = make_scene(base="flexible", params=STIFF)
     loop = VesLoop(beam, scene.p("ves.rate"), scene.p("ves.latency"), scene.p("ves.bandwidth"))
     freq, zeta = loop.closed_loop_poles(arm_inertia)
     assert np.all(zeta > 0)                                          # stable
@@ -247,7 +250,7 @@ def test_default_loop_with_a_rigid_arm_is_stable_and_keeps_the_first_mode(beam, 
 def test_emulated_peak_displacement_after_an_impact_within_5_percent_of_ideal(beam, arm_inertia):
     """Rigid arm in configuration 2 hit by a 50 N, 20 ms half-sine at its tip along -x:
     default loop vs the exactly coupled linear system (M_s + M_a) x'' + B x' + K x = J^T F."""
-    scene = make_scene(base="flexible")
+    scene = make_scene(base="flexible", params=STIFF)
     frobot = attach_to_floating_base(load_robot(), beam.base_body())
     data = frobot.model.createData()
     pin.framesForwardKinematics(frobot.model, data, frobot.q_full(configuration_q(2)))
@@ -367,3 +370,16 @@ def test_bad_static_wrench(beam):
     loop = VesLoop(beam, RATE, 0.002, 30.0)
     with pytest.raises(InputError, match="static wrench"):
         loop.reset([1.0, 2.0])
+
+
+@pytest.mark.parametrize("structure", ["stiff_mast", "space_class"])
+def test_every_named_structure_gives_a_stable_default_loop_keeping_its_first_mode(structure):
+    scene = make_scene(base="flexible", config=2, params={"flexible.structure": structure})
+    beam = Beam.from_scene(scene)
+    frobot = attach_to_floating_base(load_robot(), beam.base_body())
+    M = pin.crba(frobot.model, frobot.model.createData(), frobot.q_full(configuration_q(2)))[:6, :6]
+    arm = M - beam.mass_matrix
+    loop = VesLoop(beam, scene.p("ves.rate"), scene.p("ves.latency"), scene.p("ves.bandwidth"))
+    freq, zeta = loop.closed_loop_poles(arm)
+    assert np.all(zeta > 0)
+    assert freq[0] == pytest.approx(beam.first_mode_frequency(tip=arm), rel=0.01)

@@ -38,7 +38,7 @@ README = "README.md"
 CELL_KEYS = ("base", "config", "gain", "speed", "repeat")
 #: columns of index.csv, in order
 INDEX_COLUMNS = ("path", "base", "config", "gain", "speed", "repeat", "seed", "scene", "scene_sha256",
-                 "robot", "schema_version")
+                 "robot", "schema_version", "q_paper_deg", "direction")
 #: keys accepted by :func:`list_trials` filters, with the type a value is read as
 FILTER_KEYS = {"base": str, "config": int, "gain": str, "speed": float, "repeat": int, "seed": int,
                "scene": str, "scene_sha256": str, "robot": str}

@@ -62,6 +62,21 @@ class TrialRecord:
     schema_version: str
     scene_json: str = dataclasses.field(repr=False)
 
+    @property
+    def q_paper_deg(self) -> str:
+        """The arm pose in the paper's joint angles [deg], space-separated."""
+        return " ".join(f"{float(x):g}" for x in json.loads(self.scene_json)["q_paper_deg"])
+
+    @property
+    def direction(self) -> str:
+        """The unit impact direction n (base frame), space-separated; the paper's when the
+        scene names none."""
+        n = json.loads(self.scene_json).get("direction")
+        if n is None:
+            from ..paper import impact_direction
+            n = impact_direction()
+        return " ".join(f"{float(x):.9g}" for x in n)
+
     def row(self) -> dict[str, Any]:
         """The ``index.csv`` row."""
         return {k: getattr(self, k) for k in INDEX_COLUMNS}

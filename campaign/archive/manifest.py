@@ -129,7 +129,7 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
         "## Files",
         "",
         f"- `<base>/config<N>/<gain>/v<speed m/s>/r<repeat>{TRIAL_SUFFIX}`: one trial, NetCDF4/HDF5 "
-        "(`config-custom` for a pose that is not a paper configuration).",
+        "(`pose-<q1>_<q2>_<q3>-n<azimuth of n from -x, deg>` for another pose or impact direction).",
         f"- `{INDEX}`: one row per trial: " + ", ".join(f"`{c}`" for c in INDEX_COLUMNS) + ".",
         f"- `{MANIFEST}`: sha256 of every other file; check with `sha256sum -c {MANIFEST}` in this folder, "
         "or `campaign archive verify <folder>` (also checks every trial against the schema).",

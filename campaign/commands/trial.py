@@ -25,8 +25,16 @@ def register(sub) -> None:
     )
     p.add_argument("--base", choices=("fixed", "flexible"), default="fixed",
                    help="ground-fixed base, or the flexible long-reach base emulated by the VES (default: fixed)")
-    p.add_argument("--config", type=int, default=1, metavar="N",
-                   help="arm configuration of the paper's Table 1 (1, 2 or 3; default 1)")
+    pose = p.add_mutually_exclusive_group()
+    pose.add_argument("--config", type=int, default=None, metavar="N",
+                      help="arm configuration of the paper's Table 1 (1, 2 or 3; default 1)")
+    pose.add_argument("--q", default=None, metavar="Q1,Q2,Q3",
+                      help="any arm pose instead, in the paper's joint angles [deg] (q_DH = q + (0, 0, -90) deg); "
+                           "write --q=-10,150,90 when the first angle is negative")
+    p.add_argument("--direction", default=None, metavar="NX,NY,NZ",
+                   help="impact direction n in the arm's base frame: a horizontal unit vector (the hammer moves "
+                        "horizontally at the bottom of its swing; default the paper's -x). The pendulum is placed to "
+                        "strike the impact point along n; a pose or direction it cannot strike is refused")
     p.add_argument("--gain", choices=("zero", "low", "high"), default="zero",
                    help="servo gain set of Table 1, in the paper's controller counts (default zero)")
     p.add_argument("--speed", type=float, required=True, metavar="V",
@@ -50,11 +58,16 @@ def run(args) -> int:
     from ..checks import check_output_file
     from ..rig import simulate
     from ..scene import make_scene
+    from .meff import parse_vector
 
     check_output_file(args.out)
 
-    scene = make_scene(base=args.base, config=args.config, gain=args.gain, speed=args.speed, repeat=args.repeat,
-                       seed=args.seed, scene=args.scene, rig=args.rig, params=dict(args.params))
+    q_paper = None if args.q is None else parse_vector(args.q, option="--q", size=3, units="deg")
+    direction = None if args.direction is None else parse_vector(args.direction, option="--direction", size=3)
+    config = args.config if args.config is not None else (0 if q_paper is not None else 1)
+    scene = make_scene(base=args.base, config=config, gain=args.gain, speed=args.speed, repeat=args.repeat,
+                       seed=args.seed, scene=args.scene, rig=args.rig, params=dict(args.params),
+                       q_paper_deg=q_paper, direction=direction)
     t0 = time.perf_counter()
     tree = simulate(scene)
     t1 = time.perf_counter()

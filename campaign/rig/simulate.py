@@ -17,7 +17,6 @@ import numpy as np
 from .. import schema
 from .._lazy import LazyModule
 from ..errors import InputError, SimulationError
-from ..paper import impact_direction
 from ..robot import load_robot
 from ..scene import Scene
 from ..schema import ChannelArray, GroupArrays, TrialArrays
@@ -25,10 +24,11 @@ from .contact import Contact, contact_duration_estimate
 from .controller import PID, check_stability
 from .integrate import integrate_trial
 from .pendulum import Pendulum
+from .placement import place_pendulum, placement_params
 from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
-__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "Rig"]
+__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "structure_modes", "Rig"]
 
 # imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
 # the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
@@ -73,11 +73,22 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     ``substeps_free``), checked here too: an override must still resolve the contact."""
     p = scene.p
     robot = load_robot(p("robot"))
-    q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
+    try:
+        q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()),
+                           what=f"pose {list(scene.q_paper_deg)} deg (paper angles; DH = paper + {_offset().tolist()} deg)")
+    except ValueError as exc:
+        raise InputError(str(exc)) from None
     gravity = float(p("gravity"))
     pend = Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
                     gravity, float(p("pendulum.max_release_deg")))
-    pend.release_angle(scene.speed)  # refuses a speed the device cannot reach
+    theta0 = pend.release_angle(scene.speed)  # refuses a speed the device cannot reach
+    n = np.asarray(scene.impact_direction, dtype=float)
+    # the pendulum is placed to strike the impact point along n at the bottom of its swing;
+    # a pose it cannot reach, or whose impact point is not exposed from n, is refused here
+    place = placement_params(scene.param_dict)
+    if place is not None:
+        place_pendulum(robot, q0, n, radius=pend.radius, release_angle=theta0,
+                       what=f"pose {list(scene.q_paper_deg)} deg", **place)
     contact = Contact(float(p("contact.stiffness")), float(p("contact.exponent")), float(p("contact.restitution")))
     contact.damping  # refuses an unreachable restitution now
     friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
@@ -86,7 +97,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     # the hammer must rebound: one at least as heavy as the arm's free effective mass (eq 11,
     # lambda = 0, the smallest m* the arm can show) keeps pushing it and never leaves cleanly
     from ..exiit import effective_mass
-    m1 = effective_mass(robot, q0, impact_direction())
+    m1 = effective_mass(robot, q0, n)
     if pend.m_b >= m1:
         raise InputError(
             f"hammer effective mass m_b = {pend.m_b:.4g} kg (pendulum.head_mass, pendulum.rod_mass) is not below "
@@ -95,18 +106,14 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     streams = noise_streams(scene.seed)
     t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
     if scene.base == "fixed":
-        plant = FixedBasePlant(robot, q0, impact_direction(), pend, contact, **friction)
+        plant = FixedBasePlant(robot, q0, n, pend, contact, **friction)
     else:
         from .beam import Beam
         from .flexible import IdealCouplingPlant, VesLoopPlant
         beam = Beam.from_scene(scene)
         # a flexible trial records trial_periods periods of the structure's first mode with
         # the arm (locked) on top, for Figure 9
-        data = robot.model.createData()
-        import pinocchio as pin
-        pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
-        arm = beam.base_body().mount.act(data.oYcrb[0])
-        freqs = beam.modes(tip=arm)[0]
+        freqs, arm = _modes_with_arm(robot, q0, beam)
         f1 = float(freqs[0])
         min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
         if max_post > MAX_FLEXIBLE_RECORD:
@@ -116,7 +123,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                 f"{max_post:.3g} s recording for flexible.trial_periods = {p('flexible.trial_periods'):g} periods, "
                 f"beyond the {MAX_FLEXIBLE_RECORD:g} s a trial may last: stiffen the structure or record fewer periods")
         if p("ves.mode") == "ideal":
-            plant = IdealCouplingPlant(robot, q0, impact_direction(), pend, contact, beam, **friction)
+            plant = IdealCouplingPlant(robot, q0, n, pend, contact, beam, **friction)
             # the structure is integrated with the arm: RK4 must resolve its highest mode
             # (omega h <= 1) out of contact too
             sub_free_min = math.ceil(2.0 * math.pi * float(freqs[-1]) / float(p("controller.servo_rate")))
@@ -126,7 +133,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                     f"VES latency {p('ves.latency'):g} s (ves.latency) is beyond {MAX_VES_LATENCY:g} s: a force loop "
                     f"delayed that long cannot emulate a {f1:.3g} Hz structure (it destabilises it), and its "
                     "stability check would have to analyse the whole delay line")
-            plant = VesLoopPlant(robot, q0, impact_direction(), pend, contact, beam, **friction,
+            plant = VesLoopPlant(robot, q0, n, pend, contact, beam, **friction,
                                  rate=float(p("ves.rate")), latency=float(p("ves.latency")),
                                  bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
             T_e = plant.emulator_period
@@ -205,6 +212,43 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
     rig.m1 = m1
     return rig
+
+
+def _modes_with_arm(robot, q0, beam):
+    """Natural frequencies [Hz] of the structure with the arm locked on top (ascending) and
+    the arm's composite inertia at the beam tip."""
+    import pinocchio as pin
+
+    data = robot.model.createData()
+    pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
+    arm = beam.base_body().mount.act(data.oYcrb[0])
+    return np.asarray(beam.modes(tip=arm)[0], float), arm
+
+
+def structure_modes(scene: Scene) -> np.ndarray:
+    """Natural frequencies [Hz] of a flexible scene's structure with its arm locked on top in
+    the scene's configuration, ascending: the first bending pair (its period T_1 sets the
+    recording and Figure 9's time axis), then the second pair, torsion, axial."""
+    from .beam import Beam
+
+    robot = load_robot(scene.p("robot"))
+    q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
+    return _modes_with_arm(robot, q0, Beam.from_scene(scene))[0]
+
+
+def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: str = "") -> None:
+    """Refuse a trial whose platform leaves the VES-II's stroke (``ves.stroke`` [m] per
+    translation axis, ``ves.stroke_rotation`` [rad] per rotation axis): the real rig could not
+    have emulated it. ``platform`` is the platform pose per sample (n, 6)."""
+    platform = np.asarray(platform, float)
+    for cols, limit, key, units in ((slice(0, 3), stroke, "ves.stroke", "m"),
+                                    (slice(3, 6), stroke_rotation, "ves.stroke_rotation", "rad")):
+        peak = float(np.max(np.abs(platform[:, cols]))) if platform.size else 0.0
+        if peak > limit:
+            raise InputError(
+                f"the emulated base moves {peak:.4g} {units} from rest, beyond the VES platform's stroke {key} = "
+                f"{limit:g} {units}" + (f" (structure {structure})" if structure else "")
+                + ": a slower hammer or a stiffer or heavier structure keeps the platform in range")
 
 
 def _offset():
@@ -462,6 +506,10 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
             structure = plant.base_state(Xb)[:, :6]
             platform = command = structure     # ideal coupling: the platform is the structure
             base_truth = plant.base_state(Xt)
+        # a scene stored before the rig stated the platform's stroke has none: no limit then
+        check_stroke(platform, stroke=float(scene.param_dict.get("ves.stroke", math.inf)),
+                     stroke_rotation=float(scene.param_dict.get("ves.stroke_rotation", math.inf)),
+                     structure=str(scene.param_dict.get("flexible.structure", "")))
         measured.update({
             "base_position": structure[:, :3],
             "base_rotation": structure[:, 3:],

@@ -61,6 +61,11 @@ GAIN_ORDER = ("zero", "low", "high")
 # the files every trial depends on: the rig parameters and the paper's tables (configurations, gains)
 RIG_FILE = config["rig"] if config.get("rig") else str(runner.package_file("rig.yaml"))
 PAPER_FILE = str(runner.package_file("paper.yaml"))
+# data the report takes from the repository's benchmarks (both structures; eq 8's validity map):
+# the campaign simulates one structure, the sweep behind these runs beside it
+BENCH_DIR = Path(runner.__file__).resolve().parents[1] / "benchmarks"
+VALIDITY_CSV = str(BENCH_DIR / "eq8_validity.csv")
+STRUCTURES_CSV = str(BENCH_DIR / "table4_structures.csv")
 
 
 def source_files(*patterns):
@@ -163,6 +168,31 @@ def _held_sweeps(held):
                      "speeds": speeds, "repeats": repeats}
     return out
 
+
+
+def _structure():
+    """The flexible sweep's named structure (bases.flexible.structure), checked against the
+    rig file's ``structures:``; None keeps the rig file's default."""
+    name = config["bases"].get("flexible", {}).get("structure")
+    if name is None:
+        return None
+    with open(RIG_FILE) as fh:
+        known = sorted((yaml.safe_load(fh).get("structures") or {}))
+    if name not in known:
+        _config_error("bases.flexible.structure", f"unknown structure {name!r}; the rig file {RIG_FILE} names {known}")
+    return name
+
+
+STRUCTURE = _structure()
+
+
+def sweep_params(base):
+    """Rig overrides of ``base``'s jobs: the campaign's rig_params, and for the flexible base
+    its named structure (rig_params may still override single values of it)."""
+    params = dict(config["rig_params"])
+    if base == "flexible" and STRUCTURE is not None:
+        params.setdefault("flexible.structure", STRUCTURE)
+    return params
 
 if SIMULATE:
     TRIAL_ROOT = ARCHIVE
@@ -291,8 +321,8 @@ def all_trials():
 # ----------------------------------------------------------------------------------------
 # products and what each needs
 # ----------------------------------------------------------------------------------------
-FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "plan_maps")
-TABLES = ("table2", "table3", "table4")
+FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "plan_maps", "eq8_validity")
+TABLES = ("table2", "table3", "table4", "table4_structures")
 
 
 def figure_files(name):
@@ -323,6 +353,9 @@ def missing_requirement(product):
     fixed = SWEEPS.get("fixed")
     if product in ("fig4", "fig8"):
         return ""
+    if product in ("eq8_validity", "table4_structures"):
+        data = VALIDITY_CSV if product == "eq8_validity" else STRUCTURES_CSV
+        return "" if Path(data).is_file() else f"needs the benchmark data {data} (benchmarks/space_structure.py)"
     if product == "fig5":
         return "" if ("fixed", 1, "zero") in cells("fixed") else "needs bases.fixed with configuration 1 and gain zero"
     if product in ("fig6", "fig7"):
@@ -344,7 +377,7 @@ def missing_requirement(product):
 
 
 def product_files(product):
-    return figure_files(product) if product.startswith(("fig", "plan")) else table_files(product)
+    return figure_files(product) if product in FIGURES else table_files(product)
 
 
 def requires(product):
@@ -384,3 +417,42 @@ def calibration_targets():
     if not missing_requirement("table4") and not missing_requirement("fig9"):
         return [f"{RESULTS}/calibration/calibration.md", f"{RESULTS}/calibration/calibration.html"]
     return []
+
+
+# ----------------------------------------------------------------------------------------
+# the designed campaign (`snakemake designed`): its own settings file, checked at start-up
+# ----------------------------------------------------------------------------------------
+# the project's config/designed.yaml (like rig.yaml and paper.yaml, whatever the working
+# directory), or the file --config designed=PATH names
+DESIGNED_FILE = str(config.get("designed") or runner.package_file("designed.yaml"))
+
+
+def _designed_settings():
+    """The designed campaign's settings, validated; None when the file is absent (the
+    designed rules are then not defined)."""
+    if not Path(DESIGNED_FILE).is_file():
+        if config.get("designed"):
+            _config_error("designed", f"{DESIGNED_FILE!r} does not exist")
+        return None
+    with open(DESIGNED_FILE, encoding="utf-8") as fh:
+        settings = yaml.safe_load(fh)
+    validate(settings, schema="../schemas/designed.schema.yaml")
+    return settings
+
+
+DESIGNED = _designed_settings()
+DESIGNED_RESULTS = f"{config['results_root']}/{DESIGNED['campaign']}" if DESIGNED else None
+DESIGNED_ARCHIVE = f"{config['archive_root']}/{DESIGNED['campaign']}" if DESIGNED else None
+DESIGNED_ROLES = ("paper", "designed", "heldout")
+CODE_DESIGNED = code_digest("design.py", "designed.py", "coulomb_fit.py", "fit.py", "exiit.py", "rig/*.py",
+                            "scene.py", "identify/*.py", "archive/*.py")
+
+
+def designed_tables(role):
+    """Identification CSVs of one role of the designed campaign, every gain set."""
+    return [f"{DESIGNED_RESULTS}/identification/{role}_{g}.csv" for g in GAIN_ORDER]
+
+
+def designed_log(rule_name, unit=None):
+    """Log of one job of the designed campaign."""
+    return str(Path(DESIGNED_RESULTS, "logs", rule_name, *([unit] if unit else [])).with_suffix(".log"))

@@ -104,7 +104,7 @@ rule fig8_flexible_setup:
     params:
         code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
         rig=config["rig"],
-        rig_params=config["rig_params"],
+        rig_params=sweep_params("flexible"),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
     log:
@@ -129,7 +129,8 @@ rule fig9_base_motion:
         pdf=report(f"{RESULTS}/figures/fig9.pdf", caption="../report/fig9.rst", category="Flexible base",
                    subcategory="Figures", labels={"figure": "Figure 9", "format": "PDF"}),
     params:
-        code=figure_code("fig9", "archive/*.py", "identify/*.py"),
+        code=figure_code("fig9", "archive/*.py", "identify/*.py", "scene.py", "rig/simulate.py", "rig/beam.py",
+                         "robot/*.py", "robot/*/*"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
@@ -178,3 +179,24 @@ rule planner_maps:
         "../envs/campaign.yaml"
     script:
         "../scripts/plan_maps.py"
+
+
+rule eq8_validity_figure:
+    input:
+        data=VALIDITY_CSV,
+    output:
+        png=report(f"{RESULTS}/figures/eq8_validity.png", caption="../report/eq8_validity.rst",
+                   category="Flexible base", subcategory="Figures", labels={"figure": "eq 8 validity", "format": "PNG"}),
+        pdf=f"{RESULTS}/figures/eq8_validity.pdf",
+    params:
+        code=figure_code("validity"),
+    priority: 1
+    log:
+        log_file("eq8_validity"),
+    resources:
+        runtime=5,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/eq8_validity.py"

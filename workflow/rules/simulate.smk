@@ -29,7 +29,7 @@ if SIMULATE:
                 campaign_seed=config["campaign_seed"],
                 gain_counts=lambda wc: dict(config["gain_counts"].get(wc.gain, {})),
                 rig=config["rig"],
-                rig_params=config["rig_params"],
+                rig_params=sweep_params(_base),
                 archive=lambda wc: ARCHIVE,
             # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
             priority: 2

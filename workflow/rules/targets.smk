@@ -62,3 +62,13 @@ rule table3:
 rule table4:
     input:
         lambda wc: requires("table4"),
+
+
+rule eq8_validity:
+    input:
+        lambda wc: requires("eq8_validity"),
+
+
+rule table4_structures:
+    input:
+        lambda wc: requires("table4_structures"),

@@ -1,0 +1,57 @@
+"""The cluster profile's group names real rules, and every job after the simulations is in it.
+
+profiles/slurm lists the rules of its downstream group by name, so a renamed or added rule
+would silently run as its own SLURM job (or name a rule that no longer exists). The rules
+come from the workflow itself (``snakemake --list-rules``) with the archive simulated and
+reused (``finalize_archive`` and ``verify_archive`` exist one at a time). Needs neither
+SLURM nor its plugin.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parents[2]
+SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
+PROFILE = yaml.safe_load((REPO / "profiles" / "slurm" / "config.yaml").read_text())
+# rules that stay one SLURM job each (simulations, the calibration fit, the designed campaign's plan and
+# trials) or only name targets
+NOT_GROUPED = re.compile(r"simulate_\w+|calibrate|all|trials|identification|fig\d|table\d|plan_maps|eq8_validity|table4_structures|designed|designed_plan|designed_trials")
+
+
+def workflow_rules(*config: str) -> set[str]:
+    proc = subprocess.run([SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--configfile", str(REPO / "config" / "ci.yaml"),
+                           "--list-rules", *(["--config", *config] if config else [])],
+                          cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return set(proc.stdout.split())
+
+
+@pytest.fixture(scope="module")
+def rules() -> set[str]:
+    return workflow_rules() | workflow_rules("simulate=False", "reuse_archive=archive/reference")
+
+
+def test_group_holds_exactly_the_downstream_rules(rules):
+    grouped = {}
+    for entry in PROFILE["groups"]:
+        rule, _, group = entry.partition("=")
+        grouped[rule] = group
+    assert set(grouped.values()) == {"downstream"}
+    assert sorted(set(grouped) - rules) == [], "the profile groups rules the workflow does not have"
+    downstream = {r for r in rules if not NOT_GROUPED.fullmatch(r)}
+    assert sorted(downstream - set(grouped)) == [], "jobs after the simulations outside the group"
+    assert {"simulate_fixed", "simulate_flexible"} <= rules - set(grouped)
+
+
+def test_group_components_join_the_whole_group():
+    (entry,) = PROFILE["group-components"]
+    group, _, n = entry.partition("=")
+    # every downstream rule job of the full campaign fits in one SLURM job
+    assert group == "downstream" and int(n) >= len(PROFILE["groups"]) * 4

@@ -1,0 +1,105 @@
+"""The report's products of both named structures: eq 8's validity map and Table 4 / Figure 9
+under both structures, from the benchmark's data (benchmarks/space_structure.py)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from campaign.figures import validity
+from campaign.tables import structures_table
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def _row(cell, ratio, err, truth_err=0.0):
+    return {"structure": "space_class", "cell": cell, "ratio": ratio, "eq8": 10.0,
+            "identified": 10.0 * (1 + err), "truth": 10.0 * (1 + truth_err)}
+
+
+def test_holds_below_is_the_last_ratio_before_the_first_miss():
+    rows = [_row("1-low", 0.01, 0.02), _row("1-high", 0.02, -0.049), _row("2-low", 0.05, 0.08),
+            _row("2-high", 0.03, 0.01), _row("1-low", 0.2, 0.01)]
+    # sorted by ratio: 0.01 ok, 0.02 ok, 0.03 ok, 0.05 misses -> 0.03; the later 0.2 does not count
+    assert validity.holds_below(rows) == pytest.approx(0.03)
+    assert validity.holds_below(rows, tolerance=0.1) == pytest.approx(0.2)
+    assert validity.holds_below([_row("1-low", 0.01, 0.06)]) == 0.0
+    assert validity.holds_below(rows, key="truth") == pytest.approx(0.2)
+
+
+def _write_validity_csv(path, rows):
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["structure", "EI_scale", "cell", "speed_m_s", "f1_Hz", "f2_Hz", "Tc_s", "Tc_over_T1", "eq8_kg",
+                    "identified_kg", "truth_kg"])
+        for r in rows:
+            w.writerow([r["structure"], 1, r["cell"], 1.5, 0.7, 7.0, 0.07, r["ratio"], r["eq8"], r["identified"],
+                        r["truth"]])
+
+
+def test_validity_figure_draws_one_series_per_cell_and_the_tolerance_band(tmp_path):
+    rows = [_row("1-low", 0.01, 0.02), _row("1-low", 0.1, 0.2), _row("passive 1", 0.01, 0.01),
+            _row("passive 1", 0.3, 0.1)]
+    path = tmp_path / "v.csv"
+    _write_validity_csv(path, rows)
+    back = validity.read_rows(path)
+    assert [(r["cell"], r["ratio"]) for r in back] == [(r["cell"], r["ratio"]) for r in rows]
+    fig = validity.draw_validity(back, tolerance=0.05)
+    ax = fig.axes[0]
+    labels = [line.get_label() for line in ax.get_lines() if not line.get_label().startswith("_")]
+    assert "1-low" in labels and "passive 1 (lambda = 0)" in labels
+    assert ax.get_xscale() == "log"
+    files = validity.make(path, tmp_path / "v.png", tmp_path / "v.pdf")
+    assert all(Path(f).stat().st_size > 0 for f in files)
+    empty = tmp_path / "e.csv"
+    _write_validity_csv(empty, [])
+    with pytest.raises(ValueError, match="no rows"):
+        validity.read_rows(empty)
+
+
+def test_structures_table_puts_each_structure_beside_the_paper(tmp_path):
+    path = tmp_path / "s.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["structure", "cell", "f1_Hz", "Tc_over_T1", "eq8_kg", "identified_kg", "truth_kg",
+                    "paper_experiment_kg", "paper_eq8_kg", "fig9_reduction", "fig9_eq8_reduction"])
+        w.writerow(["space_class", "2-high", 0.7, 0.05, 40.0, 44.0, 43.0, 39.33, 38.99, 0.02, 0.035])
+        w.writerow(["stiff_mast", "2-high", 4.4, 0.32, 40.0, 60.0, 61.0, 39.33, 38.99, 0.04, 0.03])
+    t = structures_table(path)
+    assert [r["structure"] for r in t.rows] == ["space_class", "stiff_mast"]
+    assert t.rows[0]["ident_vs_eq8"] == pytest.approx(0.1)
+    assert t.rows[1]["ident_vs_paper"] == pytest.approx(60.0 / 39.33 - 1)
+    assert "paper experiment [kg]" in t.to_markdown()
+
+
+def test_committed_benchmark_data_holds_both_structures_and_the_map():
+    t = structures_table(BENCH / "table4_structures.csv")
+    cells = {(r["structure"], r["cell"]) for r in t.rows}
+    assert cells == {(s, c) for s in ("stiff_mast", "space_class") for c in ("1-low", "1-high", "2-low", "2-high")}
+    f1 = {r["structure"]: r["f1"] for r in t.rows}
+    assert 0.3 < f1["space_class"] < 1.0 < 3.0 < f1["stiff_mast"]
+    rows = validity.read_rows(BENCH / "eq8_validity.csv")
+    ratios = [r["ratio"] for r in rows]
+    assert min(ratios) <= 0.006 and max(ratios) >= 0.6          # spans 0.005-0.6
+    assert len({(r["structure"], round(r["ratio"], 3)) for r in rows if r["cell"] == "passive 1"}) >= 6
+
+
+def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
+    """The stiff mast is the structure the committed reference campaign ran: selecting it gives
+    that trial's scene (every rig value and the seed; only the keys that name the structure and
+    the platform's stroke, and the pendulum's placement checks are new), so its trials are today's."""
+    from campaign.archive import open_trial_arrays
+    from campaign.scene import Scene, make_scene
+
+    ref = Path(__file__).resolve().parents[1] / "archive" / "reference" / "flexible" / "config1" / "low"
+    trial = sorted(ref.glob("v2.500/r00.nc"))[0]
+    stored = Scene.from_json(str(open_trial_arrays(trial, group="measured").attrs["scene_json"]))
+    now = make_scene(base="flexible", config=1, gain="low", speed=2.5, repeat=0, campaign_seed=1996,
+                     params={"flexible.structure": "stiff_mast"})
+    new_keys = {"flexible.structure", "ves.stroke", "ves.stroke_rotation", "placement.link_radius",
+                "placement.struck_zone", "placement.pivot_z_max", "placement.floor_z", "placement.head_radius"}
+    assert set(now.param_dict) - set(stored.param_dict) == new_keys
+    assert {k: v for k, v in now.param_dict.items() if k not in new_keys} == stored.param_dict
+    assert now.seed == stored.seed
