@@ -19,7 +19,8 @@ would not rebound) are counted and left out.
 Usage::
 
     python benchmarks/plan_rig_check.py                                  # print the tables
-    python benchmarks/plan_rig_check.py --readme benchmarks/README.md    # also record them
+    # also record them; the CSV feeds the campaign report's table
+    python benchmarks/plan_rig_check.py --head-masses 3 --csv benchmarks/plan_rig_check.csv --readme benchmarks/README.md
 """
 
 from __future__ import annotations
