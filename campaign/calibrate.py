@@ -27,7 +27,7 @@ import numpy as np
 
 from . import __version__
 from .errors import InputError
-from .paper import config_dir, load_paper, yaml_load
+from .paper import config_dir, load_paper, read_yaml, yaml_load
 
 __all__ = ["CalibrationResult", "load_calibration", "sweep_records", "residuals", "residual_terms", "force_band",
            "hinge_log", "calibrate", "validate", "write_back", "assess_held_out", "impulsive_base_speed",
@@ -57,13 +57,20 @@ def load_calibration(path: str | Path | None = None) -> dict:
     path = Path(path) if path is not None else config_dir() / "calibration.yaml"
     if not path.is_file():
         raise InputError(f"calibration file {path} does not exist")
-    with open(path) as fh:
-        cfg = yaml_load(fh)
+    cfg = read_yaml(path)
+    if not isinstance(cfg, dict):
+        raise InputError(f"calibration file {path}: expected a mapping of sections, got {type(cfg).__name__}")
     for key in ("sweep", "parameters", "observations", "optimizer"):
         if key not in cfg:
             raise InputError(f"{path}: missing section {key!r}")
+    if not isinstance(cfg["parameters"], dict) or not isinstance(cfg["observations"], dict):
+        raise InputError(f"{path}: sections 'parameters' and 'observations' must be mappings")
     for name, spec in cfg["parameters"].items():
-        lo, hi = spec["bounds"]
+        bounds = spec.get("bounds") if isinstance(spec, dict) else None
+        if not (isinstance(bounds, list) and len(bounds) == 2
+                and all(isinstance(b, (int, float)) and not isinstance(b, bool) for b in bounds)):
+            raise InputError(f"{path}: parameter {name} needs bounds: [low, high], got {bounds!r}")
+        lo, hi = bounds
         if not (0 < lo < hi):
             raise InputError(f"{path}: parameter {name} needs bounds 0 < low < high, got {spec['bounds']}")
     missing = set(OBSERVATIONS) - set(cfg["observations"])

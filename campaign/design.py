@@ -618,7 +618,7 @@ def write_design(result: Mapping[str, Any], *, out_json=None, out_md=None) -> st
     """Write a :func:`run_design` result as JSON and/or Markdown (atomically); returns the Markdown."""
     import json
 
-    from .runner import _write_atomic
+    from .runner import write_atomic
 
     md = design_markdown(result)
 
@@ -632,7 +632,7 @@ def write_design(result: Mapping[str, Any], *, out_json=None, out_md=None) -> st
         return x
 
     if out_json is not None:
-        _write_atomic(out_json, json.dumps(clean(result), indent=2, sort_keys=True) + "\n")
+        write_atomic(out_json, json.dumps(clean(result), indent=2, sort_keys=True) + "\n")
     if out_md is not None:
-        _write_atomic(out_md, md)
+        write_atomic(out_md, md)
     return md

@@ -52,9 +52,9 @@ def _js(x):
 
 
 def _write_json(path, data) -> None:
-    from .runner import _write_atomic
+    from .runner import write_atomic
 
-    _write_atomic(path, json.dumps(_js(data), indent=2, sort_keys=True) + "\n")
+    write_atomic(path, json.dumps(_js(data), indent=2, sort_keys=True) + "\n")
 
 
 # ----------------------------------------------------------------------------------------
@@ -271,7 +271,7 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
     out_json, out_md : path-like
     """
     from .robot import load_robot
-    from .runner import _write_atomic, read_identification
+    from .runner import write_atomic, read_identification
 
     with open(plan_json, encoding="utf-8") as fh:
         the_plan = json.load(fh)
@@ -333,7 +333,7 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
         out["classes"][name] = cls
     _write_json(out_json, out)
     md = report_markdown(out)
-    _write_atomic(out_md, md)
+    write_atomic(out_md, md)
     print(md)
     return out
 

@@ -1,8 +1,22 @@
-"""Exceptions the CLI turns into a one-line message and exit status 2 (no traceback)."""
+"""Exceptions the CLI turns into a one-line message and exit status 2 (no traceback), and
+the wording their messages share."""
 
 from __future__ import annotations
 
-__all__ = ["CampaignError", "InputError", "SimulationError", "TrialFileError"]
+import difflib
+from typing import Sequence
+
+__all__ = ["CampaignError", "InputError", "SimulationError", "TrialFileError", "allowed_names"]
+
+
+def allowed_names(value: str, known: Sequence[str], *, limit: int = 12) -> str:
+    """``did you mean ...?`` for a near miss of ``value``, else the known names (at most ``limit``)."""
+    close = difflib.get_close_matches(value, list(known), n=3, cutoff=0.6)
+    if close:
+        return f"did you mean {', '.join(close)}?"
+    shown = ", ".join(sorted(known)[:limit])
+    more = f", ... ({len(known)} in all)" if len(known) > limit else ""
+    return f"known: {shown}{more}"
 
 
 class CampaignError(Exception):

@@ -22,7 +22,7 @@ import numpy as np
 from .errors import InputError
 
 # scipy.optimize (about 0.4 s of imports) is imported by the fit itself, not with the module:
-# Tables 3-4 and the calibration report only unpickle fitted estimators and read them.
+# Tables 3-4 and the calibration report only read fitted values back (LambdaFit.from_summary).
 
 __all__ = ["IdentifiabilityWarning", "LambdaFit", "design_arrays", "sensitivity_matrix"]
 
@@ -458,6 +458,40 @@ class LambdaFit:
         if np.any(norm == 0):
             raise InputError(f"directions has zero vectors at rows {np.flatnonzero(norm == 0).tolist()}")
         return D / norm[:, None]
+
+    @classmethod
+    def from_summary(cls, summary: dict, *, robot=None, direction=None) -> LambdaFit:
+        """A fitted estimator holding the values of :meth:`summary` (read back from JSON).
+
+        Everything Tables 3-4 and the reports read comes back (``lambda_``,
+        ``lambda_matrix_``, ``lambda_ci_``, the sensitivity, identifiability and warnings;
+        ``null`` as NaN, or inf for the condition number); the bootstrap samples and
+        residuals do not. :meth:`predict` needs ``robot`` and ``direction``.
+        """
+        def arr(value):
+            return np.array(value if value is not None else np.nan, dtype=float)
+
+        try:
+            est = cls(robot, direction=direction, structure=str(summary["structure"]), ci=float(summary["ci"]),
+                      n_bootstrap=int(summary["n_bootstrap"]))
+            est.lambda_ = arr(summary["lambda"])
+            est.lambda_matrix_ = np.diag(est.lambda_) if est.structure == "diagonal" else est.lambda_.copy()
+            est.lambda_ci_ = arr(summary["lambda_ci"])
+            est.sensitivity_ = arr(summary["sensitivity"])
+            est.configurations_ = arr(summary["configurations"])
+            cond = summary["condition_number"]
+            est.condition_number_ = float("inf") if cond is None else float(cond)
+            est.rms_log_residual_ = float(summary["rms_log_residual"])
+            est.n_trials_ = int(summary["n_trials"])
+            est.n_configurations_ = int(est.configurations_.shape[0])
+            est.identifiable_ = np.array([bool(x) for x in summary["identifiable"]])
+            est.identifiability_ = list(summary["identifiability"])
+            est.warnings_ = [str(w) for w in summary["warnings"]]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"not a LambdaFit summary: {type(exc).__name__} {exc}") from None
+        if robot is not None:
+            est.robot_, est.direction_ = robot, direction
+        return est
 
     def summary(self) -> dict:
         """JSON-safe dict of the fitted values."""

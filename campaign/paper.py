@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from .errors import InputError
+
 __all__ = ["yaml_load", "read_yaml", "copy_tree", "config_dir", "load_paper", "paper_q", "configuration_q", "impact_direction"]
 
 
@@ -51,7 +53,13 @@ def config_dir() -> Path:
 
 @functools.lru_cache(maxsize=32)
 def _parse(path: str, content: bytes):
-    return yaml_load(content.decode("utf-8"))
+    try:
+        return yaml_load(content.decode("utf-8"))
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        where = getattr(exc, "problem_mark", None)
+        at = f" (line {where.line + 1}, column {where.column + 1})" if where is not None else ""
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        raise InputError(f"{path}: not valid YAML{at}: {problem}") from None
 
 
 def copy_tree(node):

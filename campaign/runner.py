@@ -36,10 +36,12 @@ import traceback
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence, TextIO
 
+from .cellpath import misfiled
+
 __all__ = [
     "TRIAL_SUFFIX", "IDENTIFY_COLUMNS", "Timer", "cell_dir", "trial_relpath", "cell_trials", "find_cell_trials",
-    "gain_counts", "run_cells", "run_cell", "identify_trials", "read_identification", "fit_lambda", "load_fits",
-    "make_table", "job_log", "package_file",
+    "index_cells", "misfiled", "gain_counts", "run_cells", "run_cell", "identify_trials", "read_identification", "fit_lambda", "load_fits",
+    "make_table", "job_log", "package_file", "write_atomic",
 ]
 
 #: suffix of a trial file (campaign.archive.TRIAL_SUFFIX)
@@ -121,6 +123,42 @@ def find_cell_trials(archive_dir: str | os.PathLike, base: str, config: int, gai
     if not folder.is_dir():
         return []
     return sorted(str(p) for p in folder.glob(f"v*/r*{TRIAL_SUFFIX}") if p.is_file() and not p.name.startswith("."))
+
+
+def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], list[str]]:
+    """The trials of a finalized archive by cell, from its own ``index.csv``.
+
+    ``{(base, configuration, gain): [trial path, ...]}``, each list speed-major as
+    :func:`cell_trials` orders it. Re-analysing an archive takes its cells from here, so
+    the workflow asks for what the archive holds, whatever campaign configuration made it.
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder has no ``index.csv`` (not finalized).
+    ValueError
+        A row whose path is not the one its base, configuration, gain, speed and repeat
+        give (named), or an index without trials.
+    """
+    index = Path(archive_dir) / "index.csv"
+    if not index.is_file():
+        raise FileNotFoundError(f"{archive_dir}: no index.csv (finalize it first: campaign archive finalize {archive_dir})")
+    cells: dict[tuple[str, int, str], list[tuple[float, int, str]]] = {}
+    with open(index, newline="", encoding="utf-8") as fh:
+        for n, row in enumerate(csv.DictReader(fh), start=2):
+            try:
+                base, config, gain = row["base"], int(row["config"]), row["gain"]
+                speed, repeat = float(row["speed"]), int(row["repeat"])
+                expected = trial_relpath(base, config, gain, speed, repeat)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"{index}, line {n}: unreadable row ({exc})") from None
+            if row["path"] != expected:
+                raise ValueError(f"{index}, line {n}: path {row['path']} contradicts its row "
+                                 f"(base, config, gain, speed, repeat give {expected})")
+            cells.setdefault((base, config, gain), []).append((speed, repeat, str(Path(archive_dir) / expected)))
+    if not cells:
+        raise ValueError(f"{index}: lists no trial")
+    return {cell: [p for _, _, p in sorted(rows)] for cell, rows in sorted(cells.items())}
 
 
 def package_file(*parts: str) -> Path:
@@ -354,9 +392,12 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     timer = timer if timer is not None else Timer()
     with timer.imports():
         from .archive import trial_path, write_trial
+        from .checks import check_rig_params, check_speeds, pendulum_reach
         from .errors import SimulationError
         from .rig.batch import simulate_batch   # plain arrays: the job never imports xarray
         from .scene import make_scene
+    # every speed within the pendulum's reach and distinct in its path, before any trial
+    speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
     cells = [(str(b), int(c), str(g)) for b, c, g in cells]
     plan = []
     for base, config, gain in cells:
@@ -470,13 +511,10 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
     timer = timer if timer is not None else Timer()
     with timer.imports():
         from .errors import InputError, TrialFileError
-        from .identify import IdentifyOptions, identify_trial, load_trial
+        from .checks import check_identify_options
+        from .identify import identify_trial, load_trial
         from .robot import load_robot
-    known = {f.name for f in dataclasses.fields(IdentifyOptions)}
-    unknown = sorted(set(options or {}) - known)
-    if unknown:
-        raise ValueError(f"identify: unknown option(s) {unknown}; known: {sorted(known)}")
-    opts = IdentifyOptions(**dict(options or {}))
+    opts = check_identify_options(options)
     robots: dict[str, Any] = {}
     rows = []
     columns: list[str] | None = None
@@ -488,6 +526,9 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
             name = str(attrs.get("robot") or measured.attrs.get("robot") or "")
             if not name:
                 raise TrialFileError(f"{path}: no 'robot' attribute in the trial")
+            wrong = misfiled(path, attrs)   # a trial of another cell would bias this cell's m*
+            if wrong:
+                raise TrialFileError(wrong)
             if name not in robots:
                 robots[name] = load_robot(name)
             try:
@@ -577,7 +618,7 @@ def read_identification(paths: Iterable[str | os.PathLike]) -> list[dict[str, An
 # ---------------------------------------------------------------------------------------
 # Virtual Rotor Inertia and the tables
 # ---------------------------------------------------------------------------------------
-def _write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
+def write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
     """Write ``data`` to a temporary file beside ``path`` and rename it into place."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -593,8 +634,8 @@ def _write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
     return out
 
 
-def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.PathLike,
-               out_pickle: str | os.PathLike | None = None, *, gain_class: str, gains: Sequence[str],
+def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.PathLike, *,
+               gain_class: str, gains: Sequence[str],
                base: str = "fixed", options: Mapping[str, Any] | None = None, seed: int = 0,
                timer: Timer | None = None) -> dict[str, Any]:
     """Fit lambda (eq 11, 15) to the identified effective masses of one gain class.
@@ -610,11 +651,8 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         excluded trials, are left out.
     out_json : path-like
         :meth:`campaign.fit.LambdaFit.summary` with the gain class, the gains pooled and
-        the trials used and excluded (written atomically).
-    out_pickle : path-like, optional
-        The fitted estimator, pickled, for :func:`campaign.tables.table3` and
-        :func:`campaign.tables.table4` (a workflow intermediate, rebuilt by the workflow;
-        not an archive format).
+        the trials used and excluded (written atomically); all that Tables 3-4 read back
+        (:func:`load_fits`).
     gain_class : str
         Name of the class (``paper.yaml`` ``gain_classes``: ``zero_low``, ``high``).
     gains : sequence of str
@@ -640,7 +678,6 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         No usable trial, trials of several robots, or an unknown fit
         option (named).
     """
-    import pickle
     import warnings
 
     timer = timer if timer is not None else Timer()
@@ -675,9 +712,7 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         "n_excluded": len(rows) - len(used), "configs": sorted({int(r["config"]) for r in used}),
         "units": {"lambda": "kg m^2", "lambda_ci": "kg m^2"},
     }
-    _write_atomic(out_json, json.dumps(result, indent=2, sort_keys=True) + "\n")
-    if out_pickle is not None:
-        _write_atomic(out_pickle, pickle.dumps(est))
+    write_atomic(out_json, json.dumps(result, indent=2, sort_keys=True) + "\n")
     lam = ", ".join(f"{x:.4g}" for x in np.ravel(est.lambda_))
     print(f"fit {gain_class} ({', '.join(gains)}): lambda = [{lam}] kg m^2 from {len(used)} trials "
           f"({len(rows) - len(used)} excluded); condition number {est.condition_number_:.3g}")
@@ -686,31 +721,40 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
     return result
 
 
-def load_fits(pickles: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
-    """The fitted :class:`campaign.fit.LambdaFit` of each gain class, from :func:`fit_lambda`'s pickles."""
-    import pickle
+def load_fits(results: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
+    """The fitted :class:`campaign.fit.LambdaFit` of each gain class, read back from
+    :func:`fit_lambda`'s JSON (:meth:`campaign.fit.LambdaFit.from_summary`)."""
+    from .errors import InputError
+    from .fit import LambdaFit
 
     out = {}
-    for gain_class, path in pickles.items():
-        with open(path, "rb") as fh:
-            out[gain_class] = pickle.load(fh)
+    for gain_class, path in results.items():
+        with open(path, encoding="utf-8") as fh:
+            try:
+                out[gain_class] = LambdaFit.from_summary(json.load(fh))
+            except (ValueError, InputError) as exc:
+                raise InputError(f"{path}: {exc}") from None
     return out
 
 
 def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike, *,
                ident_tables: Iterable[str | os.PathLike] = (), fits: Mapping[str, str | os.PathLike] | None = None,
-               source: str | os.PathLike | None = None, timer: Timer | None = None):
-    """Write Table 2, 3, 4 or Table 4 under both structures (:mod:`campaign.tables`) as CSV
-    and Markdown, each atomically.
+               source: str | os.PathLike | None = None, out_html: str | os.PathLike | None = None,
+               timer: Timer | None = None):
+    """Write Table 2, 3, 4 or Table 4 under both structures (:mod:`campaign.tables`) as CSV,
+    Markdown and HTML, each atomically.
 
     Parameters
     ----------
     name : {"table2", "table3", "table4", "table4_structures"}
     out_csv, out_md : path-like
+    out_html : path-like, optional
+        The Markdown as a standalone HTML page (:mod:`campaign.htmlpage`), which
+        Snakemake's report shows inline.
     ident_tables : iterable of path-like
         Identification CSVs: fixed-base ones for Table 2, flexible-base ones for Table 4.
     fits : mapping, optional
-        ``{gain class: pickle of fit_lambda}`` for Tables 3 and 4, in the paper's order.
+        ``{gain class: JSON of fit_lambda}`` for Tables 3 and 4, in the paper's order.
     source : path-like, optional
         For ``table4_structures``: the CSV ``benchmarks/space_structure.py`` writes.
     timer : Timer, optional
@@ -735,7 +779,11 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
             table = tables.structures_table(source)
         else:
             raise ValueError(f"unknown table {name!r}; expected table2, table3, table4 or table4_structures")
-        _write_atomic(out_csv, table.to_csv())
-        _write_atomic(out_md, table.to_markdown())
+        write_atomic(out_csv, table.to_csv())
+        write_atomic(out_md, table.to_markdown())
+        if out_html is not None:
+            from .htmlpage import markdown_page
+
+            write_atomic(out_html, markdown_page(table.to_markdown(), title=table.title))
     print(table.to_markdown())
     return table

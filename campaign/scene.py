@@ -19,11 +19,11 @@ import math
 from pathlib import Path
 from typing import Any, Mapping
 
-from .errors import InputError
+from .errors import InputError, allowed_names
 from .paper import config_dir, load_paper, read_yaml
 
 __all__ = ["Scene", "load_rig", "load_structures", "make_scene", "derive_seed", "check_direction", "direction_azimuth",
-           "direction_from_azimuth", "pose_tag", "BASES", "GAINS", "SCENE_NAMES"]
+           "direction_from_azimuth", "pose_tag", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX", "hammer_reach"]
 
 BASES = ("fixed", "flexible")
 GAINS = ("zero", "low", "high")
@@ -52,6 +52,10 @@ _OPTIONAL_POSITIVE = ("ves.stroke", "ves.stroke_rotation")
 _STRUCTURE_PREFIXES = ("flexible.", "ves.")
 
 
+#: largest seed a trial file can store (its attributes are signed 64-bit integers)
+SEED_MAX = 2**63 - 1
+
+
 def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
     """{a: {b: {value: 1, units: ...}}} -> {"a.b": 1}."""
     out: dict[str, Any] = {}
@@ -71,6 +75,8 @@ def _read_rig(path):
     if not path.is_file():
         raise InputError(f"rig parameter file {path} does not exist")
     tree = read_yaml(path)      # parsed once per file content; a fresh copy to modify
+    if not isinstance(tree, dict):
+        raise InputError(f"rig parameter file {path}: expected a mapping of parameters, got {type(tree).__name__}")
     scenes = tree.pop("scenes", {}) or {}
     structures = tree.pop("structures", {}) or {}
     tree.pop("calibration", None)
@@ -81,6 +87,21 @@ def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, 
     """Read a rig file: (flat parameter values, named scene overrides)."""
     tree, scenes, _ = _read_rig(path)
     return _flatten(tree), {k: dict(v.get("overrides", {})) for k, v in scenes.items()}
+
+
+def hammer_reach(head_mass: float, rod_mass: float, radius: float, gravity: float, max_release_deg: float) -> float:
+    """Largest head speed [m/s] of the pendulum released at rest from its largest angle.
+
+    Energy balance of the pendulum (:mod:`campaign.rig.pendulum`): a point head at
+    ``radius`` on a uniform rod, ``I_p w^2 / 2 = m g l_c (1 - cos theta_0)``, head speed
+    ``radius w``; ``inf`` without gravity, where the hammer is launched at the asked speed.
+    Standard library only, so the workflow's start-up checks speeds without the rig.
+    """
+    if gravity == 0:
+        return math.inf
+    inertia = head_mass * radius**2 + rod_mass * radius**2 / 3.0
+    mgl = (head_mass * radius + 0.5 * rod_mass * radius) * gravity
+    return radius * math.sqrt(2.0 * mgl * (1.0 - math.cos(math.radians(max_release_deg))) / inertia)
 
 
 def load_structures(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
@@ -242,6 +263,8 @@ class Scene:
             raise InputError(f"unknown scene {self.name!r}; expected one of {SCENE_NAMES}")
         if not (isinstance(self.speed, (int, float)) and math.isfinite(self.speed) and self.speed > 0):
             raise InputError(f"impact speed must be a finite number > 0 m/s, got {self.speed!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed <= SEED_MAX:
+            raise InputError(f"seed {self.seed!r} is not an integer in [0, 2**63 - 1] (trial files store it as int64)")
         if not isinstance(self.repeat, int) or self.repeat < 0:
             raise InputError(f"repeat must be an integer >= 0, got {self.repeat!r}")
         if len(self.gains_counts) != 3 or any(not math.isfinite(g) or g < 0 for g in self.gains_counts):
@@ -378,7 +401,7 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
             values[k] = v
     for k, v in (params or {}).items():
         if k not in values:
-            raise InputError(f"unknown rig parameter {k!r}")
+            raise InputError(f"unknown rig parameter {k!r}; {allowed_names(str(k), list(values))}")
         values[k] = v
     if gain not in paper["gains"]:
         raise InputError(f"unknown gain set {gain!r}; expected one of {sorted(paper['gains'])}")

@@ -53,7 +53,7 @@ def _dataset(group: str, scene: Scene, lengths: dict[str, int], joints: tuple[st
         if dim in CLOCKS:
             rate = float(scene.p(CLOCKS[dim].rate_key))
             coords[dim] = xr.Variable(dim, np.arange(lengths[dim], dtype=np.float64) / rate, attrs={
-                "units": "s", "standard_name": "time", "long_name": CLOCKS[dim].long_name})
+                "units": "s", "long_name": CLOCKS[dim].long_name})
         else:
             coords[dim] = xr.Variable(dim, np.asarray(coord_values[dim], dtype=object).astype(str))
     return xr.Dataset(data_vars, coords=coords)

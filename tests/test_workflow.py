@@ -171,10 +171,24 @@ def test_rerun_has_nothing_to_do(ci_run):
 
 
 def test_report_builds(ci_run):
+    """The report groups its results as the campaign is, shows the tables and calibration
+    notes as HTML (rendered inline, not download links) and holds every figure's PDF."""
+    import json
+
     report = ci_run / "results" / "ci" / "report.html"
     snakemake(ci_run, "--report", str(report))
     text = report.read_text(errors="replace")
     assert report.stat().st_size > 100_000 and "Table 2" in text and "Figure 9" in text
+    categories = json.loads(re.search(r"var categories = (\{.*?\});\n", text).group(1))
+    assert set(categories) == {"Fixed base", "Flexible base", "Virtual rotor inertia (lambda)", "Calibration",
+                               "Impact planner"}
+    items = {Path(p).name for sub in categories.values() for files in sub.values() for p in files}
+    assert {"table2.html", "table3.html", "table4.html", "calibration.html"} <= items
+    assert {f"fig{i}.pdf" for i in range(4, 10)} | {f"fig{i}.png" for i in range(4, 10)} <= items
+    assert {"plan_workspace.pdf", "plan_directions.pdf"} <= items
+    assert not any(name.endswith((".csv", ".md")) for name in items)
+    table = (ci_run / "results" / "ci" / "tables" / "table2.html").read_text()
+    assert table.count("<tr>") == 1 + 3 and "<th>Config</th>" in table  # header + configurations 1-3
 
 
 def test_editing_one_gain_reruns_only_its_dependents(ci_run, tmp_path):
@@ -205,6 +219,37 @@ def test_reuse_reanalyses_an_archive_without_simulating(ci_run, tmp_path):
     ours = read_csv(tmp_path / "results" / "ci-reuse" / "tables" / "table2.csv")
     original = read_csv(ci_run / "results" / "ci" / "tables" / "table2.csv")
     assert ours == original  # identification from the archive reproduces every number
+
+
+def _digest_tree(root: Path) -> dict[str, tuple[str, int]]:
+    import hashlib
+
+    return {str(p.relative_to(root)): (hashlib.sha256(p.read_bytes()).hexdigest(), p.stat().st_mtime_ns)
+            for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def test_reuse_of_the_reference_archive_as_documented(tmp_path):
+    """``snakemake --cores 2 --config simulate=false`` with the default configuration, in a
+    folder laid out like a fresh clone (config/ and the committed archive/reference):
+    the cells come from the archive's index.csv, every product it can make is made, and
+    nothing is written into the archive."""
+    (tmp_path / "config").symlink_to(REPO / "config")
+    (tmp_path / "archive").mkdir()
+    (tmp_path / "archive" / "reference").symlink_to(REPO / "archive" / "reference")
+    before = _digest_tree(REPO / "archive" / "reference")
+    snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None)
+    assert _digest_tree(REPO / "archive" / "reference") == before
+    assert [p.name for p in (tmp_path / "archive").iterdir()] == ["reference"]
+    results = tmp_path / "results" / "full"
+    assert (results / "archive_verify.txt").is_file()
+    for name in ("table2", "table3", "table4"):
+        assert (results / "tables" / f"{name}.csv").is_file()
+    for name in ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9"):
+        assert (results / "figures" / f"{name}.png").is_file()
+    rows = [r for f in sorted((results / "identify").rglob("*.csv")) for r in read_csv(f)]
+    index = read_csv(REPO / "archive" / "reference" / "index.csv")
+    assert sorted(Path(r["path"]).relative_to("archive/reference").as_posix() for r in rows) == \
+        sorted(r["path"] for r in index)
 
 
 # ------------------------------------------------------------------------------------------

@@ -7,6 +7,7 @@ import datetime as _dt
 import functools
 import hashlib
 import json
+import os
 import re
 import subprocess
 from importlib.metadata import PackageNotFoundError, version as _dist_version
@@ -210,6 +211,11 @@ class _Group:
     variables: list[_Var]  # dimension coordinates first, then the schema's variables in schema order
 
 
+#: ACDD coverage_content_type of a group's time series; constants of the rig (no clock)
+#: are "referenceInformation", coordinates "coordinate"
+_COVERAGE = {"measured": "physicalMeasurement", "truth": "modelResult"}
+
+
 def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Group:
     """Check one group against the schema; fill units/long_name the rig left out."""
     expected = {v.name: v for v in variables(group, base)}
@@ -234,6 +240,8 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             raise InputError(f"/{group}/{name} has units {attrs['units']!r}, schema says {spec.units!r}")
         attrs.setdefault("units", spec.units)
         attrs.setdefault("long_name", spec.long_name)
+        attrs.setdefault("coverage_content_type", _COVERAGE[group] if any(d in CLOCKS for d in spec.dims)
+                         else "referenceInformation")
         for key, value in attrs.items():
             _check_attr(f"/{group}/{name}", key, value)
         data = np.asarray(var.values, order="C")
@@ -249,7 +257,10 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             attrs = dict(c.attrs)
             if attrs.get("units", "s") != "s":
                 raise InputError(f"/{group} time coordinate {dim} has units {attrs['units']!r}, expected 's'")
-            attrs.update(units="s", standard_name="time")
+            # seconds from the start of the recording: a duration, not a date, so no
+            # standard_name "time" (CF reserves it for coordinates with a "since" epoch)
+            attrs.pop("standard_name", None)
+            attrs.update(units="s")
             attrs.setdefault("long_name", CLOCKS[dim].long_name)
             values = np.asarray(c.values, order="C")
         elif dim in COORDS:
@@ -268,6 +279,7 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             attrs.setdefault("long_name", _LABEL_LONG_NAMES[dim])
         else:
             raise InputError(f"/{group} has dimension {dim!r}, which is neither a schema clock nor a label dimension")
+        attrs.setdefault("coverage_content_type", "coordinate")
         for key, value in attrs.items():
             _check_attr(f"/{group}/{dim}", key, value)
         coords.append(_Var(dim, (dim,), values, attrs, _encoding((dim,), values)))
@@ -316,8 +328,19 @@ def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
 
 
 def _now() -> str:
-    """ACDD date_created: UTC, ISO 8601, to the second."""
-    return _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    """ACDD date_created: UTC, ISO 8601, to the second; ``$SOURCE_DATE_EPOCH`` (seconds since
+    1970-01-01 UTC, the reproducible-builds convention) replaces the clock when set, so
+    two runs write byte-identical files."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if epoch:
+        try:
+            when = _dt.datetime.fromtimestamp(int(epoch), _dt.timezone.utc)
+        except (ValueError, OverflowError, OSError):
+            raise InputError(f"SOURCE_DATE_EPOCH = {epoch!r} is not a whole number of seconds since 1970-01-01 UTC") \
+                from None
+    else:
+        when = _dt.datetime.now(_dt.timezone.utc)
+    return when.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _Group]]:
@@ -343,6 +366,7 @@ def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _G
         raise InputError(f"trial says schema_version {version!r}, this archive writes {SCHEMA_VERSION}")
     groups = {g: _validate_group(g, tree[g] if isinstance(tree, TrialArrays) else tree[g].to_dataset(inherit=False),
                                  scene.base) for g in GROUPS}
+    created = _now()
     root = {
         "title": f"Simulated VES-II impact trial {scene.cell}",
         "summary": (
@@ -365,7 +389,8 @@ def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _G
         "source": "numerical simulation: campaign rig (simulated MIT VES-II)",
         **attrs,
         "Conventions": "CF-1.11, ACDD-1.3",
-        "date_created": _now(),
+        "date_created": created,
+        "history": f"{created} simulated by campaign {provenance()['campaign_version']} (trial {scene.cell})",
         "schema_version": SCHEMA_VERSION,
         **provenance(),
         "seed": int(scene.seed),

@@ -14,6 +14,7 @@ import numpy as np
 
 from .._lazy import LazyModule
 from ..errors import InputError, TrialFileError
+from ..progress import progress
 from ..scene import BASES, GAINS
 from ..schema import MEASURED, SCHEMA_VERSION, TRUTH, variables
 from .decode import _plain, open_trial
@@ -165,7 +166,7 @@ def list_trials(campaign_dir: str | os.PathLike, **filters: Any) -> list[TrialRe
     wanted = {k: _filter_values(k, v) for k, v in filters.items()}
     campaign = _campaign(campaign_dir)
     out = []
-    for file in _trial_files(campaign):
+    for file in progress(list(_trial_files(campaign)), desc="read"):
         rec = _record(campaign, file)
         if all((f"{rec.speed:.3f}" if k == "speed" else getattr(rec, k)) in vals for k, vals in wanted.items()):
             out.append(rec)

@@ -16,7 +16,9 @@ from ..errors import InputError, TrialFileError
 from ..scene import BASES
 from ..schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
 from .fileformat import INDEX, INDEX_COLUMNS, MANIFEST, README, TRIAL_SUFFIX, _LABEL_LONG_NAMES, _TEMP_RE
-from .folder import TrialRecord, _campaign, _rel, _trial_files, list_trials
+from ..progress import progress
+from .filing import filing_problems
+from .folder import TrialRecord, _campaign, _record, _rel, _trial_files, list_trials
 from .read import _inspect_isolated_many
 from .write import _replace_atomically
 
@@ -68,7 +70,7 @@ def write_manifest(campaign_dir: str | os.PathLike) -> Path:
     """
     campaign = _campaign(campaign_dir)
     lines = []
-    for file in _all_files(campaign):
+    for file in progress(_all_files(campaign), desc="sha256", unit="file"):
         rel = _rel(campaign, file)
         if _TEMP_RE.match(file.name):
             raise InputError(f"{campaign / rel} is a temporary file of an interrupted write: delete it "
@@ -152,8 +154,9 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
         "",
         "## Clocks (time dimensions)",
         "",
-        "Each time coordinate is float64 seconds from the start of the recording (`units = \"s\"`, "
-        "`standard_name = \"time\"`); the contact happens at a seeded, jittered instant inside it.",
+        "Each time coordinate is float64 seconds from the start of the recording (`units = \"s\"`; no "
+        "`standard_name`, which CF keeps for times with a `since` epoch); the contact happens at a seeded, "
+        "jittered instant inside it.",
         "",
         _md_table(("dimension", "clock", "rate key (scene parameter)", "rate in this campaign [Hz]"), clock_rows),
         "",
@@ -210,6 +213,10 @@ def finalize_campaign(campaign_dir: str | os.PathLike) -> dict[str, Path]:
     # the index and the README describe the same trials: their root attributes are read once
     # (a few ms per file; 216 files in the full campaign)
     records = list_trials(campaign)
+    misfiled = filing_problems(campaign, [_filing_record(r) for r in records])
+    if misfiled:
+        raise TrialFileError("cannot finalize, misfiled or duplicate trials: "
+                             + "; ".join(f"{campaign / rel}: {message}" for rel, message in misfiled))
     return {"index": write_index(campaign, records=records), "readme": write_readme(campaign, records=records),
             "manifest": write_manifest(campaign)}
 
@@ -254,7 +261,7 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
                 problems.append(Problem(MANIFEST, f"line {n} names a path outside the campaign: {rel!r}"))
                 continue
             listed[rel] = m.group(1)
-        for rel, digest in listed.items():
+        for rel, digest in progress(listed.items(), desc="sha256", unit="file"):
             file = campaign / rel
             if not file.is_file():
                 problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
@@ -269,13 +276,22 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
     trials = [_rel(campaign, f) for f in _trial_files(campaign)]
     for rel, found in zip(trials, _inspect_isolated_many([campaign / rel for rel in trials])):
         problems += [Problem(rel, p) for p in found]
+    readable = []
+    for rel in trials:
+        try:
+            readable.append(_filing_record(_record(campaign, campaign / rel)))
+        except TrialFileError:
+            pass  # reported by the inspection above
     index = campaign / INDEX
+    rows = None
     if index.is_file():
         try:
             with open(index, newline="", encoding="utf-8") as fh:
-                indexed = {row["path"] for row in csv.DictReader(fh)}
+                rows = list(csv.DictReader(fh))
+            indexed = {row["path"] for row in rows}
         except (KeyError, csv.Error, UnicodeDecodeError) as exc:
             problems.append(Problem(INDEX, f"unreadable: {exc}"))
+            rows = None
         else:
             for rel in sorted(indexed - set(trials)):
                 problems.append(Problem(INDEX, f"lists {rel}, which is not a trial file of this campaign"))
@@ -283,4 +299,11 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
                 problems.append(Problem(rel, f"trial file not listed in {INDEX}"))
     elif manifest.is_file():
         problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
+    problems += [Problem(rel, message) for rel, message in filing_problems(campaign, readable, rows)]
     return problems
+
+
+def _filing_record(rec: TrialRecord) -> dict[str, Any]:
+    """What :func:`campaign.archive.filing.filing_problems` reads of a trial."""
+    return {"path": rec.path, "base": rec.base, "config": rec.config, "gain": rec.gain, "speed": rec.speed,
+            "repeat": rec.repeat, "seed": rec.seed, "scene_json": rec.scene_json}

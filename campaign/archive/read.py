@@ -14,6 +14,7 @@ import numpy as np
 from h5py import h5d, h5ds, h5i, h5o, h5r
 
 from ..errors import TrialFileError
+from ..progress import progress
 from ..scene import BASES
 from ..schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
 from .fileformat import GROUPS, _SCHEMA_MAJOR, _STRUCTURAL, _digest
@@ -357,8 +358,8 @@ def _inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
             finally:
                 os._exit(code)
         os.close(write_fd)
-        with os.fdopen(read_fd, "rb") as fh:
-            lines = fh.read().splitlines()
+        with os.fdopen(read_fd, "rb") as fh:   # line by line, as the child checks the files
+            lines = [line.rstrip(b"\n") for line in progress(fh, desc="check", total=len(todo))]
         _, status = os.waitpid(pid, 0)
         for line in lines[:len(todo)]:
             try:

@@ -106,6 +106,20 @@ def run(args) -> int:
         write_back,
     )
 
+    from ..calibrate import load_calibration as _load
+    from ..checks import check_output_dir, check_output_file, check_positive_int
+    from ..scene import load_rig
+
+    # every input and output checked before the first simulation
+    if args.max_evaluations is not None:
+        check_positive_int(args.max_evaluations, key="--max-evaluations")
+    if args.report:
+        check_output_dir(args.report, option="--report")
+    if args.rig is not None and not args.no_write and not args.skip_fit:
+        check_output_file(args.rig, option="--rig")
+    _load(args.calibration)
+    load_rig(args.rig)
+
     fit = None
     if args.skip_fit:
         cfg = load_calibration(args.calibration)
@@ -120,10 +134,11 @@ def run(args) -> int:
     validation = validate(rig=args.rig, fixed=summary) if args.validate else None
     text = _markdown(summary, fit, validation)
     if args.report:
+        from ..runner import write_atomic
+
         out = Path(args.report)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "calibration.json").write_text(json.dumps({"summary": summary, "fit": fit, "validation": validation},
-                                                         indent=1, default=float))
-        (out / "calibration.md").write_text(text)
+        write_atomic(out / "calibration.json", json.dumps({"summary": summary, "fit": fit, "validation": validation},
+                                                           indent=1, default=float))
+        write_atomic(out / "calibration.md", text)
     print(text)
     return 0

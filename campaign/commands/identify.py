@@ -62,11 +62,13 @@ def _fit_options(p) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="S", help="bootstrap seed (default 0)")
 
 
-def _check_bootstrap(n: int) -> None:
+def _check_fit_options(args) -> None:
+    from ..checks import check_seed
     from ..errors import InputError
 
-    if n < 0:
-        raise InputError(f"--bootstrap must be >= 0, got {n}")
+    if args.bootstrap < 0:
+        raise InputError(f"--bootstrap must be >= 0, got {args.bootstrap}")
+    check_seed(args.seed, key="--seed")
 
 
 def _fmt(v, spec=".4g") -> str:
@@ -75,8 +77,9 @@ def _fmt(v, spec=".4g") -> str:
 
 def run_identify(args) -> int:
     from ..identify import identify_files
+    from ..progress import progress
 
-    records = identify_files(args.paths)
+    records = identify_files(progress(args.paths, desc="identify"))
     if args.json:
         json.dump([r.to_dict() for r in records], sys.stdout, indent=1, allow_nan=False)
         sys.stdout.write("\n")
@@ -95,10 +98,11 @@ def _fits(args):
 
     from ..fit import IdentifiabilityWarning
     from ..identify import find_trials, identify_files
+    from ..progress import progress
     from ..tables import fit_gain_classes
 
-    _check_bootstrap(args.bootstrap)
-    records = identify_files(find_trials(args.archive))
+    _check_fit_options(args)
+    records = identify_files(progress(find_trials(args.archive), desc="identify"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)
         fits = fit_gain_classes(records, n_bootstrap=args.bootstrap, random_state=args.seed, warn=False)
@@ -141,11 +145,14 @@ def run_fit(args) -> int:
 
 
 def run_tables(args) -> int:
+    from ..checks import check_output_dir
     from ..identify import find_trials, identify_files
+    from ..progress import progress
     from ..tables import write_tables
 
-    _check_bootstrap(args.bootstrap)
-    records = identify_files(find_trials(args.archive))
+    _check_fit_options(args)
+    check_output_dir(args.out)
+    records = identify_files(progress(find_trials(args.archive), desc="identify"))
     paths = write_tables(records, args.out, n_bootstrap=args.bootstrap, random_state=args.seed)
     for name, files in paths.items():
         print(f"{name}: " + ", ".join(str(p) for p in files.values()))

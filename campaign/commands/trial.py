@@ -55,9 +55,12 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..archive import write_trial
+    from ..checks import check_output_file
     from ..rig import simulate
     from ..scene import make_scene
     from .meff import parse_vector
+
+    check_output_file(args.out)
 
     q_paper = None if args.q is None else parse_vector(args.q, option="--q", size=3, units="deg")
     direction = None if args.direction is None else parse_vector(args.direction, option="--direction", size=3)

@@ -27,6 +27,7 @@ import numpy as np
 from scipy.special import ellipj, ellipk
 
 from ..errors import InputError
+from ..scene import hammer_reach
 
 __all__ = ["Pendulum"]
 
@@ -81,6 +82,12 @@ class Pendulum:
         """Small-swing angular frequency ``sqrt(m g l_c / I_p)`` [rad/s]."""
         return math.sqrt(self.mgl / self.inertia)
 
+    @property
+    def max_speed(self) -> float:
+        """Head speed at the bottom from the largest release angle [m/s] (``inf`` without
+        gravity, where the hammer is launched at the asked speed)."""
+        return hammer_reach(self.head_mass, self.rod_mass, self.radius, self.gravity, self.max_release_deg)
+
     def release_angle(self, speed: float) -> float:
         """Release angle [rad] that gives head speed ``speed`` [m/s] at the bottom.
 
@@ -93,10 +100,9 @@ class Pendulum:
         c = 1.0 - self.inertia * (speed / self.radius) ** 2 / (2.0 * self.mgl)
         theta0 = math.acos(c) if c >= -1.0 else math.inf
         if not theta0 <= math.radians(self.max_release_deg):
-            vmax = self.radius * math.sqrt(2.0 * self.mgl * (1 - math.cos(math.radians(self.max_release_deg))) / self.inertia)
             raise InputError(
                 f"impact speed {speed} m/s is beyond what the pendulum can reach "
-                f"(max {vmax:.3f} m/s at its {self.max_release_deg} deg release limit)"
+                f"(max {self.max_speed:.3f} m/s at its {self.max_release_deg} deg release limit)"
             )
         return theta0
 

@@ -353,7 +353,7 @@ def _clock(dim: str, values) -> ChannelArray:
     """A clock's time coordinate [s] with its CF attributes."""
     c = schema.CLOCKS[dim]
     return ChannelArray((dim,), np.asarray(values, dtype=float),
-                        {"units": "s", "standard_name": "time", "long_name": c.long_name, "rate_key": c.rate_key})
+                        {"units": "s", "long_name": c.long_name, "rate_key": c.rate_key})
 
 
 def _names(dim: str, labels) -> ChannelArray:

@@ -30,8 +30,9 @@ rule calibration_report:
         rig=RIG_FILE,
         table4=f"{RESULTS}/tables/table4.csv",
     output:
-        md=report(f"{RESULTS}/calibration/calibration.md", caption="../report/calibration.rst",
-                  category="Calibration"),
+        md=f"{RESULTS}/calibration/calibration.md",
+        html=report(f"{RESULTS}/calibration/calibration.html", caption="../report/calibration.rst",
+                    category="Calibration", subcategory="Fitted and held-out observations"),
         csv=f"{RESULTS}/calibration/calibration.csv",
     log:
         log_file("calibration_report"),

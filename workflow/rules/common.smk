@@ -14,7 +14,8 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
 
-from campaign import runner
+from campaign import checks, runner
+from campaign.errors import InputError
 
 min_version("9.0")
 
@@ -26,6 +27,17 @@ os.environ.update(PYTHONPATH=os.pathsep.join(p for p in (workflow.basedir, os.en
 configfile: "config/config.yaml"
 
 
+# --config values arrive as strings unless Snakemake recognises them (simulate=false,
+# speeds=[1.0,2.5]): read them as YAML where the schema wants another type, then validate
+SCHEMA_FILE = Path(workflow.basedir, "workflow", "schemas", "config.schema.yaml")
+# (one line naming the key), then let Snakemake's validate fill in the schema's defaults
+with open(SCHEMA_FILE, encoding="utf-8") as _fh:
+    _schema = yaml.safe_load(_fh)
+checks.parse_typed_strings(config, _schema)
+try:
+    checks.check_schema(config, _schema)
+except InputError as _exc:
+    raise WorkflowError(str(_exc)) from None
 validate(config, schema="../schemas/config.schema.yaml")
 
 
@@ -88,10 +100,12 @@ def code_digest(*patterns):
 
 
 # the code behind each stage (see code_digest)
-CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive/*.py")
-CODE_IDENTIFY = code_digest("identify/*.py", "robot/*.py", "robot/*/*", "archive/*.py", "runner.py")
-CODE_FIT = code_digest("fit.py", "exiit.py")
-CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py")
+CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive/*.py",
+                            "checks.py", "cellpath.py")
+CODE_IDENTIFY = code_digest("identify/*.py", "robot/*.py", "robot/*/*", "archive/*.py", "runner.py", "checks.py",
+                            "cellpath.py")
+CODE_FIT = code_digest("fit.py", "exiit.py", "runner.py")
+CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py", "runner.py", "htmlpage.py")
 
 
 def figure_code(name, *more):
@@ -126,7 +140,34 @@ def _sweeps():
     return out
 
 
-SWEEPS = _sweeps()
+def _reuse_cells(root):
+    """{(base, configuration, gain): [trial files]} of the reused archive, from its own
+    index.csv, restricted to the bases, configurations and gains the configuration lists."""
+    try:
+        held = runner.index_cells(root)
+    except (OSError, ValueError) as exc:
+        _config_error("reuse_archive", str(exc))
+    wanted = _sweeps()
+    out = {cell: paths for cell, paths in held.items()
+           if cell[0] in wanted and cell[1] in wanted[cell[0]]["configurations"] and cell[2] in wanted[cell[0]]["gains"]}
+    if not out:
+        _config_error("reuse_archive", f"{root!r} holds no trial of the cells bases: lists "
+                      f"(it holds {sorted({c[0] for c in held})} bases)")
+    return out
+
+
+def _held_sweeps(held):
+    """The sweep of each base as the reused archive holds it (speeds and repeats from its files)."""
+    out = {}
+    for base in [b for b in ("fixed", "flexible") if any(c[0] == b for c in held)]:
+        rows = [c for c in held if c[0] == base]
+        speeds = sorted({float(Path(p).parent.name[1:]) for c in rows for p in held[c]})
+        repeats = max(int(Path(p).stem[1:]) for c in rows for p in held[c]) + 1
+        out[base] = {"configurations": sorted({c[1] for c in rows}),
+                     "gains": [g for g in GAIN_ORDER if any(c[2] == g for c in rows)],
+                     "speeds": speeds, "repeats": repeats}
+    return out
+
 
 
 def _structure():
@@ -155,12 +196,21 @@ def sweep_params(base):
 
 if SIMULATE:
     TRIAL_ROOT = ARCHIVE
+    SWEEPS = _sweeps()
+    REUSED = {}
 else:
     if not config.get("reuse_archive"):
         _config_error("reuse_archive", "simulate is false, so reuse_archive must name an archive folder")
     TRIAL_ROOT = config["reuse_archive"].rstrip("/")
     if not Path(TRIAL_ROOT).is_dir():
         _config_error("reuse_archive", f"{TRIAL_ROOT!r} is not a folder (simulate is false: nothing is simulated)")
+    REUSED = _reuse_cells(TRIAL_ROOT)
+    SWEEPS = _held_sweeps(REUSED)
+
+try:
+    checks.check_workflow_config(config, sweeps=SWEEPS if SIMULATE else {})
+except InputError as exc:
+    raise WorkflowError(str(exc)) from None
 
 
 def cells(base, configs=None, gains=None):
@@ -169,19 +219,16 @@ def cells(base, configs=None, gains=None):
     if sweep is None:
         return []
     return [(base, c, g) for g in sweep["gains"] for c in sweep["configurations"]
-            if (configs is None or c in configs) and (gains is None or g in gains)]
+            if (configs is None or c in configs) and (gains is None or g in gains)
+            and (SIMULATE or (base, c, g) in REUSED)]
 
 
 def cell_trials(base, config_, gain):
-    """Trial files of one cell: declared outputs when simulating, the archive's files when reusing."""
+    """Trial files of one cell: declared outputs when simulating, the archive's index when reusing."""
     if SIMULATE:
         sweep = SWEEPS[base]
         return runner.cell_trials(TRIAL_ROOT, base, config_, gain, sweep["speeds"], sweep["repeats"])
-    found = runner.find_cell_trials(TRIAL_ROOT, base, config_, gain)
-    if not found:
-        raise WorkflowError(f"reuse_archive {TRIAL_ROOT!r} has no trials of cell {runner.cell_dir(base, config_, gain)} "
-                            f"(listed by bases.{base} of the configuration)")
-    return found
+    return REUSED[(base, config_, gain)]
 
 
 def trial_file(base, config_, gain, speed, repeat, key):
@@ -264,11 +311,6 @@ def fit_classes():
     """Gain classes the fixed-base sweep can fit: {class: [gains of the class in the sweep]}."""
     have = SWEEPS.get("fixed", {}).get("gains", [])
     return {k: [g for g in v if g in have] for k, v in GAIN_CLASSES.items() if any(g in have for g in v)}
-
-
-def fit_pickles():
-    """{gain class: fitted estimator} for Tables 3 and 4, in the paper's order."""
-    return {k: f"{RESULTS}/fit/lambda_{k}.pkl" for k in fit_classes()}
 
 
 def all_trials():
@@ -372,10 +414,8 @@ def bench_file(rule_name, unit=None):
 
 def calibration_targets():
     """The calibration report, when the campaign has what its held-out rows need."""
-    flex = config.get("bases", {}).get("flexible") or {}
-    if {1, 2} <= set(flex.get("configurations", [])) and {"low", "high"} <= set(flex.get("gains", [])) \
-            and not missing_requirement("table4") and not missing_requirement("fig9"):
-        return [f"{RESULTS}/calibration/calibration.md"]
+    if not missing_requirement("table4") and not missing_requirement("fig9"):
+        return [f"{RESULTS}/calibration/calibration.md", f"{RESULTS}/calibration/calibration.html"]
     return []
 
 

@@ -6,8 +6,10 @@ rule fig4_arm_configurations:
     input:
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig4.png", caption="../report/fig4.rst", category="Figures"),
-        pdf=f"{RESULTS}/figures/fig4.pdf",
+        png=report(f"{RESULTS}/figures/fig4.png", caption="../report/fig4.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 4", "format": "PNG"}),
+        pdf=report(f"{RESULTS}/figures/fig4.pdf", caption="../report/fig4.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 4", "format": "PDF"}),
     params:
         code=figure_code("fig4", "robot/*.py", "robot/*/*"),
     log:
@@ -26,8 +28,10 @@ rule fig5_joint3_motion:
         trial=lambda wc: trial_file("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5"),
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Figures"),
-        pdf=f"{RESULTS}/figures/fig5.pdf",
+        png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 5", "format": "PNG"}),
+        pdf=report(f"{RESULTS}/figures/fig5.pdf", caption="../report/fig5.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 5", "format": "PDF"}),
     params:
         code=figure_code("fig5", "archive/*.py", "identify/*.py"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
@@ -49,8 +53,10 @@ rule fig6_effective_mass:
         tables=lambda wc: ident_tables("fixed"),
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig6.png", caption="../report/fig6.rst", category="Figures"),
-        pdf=f"{RESULTS}/figures/fig6.pdf",
+        png=report(f"{RESULTS}/figures/fig6.png", caption="../report/fig6.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 6", "format": "PNG"}),
+        pdf=report(f"{RESULTS}/figures/fig6.pdf", caption="../report/fig6.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 6", "format": "PDF"}),
     params:
         code=figure_code("fig6", "runner.py"),
     log:
@@ -69,8 +75,10 @@ rule fig7_restitution:
         tables=lambda wc: ident_tables("fixed"),
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig7.png", caption="../report/fig7.rst", category="Figures"),
-        pdf=f"{RESULTS}/figures/fig7.pdf",
+        png=report(f"{RESULTS}/figures/fig7.png", caption="../report/fig7.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 7", "format": "PNG"}),
+        pdf=report(f"{RESULTS}/figures/fig7.pdf", caption="../report/fig7.rst", category="Fixed base",
+                   subcategory="Figures", labels={"figure": "Figure 7", "format": "PDF"}),
     params:
         code=figure_code("fig7", "runner.py"),
     log:
@@ -89,8 +97,10 @@ rule fig8_flexible_setup:
         rig=RIG_FILE,
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig8.png", caption="../report/fig8.rst", category="Figures"),
-        pdf=f"{RESULTS}/figures/fig8.pdf",
+        png=report(f"{RESULTS}/figures/fig8.png", caption="../report/fig8.rst", category="Flexible base",
+                   subcategory="Figures", labels={"figure": "Figure 8", "format": "PNG"}),
+        pdf=report(f"{RESULTS}/figures/fig8.pdf", caption="../report/fig8.rst", category="Flexible base",
+                   subcategory="Figures", labels={"figure": "Figure 8", "format": "PDF"}),
     params:
         code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
         rig=config["rig"],
@@ -114,8 +124,10 @@ rule fig9_base_motion:
                            for c in (1, 2) for g in ("low", "high")}),
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Figures"),
-        pdf=f"{RESULTS}/figures/fig9.pdf",
+        png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Flexible base",
+                   subcategory="Figures", labels={"figure": "Figure 9", "format": "PNG"}),
+        pdf=report(f"{RESULTS}/figures/fig9.pdf", caption="../report/fig9.rst", category="Flexible base",
+                   subcategory="Figures", labels={"figure": "Figure 9", "format": "PDF"}),
     params:
         code=figure_code("fig9", "archive/*.py", "identify/*.py", "scene.py", "rig/simulate.py", "rig/beam.py",
                          "robot/*.py", "robot/*/*"),
@@ -140,11 +152,17 @@ rule planner_maps:
         paper=PAPER_FILE,
     output:
         workspace=report(f"{RESULTS}/figures/plan_workspace.png", caption="../report/plan_workspace.rst",
-                         category="Impact planner"),
-        workspace_pdf=f"{RESULTS}/figures/plan_workspace.pdf",
+                         category="Impact planner", subcategory="Maps",
+                         labels={"map": "workspace", "format": "PNG"}),
+        workspace_pdf=report(f"{RESULTS}/figures/plan_workspace.pdf", caption="../report/plan_workspace.rst",
+                             category="Impact planner", subcategory="Maps",
+                             labels={"map": "workspace", "format": "PDF"}),
         directions=report(f"{RESULTS}/figures/plan_directions.png", caption="../report/plan_directions.rst",
-                          category="Impact planner"),
-        directions_pdf=f"{RESULTS}/figures/plan_directions.pdf",
+                          category="Impact planner", subcategory="Maps",
+                          labels={"map": "directions", "format": "PNG"}),
+        directions_pdf=report(f"{RESULTS}/figures/plan_directions.pdf", caption="../report/plan_directions.rst",
+                              category="Impact planner", subcategory="Maps",
+                              labels={"map": "directions", "format": "PDF"}),
     params:
         code=figure_code("plan_maps", "plan.py", "exiit.py", "robot/*.py", "robot/*/*", "rig/contact.py",
                          "rig/beam.py", "commands/plan.py", "scene.py", "paper.py"),
@@ -167,7 +185,8 @@ rule eq8_validity_figure:
     input:
         data=VALIDITY_CSV,
     output:
-        png=report(f"{RESULTS}/figures/eq8_validity.png", caption="../report/eq8_validity.rst", category="Figures"),
+        png=report(f"{RESULTS}/figures/eq8_validity.png", caption="../report/eq8_validity.rst",
+                   category="Flexible base", subcategory="Figures", labels={"figure": "eq 8 validity", "format": "PNG"}),
         pdf=f"{RESULTS}/figures/eq8_validity.pdf",
     params:
         code=figure_code("validity"),

@@ -8,7 +8,6 @@ rule fit_lambda:
         tables=lambda wc: ident_tables("fixed", gains=fit_classes()[wc.gain_class]),
     output:
         json=f"{RESULTS}/fit/lambda_{{gain_class}}.json",
-        pickle=f"{RESULTS}/fit/lambda_{{gain_class}}.pkl",
     params:
         code=CODE_FIT,
         gains=lambda wc: fit_classes()[wc.gain_class],

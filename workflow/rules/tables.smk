@@ -1,4 +1,4 @@
-# Tables 2-4 (campaign.tables), each CSV (full precision, in the report) and Markdown, the
+# Tables 2-4 (campaign.tables), each CSV (full precision), Markdown and HTML (shown in the report), the
 # paper's values beside ours. Each table needs only its own inputs: Table 2 the fixed-base
 # identification, Table 3 the lambda fits, Table 4 the fits and the flexible-base
 # identification (so `snakemake table2` runs no flexible-base trial).
@@ -9,8 +9,10 @@ rule table2_effective_mass:
         tables=lambda wc: ident_tables("fixed"),
         paper=PAPER_FILE,
     output:
-        csv=report(f"{RESULTS}/tables/table2.csv", caption="../report/table2.rst", category="Tables"),
+        csv=f"{RESULTS}/tables/table2.csv",
         md=f"{RESULTS}/tables/table2.md",
+        html=report(f"{RESULTS}/tables/table2.html", caption="../report/table2.rst", category="Fixed base",
+                    subcategory="Tables", labels={"table": "Table 2"}),
     params:
         code=CODE_TABLES,
     log:
@@ -26,14 +28,16 @@ rule table2_effective_mass:
 
 rule table3_virtual_rotor_inertia:
     input:
-        unpack(lambda wc: fit_pickles()),
+        unpack(lambda wc: fit_jsons()),
         paper=PAPER_FILE,
     output:
-        csv=report(f"{RESULTS}/tables/table3.csv", caption="../report/table3.rst", category="Tables"),
+        csv=f"{RESULTS}/tables/table3.csv",
         md=f"{RESULTS}/tables/table3.md",
+        html=report(f"{RESULTS}/tables/table3.html", caption="../report/table3.rst", category="Virtual rotor inertia (lambda)",
+                    subcategory="Tables", labels={"table": "Table 3"}),
     params:
         code=CODE_TABLES,
-        classes=lambda wc: list(fit_pickles()),
+        classes=lambda wc: list(fit_jsons()),
     log:
         log_file("table3"),
     resources:
@@ -47,15 +51,17 @@ rule table3_virtual_rotor_inertia:
 
 rule table4_flexible_effective_mass:
     input:
-        unpack(lambda wc: fit_pickles()),
+        unpack(lambda wc: fit_jsons()),
         tables=lambda wc: ident_tables("flexible"),
         paper=PAPER_FILE,
     output:
-        csv=report(f"{RESULTS}/tables/table4.csv", caption="../report/table4.rst", category="Tables"),
+        csv=f"{RESULTS}/tables/table4.csv",
         md=f"{RESULTS}/tables/table4.md",
+        html=report(f"{RESULTS}/tables/table4.html", caption="../report/table4.rst", category="Flexible base",
+                    subcategory="Tables", labels={"table": "Table 4"}),
     params:
         code=CODE_TABLES,
-        classes=lambda wc: list(fit_pickles()),
+        classes=lambda wc: list(fit_jsons()),
     log:
         log_file("table4"),
     resources:
@@ -74,9 +80,11 @@ rule table4_structures_table:
         data=STRUCTURES_CSV,
         paper=PAPER_FILE,
     output:
-        csv=report(f"{RESULTS}/tables/table4_structures.csv", caption="../report/table4_structures.rst",
-                   category="Tables"),
+        csv=f"{RESULTS}/tables/table4_structures.csv",
         md=f"{RESULTS}/tables/table4_structures.md",
+        html=report(f"{RESULTS}/tables/table4_structures.html", caption="../report/table4_structures.rst",
+                    category="Flexible base", subcategory="Tables",
+                    labels={"table": "Table 4, both structures"}),
     params:
         code=CODE_TABLES,
     log:

@@ -4,6 +4,6 @@ from campaign import runner
 
 with runner.job_log(snakemake.log[0], job=f"fit_lambda {snakemake.wildcards.gain_class}",  # noqa: F821
                     exit_process=True) as timer:
-    runner.fit_lambda(list(snakemake.input.tables), snakemake.output.json, snakemake.output.pickle,  # noqa: F821
+    runner.fit_lambda(list(snakemake.input.tables), snakemake.output.json,  # noqa: F821
                       gain_class=snakemake.wildcards.gain_class, gains=snakemake.params.gains,  # noqa: F821
                       options=snakemake.params.options, seed=snakemake.params.seed, timer=timer)  # noqa: F821

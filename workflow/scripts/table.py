@@ -1,4 +1,4 @@
-"""Snakemake script of the table rules: Table 2, 3 or 4 (campaign.tables) as CSV and Markdown.
+"""Snakemake script of the table rules: Table 2, 3 or 4 (campaign.tables) as CSV, Markdown and HTML.
 
 The table is named by the rule (``table2_...``); Tables 3-4 read the lambda fits of the
 gain classes in ``params.classes`` (named inputs), Tables 2 and 4 the identification tables
@@ -14,5 +14,6 @@ with runner.job_log(snakemake.log[0], job=name, exit_process=True) as timer:  # 
         name, snakemake.output.csv, snakemake.output.md,  # noqa: F821
         ident_tables=list(getattr(snakemake.input, "tables", [])),  # noqa: F821
         fits={k: snakemake.input[k] for k in classes},  # noqa: F821
+        out_html=snakemake.output.html,  # noqa: F821
         timer=timer,
     )

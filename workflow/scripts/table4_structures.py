@@ -5,4 +5,4 @@ from campaign import runner
 
 with runner.job_log(snakemake.log[0], job="table4_structures", exit_process=True) as timer:  # noqa: F821
     runner.make_table("table4_structures", snakemake.output.csv, snakemake.output.md,  # noqa: F821
-                      source=snakemake.input.data, timer=timer)  # noqa: F821
+                      source=snakemake.input.data, out_html=snakemake.output.html, timer=timer)  # noqa: F821

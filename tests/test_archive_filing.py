@@ -1,0 +1,106 @@
+"""Misfiled trials are caught: by ``archive verify`` and ``finalize``, by identification and
+by reuse, each naming both paths, even after the manifest was re-hashed to match.
+
+Every case works on a copy of the committed reference archive.
+"""
+
+from __future__ import annotations
+
+import csv
+import shutil
+from pathlib import Path
+
+import pytest
+
+from campaign import runner
+from campaign.archive import finalize_campaign, verify, write_manifest
+from campaign.cli import main
+from campaign.errors import TrialFileError
+
+REPO = Path(__file__).resolve().parents[1]
+HIGH = "fixed/config1/high/v1.500/r00.nc"
+LOW = "fixed/config1/low/v1.500/r00.nc"
+R00 = "fixed/config1/zero/v1.500/r00.nc"
+R01 = "fixed/config1/zero/v1.500/r01.nc"
+
+
+@pytest.fixture
+def archive(tmp_path) -> Path:
+    out = tmp_path / "ref"
+    shutil.copytree(REPO / "archive" / "reference", out)
+    return out
+
+
+def _swap(archive: Path, a: str, b: str) -> None:
+    tmp = archive / "swap.tmp.nc"
+    (archive / a).rename(tmp)
+    (archive / b).rename(archive / a)
+    tmp.rename(archive / b)
+
+
+def _messages(problems) -> list[str]:
+    return [str(p) for p in problems]
+
+
+def test_the_reference_archive_is_filed_right(archive):
+    assert verify(archive) == []
+
+
+def test_trials_swapped_between_gain_folders(archive, capsys):
+    _swap(archive, HIGH, LOW)
+    write_manifest(archive)  # the manifest now matches the files: only their content tells
+    found = _messages(verify(archive))
+    assert any(m.startswith(f"{HIGH}: misfiled") and LOW in m for m in found), found
+    assert any(m.startswith(f"{LOW}: misfiled") and HIGH in m for m in found), found
+    assert any(m.startswith(HIGH) and "index.csv line" in m and "gain 'high' in index.csv, 'low' in the file" in m
+               for m in found), found
+    assert main(["archive", "verify", str(archive)]) == 1
+    assert f"{HIGH}: misfiled" in capsys.readouterr().out
+    with pytest.raises(TrialFileError) as info:
+        finalize_campaign(archive)
+    assert f"{archive / HIGH}: misfiled" in str(info.value) and str(archive / LOW) in str(info.value)
+
+
+def test_a_repeat_copied_to_the_next(archive):
+    shutil.copyfile(archive / R00, archive / R01)
+    write_manifest(archive)
+    found = _messages(verify(archive))
+    assert any(m.startswith(f"{R01}: misfiled") and R00 in m for m in found), found
+    assert any(m.startswith(R01) and "same cell" in m and R00 in m for m in found), found
+    assert any(m.startswith(R01) and "same content" in m and R00 in m for m in found), found
+    with pytest.raises(TrialFileError) as info:
+        finalize_campaign(archive)
+    assert str(archive / R01) in str(info.value) and R00 in str(info.value)
+    assert not (archive / "index.csv").read_text().count("r01.nc")  # nothing was rewritten
+
+
+def test_an_index_row_that_contradicts_its_file(archive):
+    index = archive / "index.csv"
+    rows = list(csv.DictReader(index.open()))
+    for row in rows:
+        if row["path"] == HIGH:
+            row["seed"] = "12345"
+    with index.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    write_manifest(archive)
+    found = _messages(verify(archive))
+    assert any(m.startswith(HIGH) and "index.csv line" in m and "seed '12345'" in m for m in found), found
+
+
+def test_identification_refuses_a_misfiled_trial(archive, tmp_path):
+    """Reuse identifies the files its cells list: a Low trial under High stops the job, not the fit."""
+    _swap(archive, HIGH, LOW)
+    with pytest.raises(TrialFileError) as info:
+        runner.identify_trials([str(archive / HIGH)], tmp_path / "high.csv")
+    assert str(archive / HIGH) in str(info.value) and str(archive / LOW) in str(info.value)
+    assert not (tmp_path / "high.csv").exists()
+
+
+def test_reuse_refuses_an_index_whose_row_contradicts_its_path(archive):
+    index = archive / "index.csv"
+    text = index.read_text().replace(f"{HIGH},fixed,1,high,", f"{HIGH},fixed,1,low,", 1)
+    index.write_text(text)
+    with pytest.raises(ValueError, match=f"path {HIGH} contradicts its row"):
+        runner.index_cells(archive)
