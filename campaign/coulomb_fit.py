@@ -24,6 +24,8 @@ constant lambda cannot follow. ``kappa = 0`` gives eq 11 back.
 :class:`CoulombLambdaFit` fits ``ln lambda`` and ``ln kappa`` (bounded, >= 0 through
 ``lambda``, ``kappa`` themselves) by least squares on ``ln m*`` over trials with their
 speed, restitution and hammer mass, with asymptotic 95 % intervals from the Jacobian.
+What it changes on the designed campaign: user guide, *Experiment design for lambda*,
+"Lambda plus a Coulomb impulse" (``docs/design.rst``).
 """
 
 from __future__ import annotations

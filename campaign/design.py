@@ -31,6 +31,9 @@ are paper-degree poses with directions; :func:`feasible` keeps those the rig can
 lighter than the arm's free effective mass) and the chosen ones are checked again by
 assembling their rig (:func:`campaign.rig.simulate.build`) for every gain and speed, which
 also refuses a pose whose servo would be unstable.
+
+The method, the designed campaign and its measured results: user guide, *Experiment design
+for lambda* (``docs/design.rst``).
 """
 
 from __future__ import annotations

@@ -15,6 +15,9 @@ Three stages, each one function the workflow's thin scripts call (``snakemake de
   held-out trials' m* with eq 11 from each fit and compares it with the m* identified from
   their measured channels, and fits lambda per impact speed on the designed trials (is it
   constant?); the speed-wise lambda predicts the held-out trials too.
+
+Its measured results: user guide, *Experiment design for lambda*, "The designed campaign"
+and "Measured results" (``docs/design.rst``).
 """
 
 from __future__ import annotations

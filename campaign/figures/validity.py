@@ -6,7 +6,9 @@ periods; this figure shows, from a sweep of structure stiffnesses
 (``benchmarks/space_structure.py``, data ``benchmarks/eq8_validity.csv``), how far the
 identified m* departs from eq 8 as the contact duration T_c grows against the first-mode
 period T_1 (arm on top), with the band where they agree within a tolerance shaded and the
-largest ratio below which every point lies in it marked.
+largest ratio below which every point lies in it marked. The measured map and what it
+shows: user guide, *Calibration and validation*, "Two structures and the validity of eq 8"
+(``docs/calibration.rst``).
 """
 
 from __future__ import annotations

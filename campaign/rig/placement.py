@@ -25,6 +25,8 @@ joining its successive joint origins and the impact point, plus the pedestal fro
 struck one: only head positions farther than ``placement.struck_zone`` from the impact
 point (the padded wrist and the hammer's last run-in) are checked against it, so a blow
 along the forearm from the elbow's side is refused while a blow across it is not.
+How the experiment design uses it: user guide, *Experiment design for lambda*
+(``docs/design.rst``).
 """
 
 from __future__ import annotations
