@@ -29,19 +29,17 @@ __all__ = ["Contact", "restitution_of_damping", "damping_for_restitution", "cont
            "peak_force_factor"]
 
 
-def restitution_of_damping(d: float, p: float = 1.0) -> float:
-    """Restitution of the dimensionless contact ``x'' = -x^p (1 + d x')`` (x(0)=0, x'(0)=1).
+def _dimensionless_contact(d: float, p: float, *, x0: float, dense_output: bool = False):
+    """Integrate ``x'' = -x^p (1 + d x')`` from ``x = x0``, ``x' = 1`` until the contact ends.
 
-    The contact ends when ``x`` returns to 0 or the force ``x^p (1 + d x')`` reaches 0
-    (no tension); ``e = -x'`` then.
+    It ends when ``x`` returns to 0 or the force ``x^p (1 + d x')`` reaches 0 (no tension);
+    ``solve_ivp``'s solution is returned, with its events (``y_events``) in that order.
     """
-
-    from scipy.integrate import solve_ivp   # only this independent check integrates
+    from scipy.integrate import solve_ivp   # only the contact's closed-form checks integrate
 
     def rhs(_, y):
-        x, xd = y
-        f = max(x, 0.0) ** p * (1.0 + d * xd)
-        return [xd, -max(f, 0.0)]
+        f = max(y[0], 0.0) ** p * (1.0 + d * y[1])
+        return [y[1], -max(f, 0.0)]
 
     def back_to_zero(_, y):
         return y[0]
@@ -51,10 +49,19 @@ def restitution_of_damping(d: float, p: float = 1.0) -> float:
 
     back_to_zero.terminal, back_to_zero.direction = True, -1
     no_force.terminal, no_force.direction = True, -1
+    return solve_ivp(rhs, (0.0, 50.0), [x0, 1.0], events=(back_to_zero, no_force), rtol=1e-12, atol=1e-14,
+                     method="DOP853", dense_output=dense_output)
+
+
+def restitution_of_damping(d: float, p: float = 1.0) -> float:
+    """Restitution of the dimensionless contact ``x'' = -x^p (1 + d x')`` (x(0)=0, x'(0)=1).
+
+    The contact ends when ``x`` returns to 0 or the force ``x^p (1 + d x')`` reaches 0
+    (no tension); ``e = -x'`` then.
+    """
+
     # start slightly inside so the x = 0 event of the start does not fire
-    x0 = 1e-9
-    sol = solve_ivp(rhs, (0.0, 50.0), [x0, 1.0], events=(back_to_zero, no_force), rtol=1e-12, atol=1e-14,
-                    method="DOP853")
+    sol = _dimensionless_contact(d, p, x0=1e-9)
     for ev in sol.y_events:
         if len(ev):
             return float(-ev[0][1])
@@ -106,23 +113,9 @@ def peak_force_factor(d: float, p: float = 1.0) -> float:
     d, p = float(d), float(p)
     if not (math.isfinite(d) and d >= 0.0 and math.isfinite(p) and p > 0.0):
         raise InputError(f"contact damping d = {d!r} must be >= 0 and exponent p = {p!r} > 0")
-    from scipy.integrate import solve_ivp
     from scipy.optimize import minimize_scalar
 
-    def rhs(_, y):
-        f = max(y[0], 0.0) ** p * (1.0 + d * y[1])
-        return [y[1], -max(f, 0.0)]
-
-    def back_to_zero(_, y):
-        return y[0]
-
-    def no_force(_, y):
-        return 1.0 + d * y[1]
-
-    back_to_zero.terminal, back_to_zero.direction = True, -1
-    no_force.terminal, no_force.direction = True, -1
-    sol = solve_ivp(rhs, (0.0, 50.0), [1e-12, 1.0], events=(back_to_zero, no_force), rtol=1e-12, atol=1e-14,
-                    method="DOP853", dense_output=True)
+    sol = _dimensionless_contact(d, p, x0=1e-12, dense_output=True)
     t_end = float(sol.t[-1])
 
     def force(t):
