@@ -5,10 +5,11 @@ Usage: ``python tests/cluster/compare_runs.py <reference run> <other run>``
 
 What "agree" means for each kind of file, from what a local run reproduces when run twice:
 
-- trial files (``*.nc``): HDF5 bytes differ run to run (the root attribute ``date_created``),
+- trial files (``*.nc``): HDF5 bytes differ run to run (the root attributes ``date_created``
+  and ``history``, which starts with that time, unless ``SOURCE_DATE_EPOCH`` fixes it),
   so each group's ``content_sha256`` (a digest of the group's attributes and every variable's
   bytes and attributes, checked against the data when the archive is finalized) must be
-  equal, and every root attribute except ``date_created`` and the root digest that covers it;
+  equal, and every root attribute except those two and the root digest that covers them;
 - ``MANIFEST.sha256``: the same files listed, with equal digests for every file but trials;
 - job logs (``results/*/logs``) and Snakemake benchmark records (``results/*/benchmarks``):
   present in both (they hold times and dates, so their contents are not compared);
@@ -27,7 +28,7 @@ from pathlib import Path
 import h5py
 
 # root attributes of a trial file that depend on when it was written (see module docstring)
-TIME_ATTRS = {"date_created", "content_sha256"}
+TIME_ATTRS = {"date_created", "history", "content_sha256"}
 UNCOMPARED_DIRS = {"logs", "benchmarks"}
 
 

@@ -17,6 +17,7 @@ def write_trial(path: Path, *, date: str, measured: str = "m" * 64, seed: int = 
     path.parent.mkdir(parents=True, exist_ok=True)
     with h5py.File(path, "w") as f:
         f.attrs["date_created"] = date
+        f.attrs["history"] = f"{date} simulated by campaign"   # as the writer's: it starts with the time
         f.attrs["content_sha256"] = f"root-digest-of-{date}"
         f.attrs["seed"] = seed
         for name, digest in (("measured", measured), ("truth", "t" * 64)):
