@@ -33,6 +33,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from campaign import __version__, exiit  # noqa: E402
+from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call  # noqa: E402
 from campaign.robot import load_robot  # noqa: E402
 
 HEADING = "## Ex-IIT batch evaluation"
@@ -40,36 +41,10 @@ TARGET = 100_000.0  # configurations per second, one core
 
 
 
-def pin_to_one_cpu() -> str:
-    """Pin the process to one CPU if the OS allows it; describe what was done."""
-    try:
-        cpus = sorted(os.sched_getaffinity(0))
-        os.sched_setaffinity(0, {cpus[0]})
-        return f"pinned to CPU {cpus[0]}"
-    except (AttributeError, OSError):
-        return "not pinned (the OS does not support CPU affinity)"
 
 
-def cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
-def time_call(fn, repeats: int) -> list[float]:
-    """Wall times [s] of ``repeats`` calls of ``fn`` after one warm-up call."""
-    fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return times
 
 
 def measure(robot, n_configs: int, repeats: int, *, seed: int, scalar: bool = False) -> dict:

@@ -41,6 +41,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from campaign import __version__  # noqa: E402
+from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call  # noqa: E402
 from campaign.commands.plan import build_planner  # noqa: E402
 from campaign.plan import horizontal_directions, pose_terms, predict  # noqa: E402
 from campaign.rig.contact import Contact  # noqa: E402
@@ -51,34 +52,10 @@ TARGET = 10_000.0  # (pose, direction, gain) predictions per second on one core
 LAMBDAS = {"zero": [0.0, 0.0, 0.0], "zero_low": [19.82, 4.62, 0.80], "high": [53.18, 8.66, 2.83]}
 
 
-def pin_to_one_cpu() -> str:
-    try:
-        cpus = sorted(os.sched_getaffinity(0))
-        os.sched_setaffinity(0, {cpus[0]})
-        return f"pinned to CPU {cpus[0]}"
-    except (AttributeError, OSError):
-        return "not pinned (the OS does not support CPU affinity)"
 
 
-def cpu_name() -> str:
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
-def timed(fn, repeats: int) -> list[float]:
-    fn()
-    out = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - t0)
-    return out
 
 
 def row(case: str, base: str, shape: str, count: int, times: list[float]) -> dict:
@@ -100,7 +77,7 @@ def measure_grid(planner, *, n_poses: int, n_gains: int, n_dirs: int, repeats: i
 
     case = "grid" if n_gains * n_dirs > 1 else "one pose per prediction"
     return row(case, "flexible" if planner.beam is not None else "fixed",
-               f"{n_poses} x {n_gains} x {n_dirs}", n_poses * n_gains * n_dirs, timed(fn, repeats))
+               f"{n_poses} x {n_gains} x {n_dirs}", n_poses * n_gains * n_dirs, time_call(fn, repeats))
 
 
 def measure_plan(planner, *, n_dirs: int, repeats: int) -> dict:
@@ -111,7 +88,7 @@ def measure_plan(planner, *, n_dirs: int, repeats: int) -> dict:
     count = planner.q_.shape[0] * len(planner.lambdas) * n_dirs
     return row("plan (IK included)", "flexible" if planner.beam is not None else "fixed",
                f"{planner.q_.shape[0]} x {len(planner.lambdas)} x {n_dirs}", count,
-               timed(lambda: planner.fit(p, dirs), repeats))
+               time_call(lambda: planner.fit(p, dirs), repeats))
 
 
 def measure_map(planner, *, resolution: float, repeats: int) -> dict:
@@ -127,7 +104,7 @@ def measure_map(planner, *, resolution: float, repeats: int) -> dict:
     points = m["n_branches"].size
     count = int(m["n_branches"].sum()) * len(planner.lambdas)
     r = row("workspace map (IK incl.)", "flexible" if planner.beam is not None else "fixed",
-            f"{points} points", count, timed(lambda: workspace_map(planner.robot, **kw), repeats))
+            f"{points} points", count, time_call(lambda: workspace_map(planner.robot, **kw), repeats))
     r["points_per_s"] = points / r["median_s"]
     return r
 

@@ -42,6 +42,39 @@ ERR_FLOOR = 1e-16
 # ---------------------------------------------------------------------------------------
 # helpers
 # ---------------------------------------------------------------------------------------
+
+def pin_to_one_cpu() -> str:
+    """Pin the process to one CPU if the OS allows it; describe what was done."""
+    try:
+        cpus = sorted(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {cpus[0]})
+        return f"pinned to CPU {cpus[0]}"
+    except (AttributeError, OSError):
+        return "not pinned (the OS does not support CPU affinity)"
+
+
+def cpu_name() -> str:
+    """The CPU's model name (``/proc/cpuinfo``), else what :mod:`platform` says."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def time_call(fn: Callable[[], Any], repeats: int) -> list[float]:
+    """Wall times [s] of ``repeats`` calls of ``fn`` after one warm-up call."""
+    fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return times
+
 def machine_line() -> str:
     """One line naming the machine, its load and the library versions."""
     from importlib.metadata import version
