@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from campaign import __version__  # noqa: E402
-from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call  # noqa: E402
+from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call, write_section  # noqa: E402
 from campaign.commands.plan import build_planner  # noqa: E402
 from campaign.plan import horizontal_directions, pose_terms, predict  # noqa: E402
 from campaign.rig.contact import Contact  # noqa: E402
@@ -121,13 +121,6 @@ def format_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_section(readme: Path, body: str) -> None:
-    """Replace (or append) this script's section of ``readme`` (campaign.bench.write_section)."""
-    from campaign.bench import write_section as _write_section
-
-    _write_section(readme, HEADING, body)
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=7, help="timed calls per case (default: %(default)s)")
@@ -173,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     ])
     print(summary)
     if args.readme is not None:
-        write_section(args.readme, summary)
+        write_section(args.readme, HEADING, summary)
         print(f"\nwrote the section '{HEADING}' of {args.readme}")
     return 0 if ok else 1
 
