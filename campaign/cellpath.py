@@ -10,6 +10,8 @@ builds the DAG, and by the archive: it imports nothing of the package.
 
 from __future__ import annotations
 
+import json
+import math
 import os
 from pathlib import Path
 from typing import Any, Mapping
@@ -31,8 +33,9 @@ def misfiled(path: str | os.PathLike, attrs: Mapping[str, Any]) -> str | None:
 
     A file at ``.../<base>/config<N>/<gain>/v<speed>/r<NN>.nc`` must hold that cell: its
     root attributes ``base``, ``config``, ``gain``, ``speed`` (to the path's 3 decimals)
-    and ``repeat`` give the same relative path (``config-custom`` for a pose that is not a
-    paper configuration). A file outside that layout is not checked. The message names the
+    and ``repeat`` give the same relative path; a pose that is not a paper configuration
+    with the paper's direction is filed under ``pose-<q1>_<q2>_<q3>-n<azimuth>``
+    (:attr:`campaign.scene.Scene.pose_tag`), read from the ``scene_json`` attribute. A file outside that layout is not checked. The message names the
     file and the path its attributes claim, and which attributes disagree.
     """
     p = Path(path)
@@ -44,7 +47,7 @@ def misfiled(path: str | os.PathLike, attrs: Mapping[str, Any]) -> str | None:
         speed, repeat = float(attrs["speed"]), int(attrs["repeat"])
     except (KeyError, TypeError, ValueError) as exc:
         return f"{path}: root attributes {', '.join(_CELL_KEYS)} missing or malformed ({exc})"
-    folder = f"config{config}" if config >= 1 else "config-custom"
+    folder = _pose_folder(config, attrs.get("scene_json"))
     claimed = (base, folder, gain, f"v{speed:.3f}", f"r{repeat:02d}{SUFFIX}")
     if tuple(tail) == claimed:
         return None
@@ -52,3 +55,24 @@ def misfiled(path: str | os.PathLike, attrs: Mapping[str, Any]) -> str | None:
               for key, want, got in zip(_CELL_KEYS, tail, claimed) if want != got]
     where = Path(*p.parts[:-5], *claimed)
     return f"{path}: misfiled: its attributes place it at {where} ({'; '.join(differ)})"
+
+
+def _pose_folder(config: int, scene_json) -> str:
+    """The pose's folder, as :attr:`campaign.scene.Scene.pose_tag` names it: ``config<N>``
+    for a paper configuration struck along the paper's direction, else the pose and the
+    direction's azimuth from -x about +z (``config-custom`` when the file states neither)."""
+    scene: dict = {}
+    if scene_json:
+        try:
+            scene = json.loads(scene_json if isinstance(scene_json, str) else bytes(scene_json).decode())
+        except (ValueError, TypeError):
+            scene = {}
+    n = scene.get("direction")
+    if config >= 1 and n is None:
+        return f"config{config}"
+    q = scene.get("q_paper_deg")
+    if q is None:
+        return "config-custom"
+    n = (-1.0, 0.0, 0.0) if n is None else n
+    azimuth = math.degrees(math.atan2(-float(n[1]), -float(n[0])))
+    return "pose-" + "_".join(f"{float(x):.3f}" for x in q) + f"-n{azimuth:.3f}"
