@@ -14,7 +14,9 @@ Three stages, each one function the workflow's thin scripts call (``snakemake de
   (:class:`campaign.fit.LambdaFit`, each trial along its own direction), predicts the
   held-out trials' m* with eq 11 from each fit and compares it with the m* identified from
   their measured channels, and fits lambda per impact speed on the designed trials (is it
-  constant?); the speed-wise lambda predicts the held-out trials too.
+  constant?); the speed-wise lambda predicts the held-out trials too, and so does the joint
+  impedance model (:class:`campaign.impedance_fit.ImpedanceFit`: damping, the servo's
+  gains and Coulomb friction with sticking over the contact), fitted on the designed trials.
 
 Its measured results: user guide, *Experiment design for lambda*, "The designed campaign"
 and "Measured results" (``docs/design.rst``).
@@ -213,6 +215,35 @@ def _coulomb_fit(robot, rows):
                                        e=col("e"), m_b=col("hammer_mass"))
 
 
+def _impedance_arrays(robot, rows, rig):
+    """Per-trial inputs of :class:`campaign.impedance_fit.ImpedanceFit`: poses, directions,
+    speeds, restitutions, hammer masses, measured contact durations and servo gains."""
+    from .impedance_fit import servo_gains
+
+    col = lambda k: np.array([r[k] for r in rows], float)  # noqa: E731
+    gains = {g: servo_gains(robot, g, rig=rig) for g in sorted({r["gain"] for r in rows})}
+    return dict(Q=col("q_cmd"), D=col("impact_direction"), m=col("m_eff"), speed=col("speed"), e=col("e"),
+                m_b=col("hammer_mass"), duration=col("contact_end") - col("contact_start"),
+                stiffness=np.array([gains[r["gain"]][0] for r in rows]),
+                damping=np.array([gains[r["gain"]][1] for r in rows]))
+
+
+def _impedance_fit(robot, rows, rig):
+    from .impedance_fit import ImpedanceFit
+
+    a = _impedance_arrays(robot, rows, rig)
+    return ImpedanceFit(robot).fit(a["Q"], a["D"], a["m"], speed=a["speed"], e=a["e"], m_b=a["m_b"],
+                                   duration=a["duration"], stiffness=a["stiffness"], damping=a["damping"])
+
+
+def _impedance_predict(est, robot, rows, rig):
+    """The model's m* of each trial from what a user has before striking: pose, direction,
+    speed, hammer mass and the gain set (not the trial's own contact or restitution)."""
+    a = _impedance_arrays(robot, rows, rig)
+    return est.predict(a["Q"], a["D"], speed=a["speed"], m_b=a["m_b"], stiffness=a["stiffness"],
+                       damping=a["damping"])
+
+
 def _fit_summary(est) -> dict[str, Any]:
     lam = np.asarray(est.lambda_, float)
     lo, hi = np.asarray(est.lambda_ci_, float)
@@ -326,10 +357,16 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
         cls["coulomb"] = cf.summary()
         cls["prediction"]["designed_coulomb"] = _errors(
             cf.predict(Qh, Dh, speed=np.array([r["speed"] for r in ho], float)), mh)
+        # joint impedance over the contact: damping, the servo's gains and Coulomb friction
+        # with sticking (campaign.impedance_fit), fitted on the designed trials
+        imp = _impedance_fit(robot, pick["designed"], the_plan.get("rig"))
+        cls["impedance"] = imp.summary()
+        m_imp = _impedance_predict(imp, robot, ho, the_plan.get("rig"))
+        cls["prediction"]["designed_impedance"] = _errors(m_imp, mh)
         cls["heldout"] = [{"q_paper_deg": _paper_deg(r["q_cmd"]), "direction": list(r["impact_direction"]),
                            "gain": r["gain"], "speed": r["speed"], "m_eff_identified": r["m_eff"],
                            **{f"m_eff_{k}": float(fits[k].predict(Qh[i][None], directions=Dh[i][None])[0])
-                              for k in fits}} for i, r in enumerate(ho)]
+                              for k in fits}, "m_eff_impedance": float(m_imp[i])} for i, r in enumerate(ho)]
         out["classes"][name] = cls
     _write_json(out_json, out)
     md = report_markdown(out)
@@ -374,6 +411,8 @@ def report_markdown(out: Mapping[str, Any]) -> str:
         for key, label in (("paper", "lambda of the paper design"), ("designed", "lambda of the designed campaign"),
                            ("designed_per_speed", "designed, lambda fitted per speed"),
                            ("designed_coulomb", "designed, lambda + Coulomb impulse per joint"),
+                           ("designed_impedance", "designed, joint impedance over the contact (damping, servo, "
+                            "Coulomb with sticking)"),
                            ("constant_in_sample", "a constant lambda fitted on designed + held-out trials (in-sample)")):
             e = cls["prediction"][key]
             lines.append(f"| {label} | {len(e['errors'])} | {100 * e['median']:.2f} % | {100 * e['p90']:.2f} % | "
@@ -389,6 +428,17 @@ def report_markdown(out: Mapping[str, Any]) -> str:
         lines += ["", "Lambda + Coulomb impulse model on the designed trials: lambda = ["
                   + ", ".join(f"{x:.4g}" for x in c["lambda"]) + "] kg m^2, kappa = ["
                   + ", ".join(f"{x:.3g}" for x in c["kappa"]) + f"] N m s, rms log residual {c['rms_log_residual']:.3g}."]
+        im = cls["impedance"]
+        lo, hi = im["params_ci"]
+        nvi = len(im["damping"])
+        lines += ["", "Joint impedance over the contact, fitted on the designed trials: damping beta = ["
+                  + ", ".join(f"{im['damping'][j]:.4g} [{lo[j]:.4g}, {hi[j]:.4g}]" for j in range(nvi))
+                  + f"] N m s/rad, friction scale c = {im['friction_scale']:.4g} [{lo[nvi]:.4g}, {hi[nvi]:.4g}] s "
+                  f"(95 % asymptotic intervals), identifiable: "
+                  + ", ".join("yes" if x else "no" for x in im["identifiable"])
+                  + f"; condition number {im['condition_number']:.3g}, rms log residual {im['rms_log_residual']:.3g}, "
+                  "pulse " + ", ".join(f"{1000 * d:.1f} ms at {v:g} m/s" for v, d in zip(im["speeds"], im["durations"]))
+                  + "."]
         lines += ["", f"Per speed: {cls['per_speed'][next(iter(cls['per_speed']))].get('interval', '')} 95 % intervals "
                   "(one trial per pose and speed leaves a stratified bootstrap nothing to resample)."]
         d = cls["drift"]

@@ -449,7 +449,7 @@ DESIGNED = _designed_settings()
 DESIGNED_RESULTS = f"{config['results_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ARCHIVE = f"{config['archive_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ROLES = ("paper", "designed", "heldout")
-CODE_DESIGNED = code_digest("design.py", "designed.py", "coulomb_fit.py", "fit.py", "exiit.py", "rig/*.py",
+CODE_DESIGNED = code_digest("design.py", "designed.py", "coulomb_fit.py", "impedance_fit.py", "fit.py", "exiit.py", "rig/*.py",
                             "scene.py", "identify/*.py", "archive/*.py")
 
 
