@@ -229,11 +229,15 @@ def _impedance_arrays(robot, rows, rig):
 
 
 def _impedance_fit(robot, rows, rig):
-    from .impedance_fit import ImpedanceFit
+    """:class:`campaign.impedance_fit.ImpedanceFit` on trials, with their mean measured force pulse."""
+    from .impedance_fit import ImpedanceFit, measured_pulse_shape
 
     a = _impedance_arrays(robot, rows, rig)
+    shape = measured_pulse_shape([r["path"] for r in rows], [r["contact_start"] for r in rows],
+                                 [r["contact_end"] for r in rows])
     return ImpedanceFit(robot).fit(a["Q"], a["D"], a["m"], speed=a["speed"], e=a["e"], m_b=a["m_b"],
-                                   duration=a["duration"], stiffness=a["stiffness"], damping=a["damping"])
+                                   duration=a["duration"], stiffness=a["stiffness"], damping=a["damping"],
+                                   pulse_shape=shape)
 
 
 def _impedance_predict(est, robot, rows, rig):
@@ -315,6 +319,14 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
     seed = int(the_plan["campaign_seed"])
     out: dict[str, Any] = {"classes": {}, "excluded": excluded, "speeds": the_plan["speeds"],
                            "n_heldout_poses": len(the_plan["poses"]["heldout"]), "fit_options": options}
+    # joint impedance over the contact (campaign.impedance_fit): damping and Coulomb friction
+    # are the joints' own, the servo enters through its known gains, so one fit on every
+    # designed trial serves all gain classes; a fit per class beside it shows whether the
+    # classes agree on them
+    rig = the_plan.get("rig")
+    pooled = {g for gains in the_plan["gain_classes"].values() for g in gains}
+    imp = _impedance_fit(robot, [r for r in rows["designed"] if r["gain"] in pooled], rig)
+    out["impedance"] = imp.summary()
     for name, gains in the_plan["gain_classes"].items():
         pick = {role: [r for r in rows[role] if r["gain"] in gains] for role in ROLES}
         if not pick["paper"] or not pick["designed"] or not pick["heldout"]:
@@ -357,12 +369,11 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
         cls["coulomb"] = cf.summary()
         cls["prediction"]["designed_coulomb"] = _errors(
             cf.predict(Qh, Dh, speed=np.array([r["speed"] for r in ho], float)), mh)
-        # joint impedance over the contact: damping, the servo's gains and Coulomb friction
-        # with sticking (campaign.impedance_fit), fitted on the designed trials
-        imp = _impedance_fit(robot, pick["designed"], the_plan.get("rig"))
-        cls["impedance"] = imp.summary()
-        m_imp = _impedance_predict(imp, robot, ho, the_plan.get("rig"))
+        m_imp = _impedance_predict(imp, robot, ho, rig)
         cls["prediction"]["designed_impedance"] = _errors(m_imp, mh)
+        imp_cls = _impedance_fit(robot, pick["designed"], rig)
+        cls["impedance_class_fit"] = imp_cls.summary()
+        cls["prediction"]["designed_impedance_class"] = _errors(_impedance_predict(imp_cls, robot, ho, rig), mh)
         cls["heldout"] = [{"q_paper_deg": _paper_deg(r["q_cmd"]), "direction": list(r["impact_direction"]),
                            "gain": r["gain"], "speed": r["speed"], "m_eff_identified": r["m_eff"],
                            **{f"m_eff_{k}": float(fits[k].predict(Qh[i][None], directions=Dh[i][None])[0])
@@ -386,6 +397,15 @@ def _ci_cell(lam, lo, hi, rel) -> str:
     return f"{lam:.4g} [{lo:.4g}, {hi:.4g}] (+-{100 * rel:.3g} %)" if math.isfinite(rel) else f"{lam:.4g} [unbounded]"
 
 
+def _impedance_cell(im) -> str:
+    lo, hi = im["params_ci"]
+    nv = len(im["damping"])
+    return ("damping beta = [" + ", ".join(f"{im['damping'][j]:.4g} [{lo[j]:.4g}, {hi[j]:.4g}]" for j in range(nv))
+            + f"] N m s/rad, friction scale c = {im['friction_scale']:.3g} [{lo[nv]:.3g}, {hi[nv]:.3g}] s, identifiable: "
+            + ", ".join("yes" if x else "no" for x in im["identifiable"])
+            + f", condition number {im['condition_number']:.3g}, rms log residual {im['rms_log_residual']:.3g}")
+
+
 def report_markdown(out: Mapping[str, Any]) -> str:
     """The designed campaign's report: paper design vs designed, held-out prediction, lambda per speed."""
     lines = ["# Paper design vs designed", "",
@@ -393,6 +413,11 @@ def report_markdown(out: Mapping[str, Any]) -> str:
              f"bootstrap interval ({out['fit_options'].get('n_bootstrap')} resamples, stratified by pose); held-out: "
              f"{out['n_heldout_poses']} poses with random horizontal directions, in neither fit, m* predicted with "
              "eq 11 and compared with m* identified from their measured channels.", ""]
+    im = out["impedance"]
+    lines += ["Joint impedance over the contact (damping, the servo's known gains, Coulomb friction with sticking; "
+              f"{im['n_trials']} designed trials of every gain set, 95 % asymptotic intervals): " + _impedance_cell(im)
+              + "; measured pulse " + ", ".join(f"{1000 * d:.1f} ms at {v:g} m/s"
+                                              for v, d in zip(im["speeds"], im["durations"])) + ".", ""]
     for name, cls in out["classes"].items():
         nv = len(cls["fits"]["paper"]["lambda"])
         lines += [f"## {name} (gains {', '.join(cls['gains'])})", "",
@@ -412,7 +437,8 @@ def report_markdown(out: Mapping[str, Any]) -> str:
                            ("designed_per_speed", "designed, lambda fitted per speed"),
                            ("designed_coulomb", "designed, lambda + Coulomb impulse per joint"),
                            ("designed_impedance", "designed, joint impedance over the contact (damping, servo, "
-                            "Coulomb with sticking)"),
+                            "Coulomb with sticking; one fit, every gain set)"),
+                           ("designed_impedance_class", "designed, joint impedance fitted on this class alone"),
                            ("constant_in_sample", "a constant lambda fitted on designed + held-out trials (in-sample)")):
             e = cls["prediction"][key]
             lines.append(f"| {label} | {len(e['errors'])} | {100 * e['median']:.2f} % | {100 * e['p90']:.2f} % | "
@@ -428,17 +454,8 @@ def report_markdown(out: Mapping[str, Any]) -> str:
         lines += ["", "Lambda + Coulomb impulse model on the designed trials: lambda = ["
                   + ", ".join(f"{x:.4g}" for x in c["lambda"]) + "] kg m^2, kappa = ["
                   + ", ".join(f"{x:.3g}" for x in c["kappa"]) + f"] N m s, rms log residual {c['rms_log_residual']:.3g}."]
-        im = cls["impedance"]
-        lo, hi = im["params_ci"]
-        nvi = len(im["damping"])
-        lines += ["", "Joint impedance over the contact, fitted on the designed trials: damping beta = ["
-                  + ", ".join(f"{im['damping'][j]:.4g} [{lo[j]:.4g}, {hi[j]:.4g}]" for j in range(nvi))
-                  + f"] N m s/rad, friction scale c = {im['friction_scale']:.4g} [{lo[nvi]:.4g}, {hi[nvi]:.4g}] s "
-                  f"(95 % asymptotic intervals), identifiable: "
-                  + ", ".join("yes" if x else "no" for x in im["identifiable"])
-                  + f"; condition number {im['condition_number']:.3g}, rms log residual {im['rms_log_residual']:.3g}, "
-                  "pulse " + ", ".join(f"{1000 * d:.1f} ms at {v:g} m/s" for v, d in zip(im["speeds"], im["durations"]))
-                  + "."]
+        im = cls["impedance_class_fit"]
+        lines += ["", "Joint impedance fitted on this class's designed trials alone: " + _impedance_cell(im) + "."]
         lines += ["", f"Per speed: {cls['per_speed'][next(iter(cls['per_speed']))].get('interval', '')} 95 % intervals "
                   "(one trial per pose and speed leaves a stratified bootstrap nothing to resample)."]
         d = cls["drift"]
