@@ -138,7 +138,7 @@ def pulse_compliance(H, *, stiffness, damping, duration, shape) -> np.ndarray:
     M[:, nv:2 * nv, :nv] = -Hi * K[:, None, :]
     M[:, nv:2 * nv, nv:2 * nv] = -Hi * D[:, None, :]
     M[:, nv:2 * nv, 2 * nv:] = Hi
-    E = np.stack([expm(M[i] * dt[i]) for i in range(N)])
+    E = expm(M * dt[:, None, None])                      # batched over the rows
     Ad, Bd = E[:, :2 * nv, :2 * nv], E[:, :2 * nv, 2 * nv:] / dt[:, None, None]
     Z = np.zeros((N, 2 * nv, nv))
     for share in w:
@@ -172,12 +172,18 @@ def friction_step(A, b, kappa_pos, kappa_neg) -> np.ndarray:
     kappa_pos, kappa_neg : array_like, shape (nv,)
         Friction impulses [N m s] against positive and negative motion.
     """
+    return _friction_modes(A, b, kappa_pos, kappa_neg)[0]
+
+
+def _friction_modes(A, b, kappa_pos, kappa_neg):
+    """:func:`friction_step` and the stick/slip mode of each joint (N, nv): 0 stuck, +-1 slipping."""
     A = np.asarray(A, float)
     b = np.asarray(b, float)
     N, nv = b.shape
     kp = np.asarray(kappa_pos, float)
     kn = np.asarray(kappa_neg, float)
     x_out = np.zeros((N, nv))
+    m_out = np.zeros((N, nv), int)
     found = np.zeros(N, bool)
     tol = 1e-12 * (1.0 + np.abs(b).max(axis=1))
     for mode in _modes(nv):
@@ -195,12 +201,13 @@ def friction_step(A, b, kappa_pos, kappa_neg) -> np.ndarray:
             ok &= np.all((hold <= kp[~free] + tol[:, None]) & (hold >= -kn[~free] - tol[:, None]), axis=1)
         take = ok & ~found
         x_out[take] = x[take]
+        m_out[take] = mode
         found |= take
         if found.all():
             break
     if not found.all():   # pragma: no cover - the convex problem always has one consistent mode
         raise FloatingPointError("friction_step: no consistent stick/slip assignment")
-    return x_out
+    return x_out, m_out
 
 
 def apparent_mass(G, Jn, kappa_pos, kappa_neg, *, speed, e, m_b, iterations: int = 60) -> np.ndarray:
@@ -225,18 +232,38 @@ def apparent_mass(G, Jn, kappa_pos, kappa_neg, *, speed, e, m_b, iterations: int
     n = Jn.shape[0]
     v, e, m_b = (np.broadcast_to(np.asarray(z, float), (n,)) for z in (speed, e, m_b))
     target = (1.0 + e) * v
-    lo, hi = np.zeros(n), target * m_b       # dv >= 0, so P <= (1 + e) v m_b
+    kp, kn = np.asarray(kappa_pos, float), np.asarray(kappa_neg, float)
+    eye = np.eye(Jn.shape[1])
 
     def tip(P):
-        return np.einsum("ij,ij->i", Jn, friction_step(A, Jn * P[:, None], kappa_pos, kappa_neg))
+        """n.dv at impulses P, and the line n.dv = a P - c of the stick/slip mode there."""
+        x, mode = _friction_modes(A, Jn * P[:, None], kp, kn)
+        free = mode != 0
+        both = free[:, :, None] & free[:, None, :]
+        Am = np.where(both, A, eye)                      # stuck joints decoupled and held
+        Jm = np.where(free, Jn, 0.0)
+        fm = np.where(mode > 0, kp, 0.0) - np.where(mode < 0, kn, 0.0)
+        y = np.linalg.solve(Am, np.stack([Jm, fm], axis=2))
+        return (np.einsum("ij,ij->i", Jn, x), np.einsum("ij,ij->i", Jm, y[:, :, 0]),
+                np.einsum("ij,ij->i", Jm, y[:, :, 1]))
 
-    for _ in range(iterations):              # n.dv(P) + P/m_b is increasing in P: bisection
-        P = 0.5 * (lo + hi)
-        over = tip(P) + P / m_b > target
+    # n.dv(P) + P/m_b is continuous, increasing and piecewise linear in P: Newton on the
+    # line of the current stick/slip mode, safeguarded by the bracket [lo, hi]
+    lo, hi = np.zeros(n), target * m_b                   # dv >= 0, so P <= (1 + e) v m_b
+    P = 0.5 * hi
+    for _ in range(iterations):
+        dv, a, c = tip(P)
+        over = dv + P / m_b > target
         hi = np.where(over, P, hi)
         lo = np.where(over, lo, P)
-    P = 0.5 * (lo + hi)
-    dv = tip(P)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            newton = (target + c) / (a + 1.0 / m_b)
+        done = np.isfinite(newton) & (np.abs(newton - P) <= 1e-13 * target * m_b)   # P on its mode's line
+        inside = np.isfinite(newton) & (newton > lo) & (newton < hi)
+        P = np.where(done | inside, newton, 0.5 * (lo + hi))
+        if done.all():
+            break
+    dv = tip(P)[0]
     out = np.full(n, np.inf)
     ok = dv > 1e-12 * np.maximum(target, 1e-300)
     out[ok] = P[ok] / dv[ok]
