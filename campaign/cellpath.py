@@ -1,6 +1,6 @@
 """Where a trial belongs in an archive, from its own attributes (standard library only).
 
-A campaign folder files each trial at ``<base>/config<N>/<gain>/v<speed>/r<NN>.nc``
+A campaign folder files each trial at ``<base>/<pose>/<gain>/v<speed>/r<NN>.nc``
 (:attr:`campaign.scene.Scene.cell`). A file copied or moved to another cell's place still
 says in its root attributes which cell it holds; identification, ``archive verify`` and
 ``archive finalize`` compare the two with :func:`misfiled`, so a High trial filed under
@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 from typing import Any, Mapping
 
-__all__ = ["misfiled"]
+__all__ = ["misfiled", "pose_folder"]
 
 #: bases of the archive layout (campaign.scene.BASES)
 BASES = ("fixed", "flexible")
@@ -31,12 +31,13 @@ _CELL_KEYS = ("base", "config", "gain", "speed", "repeat")
 def misfiled(path: str | os.PathLike, attrs: Mapping[str, Any]) -> str | None:
     """Why a trial file is not where its own attributes place it, or None.
 
-    A file at ``.../<base>/config<N>/<gain>/v<speed>/r<NN>.nc`` must hold that cell: its
+    A file at ``.../<base>/<pose>/<gain>/v<speed>/r<NN>.nc`` must hold that cell: its
     root attributes ``base``, ``config``, ``gain``, ``speed`` (to the path's 3 decimals)
     and ``repeat`` give the same relative path; a pose that is not a paper configuration
     with the paper's direction is filed under ``pose-<q1>_<q2>_<q3>-n<azimuth>``
-    (:attr:`campaign.scene.Scene.pose_tag`), read from the ``scene_json`` attribute. A file outside that layout is not checked. The message names the
-    file and the path its attributes claim, and which attributes disagree.
+    (:attr:`campaign.scene.Scene.pose_tag`), read from the ``scene_json`` attribute. A file
+    outside that layout is not checked. The message names the file and the path its
+    attributes claim, and which attributes disagree.
     """
     p = Path(path)
     tail = p.parts[-5:]
@@ -47,7 +48,7 @@ def misfiled(path: str | os.PathLike, attrs: Mapping[str, Any]) -> str | None:
         speed, repeat = float(attrs["speed"]), int(attrs["repeat"])
     except (KeyError, TypeError, ValueError) as exc:
         return f"{path}: root attributes {', '.join(_CELL_KEYS)} missing or malformed ({exc})"
-    folder = _pose_folder(config, attrs.get("scene_json"))
+    folder = pose_folder(config, attrs.get("scene_json"))
     claimed = (base, folder, gain, f"v{speed:.3f}", f"r{repeat:02d}{SUFFIX}")
     if tuple(tail) == claimed:
         return None
@@ -57,7 +58,7 @@ def misfiled(path: str | os.PathLike, attrs: Mapping[str, Any]) -> str | None:
     return f"{path}: misfiled: its attributes place it at {where} ({'; '.join(differ)})"
 
 
-def _pose_folder(config: int, scene_json) -> str:
+def pose_folder(config: int, scene_json) -> str:
     """The pose's folder, as :attr:`campaign.scene.Scene.pose_tag` names it: ``config<N>``
     for a paper configuration struck along the paper's direction, else the pose and the
     direction's azimuth from -x about +z (``config-custom`` when the file states neither)."""

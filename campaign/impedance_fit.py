@@ -46,7 +46,8 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["servo_gains", "half_sine_shape", "measured_pulse_shape", "pulse_compliance", "friction_step", "apparent_mass", "ImpedanceFit"]
+__all__ = ["servo_gains", "half_sine_shape", "measured_pulse_shape", "pulse_compliance", "friction_step",
+           "apparent_mass", "ImpedanceFit"]
 
 
 def servo_gains(robot, gain: str, *, rig=None) -> tuple[np.ndarray, np.ndarray]:
@@ -157,7 +158,7 @@ def _modes(nv: int) -> np.ndarray:
     return _MODES_CACHE[nv]
 
 
-def friction_step(A, b, kappa_pos, kappa_neg) -> np.ndarray:
+def friction_step(A, b, *, kappa_pos, kappa_neg) -> np.ndarray:
     """Joint velocity change under Coulomb friction impulses, with sticking.
 
     ``x = argmin 1/2 x^T A x - b^T x + sum_j (kappa_pos_j max(x_j, 0) + kappa_neg_j max(-x_j, 0))``
@@ -210,7 +211,7 @@ def _friction_modes(A, b, kappa_pos, kappa_neg):
     return x_out, m_out
 
 
-def apparent_mass(G, Jn, kappa_pos, kappa_neg, *, speed, e, m_b, iterations: int = 60) -> np.ndarray:
+def apparent_mass(G, Jn, *, kappa_pos, kappa_neg, speed, e, m_b, iterations: int = 60) -> np.ndarray:
     """The effective mass eq 10 would measure, ``P / n.dv`` [kg]; ``inf`` where friction holds
     every joint that moves the tip.
 
@@ -308,12 +309,27 @@ class ImpedanceFit:
     n_trials_ : int
     """
 
+    _PARAMS = ("robot", "coulomb_pos", "coulomb_neg", "ci", "max_relative_ci")
+
     def __init__(self, robot, *, coulomb_pos=None, coulomb_neg=None, ci: float = 0.95, max_relative_ci: float = 1.0):
         self.robot = robot
         self.coulomb_pos = coulomb_pos
         self.coulomb_neg = coulomb_neg
         self.ci = ci
         self.max_relative_ci = max_relative_ci
+
+    def get_params(self, deep: bool = True) -> dict:
+        return {k: getattr(self, k) for k in self._PARAMS}
+
+    def set_params(self, **params) -> "ImpedanceFit":
+        for k, v in params.items():
+            if k not in self._PARAMS:
+                raise InputError(f"ImpedanceFit has no parameter {k!r}; parameters: {list(self._PARAMS)}")
+            setattr(self, k, v)
+        return self
+
+    def __repr__(self) -> str:
+        return f"ImpedanceFit(robot={getattr(self.robot, 'name', self.robot)!r}, ci={self.ci!r})"
 
     def _friction(self):
         tp = np.asarray(self.robot.coulomb_pos if self.coulomb_pos is None else self.coulomb_pos, float)
@@ -324,7 +340,7 @@ class ImpedanceFit:
         G = pulse_compliance(H, stiffness=stiffness, damping=np.asarray(damping) + beta, duration=duration,
                              shape=self.pulse_shape_)
         tp, tn = self._friction()
-        return apparent_mass(G, Jn, c * tp, c * tn, speed=speed, e=e, m_b=m_b)
+        return apparent_mass(G, Jn, kappa_pos=c * tp, kappa_neg=c * tn, speed=speed, e=e, m_b=m_b)
 
     def fit(self, Q, D, m_eff, *, speed, e, m_b, duration, stiffness, damping, pulse_shape) -> "ImpedanceFit":
         """Fit to trials at DH poses ``Q`` (N, nv) struck along ``D`` (N, 3).

@@ -32,7 +32,7 @@ def test_without_servo_or_damping_the_compliance_is_h_inverse_and_the_mass_is_eq
     for shape in (half_sine_shape(7), np.array([0.7, 0.2, 0.1])):
         G = pulse_compliance(H, stiffness=np.zeros(3), damping=np.zeros(3), duration=0.07, shape=shape)
         assert np.allclose(G, np.linalg.inv(H), rtol=1e-10, atol=1e-12)
-    m = apparent_mass(G, Jn, np.zeros(3), np.zeros(3), speed=1.5, e=0.55, m_b=0.7)
+    m = apparent_mass(G, Jn, kappa_pos=np.zeros(3), kappa_neg=np.zeros(3), speed=1.5, e=0.55, m_b=0.7)
     eq11 = np.array([effective_mass_batch(puma, Q[i][None], D[i])[0] for i in range(len(Q))])
     assert np.allclose(m, eq11, rtol=1e-7)          # the matrix exponential to ~1e-10, n.G.n cancels a little
 
@@ -69,7 +69,7 @@ def test_the_coulomb_step_solves_its_convex_problem_and_holds_what_cannot_beat_f
     A = L @ np.swapaxes(L, 1, 2) + 0.5 * np.eye(3)
     b = rng.normal(size=(40, 3))
     kp, kn = np.array([0.6, 0.3, 0.9]), np.array([0.4, 0.5, 0.2])
-    x = friction_step(A, b, kp, kn)
+    x = friction_step(A, b, kappa_pos=kp, kappa_neg=kn)
 
     def objective(y, i):
         return 0.5 * y @ A[i] @ y - b[i] @ y + kp @ np.maximum(y, 0) + kn @ np.maximum(-y, 0)
@@ -81,8 +81,9 @@ def test_the_coulomb_step_solves_its_convex_problem_and_holds_what_cannot_beat_f
         assert objective(x[i], i) <= ref.fun + 1e-10
         stuck += int(np.sum(x[i] == 0))
     assert stuck > 0                                     # the draw holds some joints still
-    assert np.allclose(friction_step(A, b, 0 * kp, 0 * kn), np.linalg.solve(A, b[:, :, None])[:, :, 0])
-    assert np.all(friction_step(A, 0.1 * np.sign(b) * np.minimum(kp, kn), kp, kn) == 0)
+    free = friction_step(A, b, kappa_pos=0 * kp, kappa_neg=0 * kn)
+    assert np.allclose(free, np.linalg.solve(A, b[:, :, None])[:, :, 0])
+    assert np.all(friction_step(A, 0.1 * np.sign(b) * np.minimum(kp, kn), kappa_pos=kp, kappa_neg=kn) == 0)
 
 
 @pytest.mark.parametrize("joint", [0, 1, 2])
@@ -91,7 +92,7 @@ def test_a_joint_friction_cannot_move_is_a_locked_joint_of_eq_11(puma, arm, join
     G = np.linalg.inv(H)
     big = np.zeros(3)
     big[joint] = 1e6                                     # no blow beats it
-    m = apparent_mass(G, Jn, big, big, speed=2.0, e=0.5, m_b=0.7)
+    m = apparent_mass(G, Jn, kappa_pos=big, kappa_neg=big, speed=2.0, e=0.5, m_b=0.7)
     lam = np.zeros(3)
     lam[joint] = 1e12                                    # eq 11 with the joint's lambda unbounded
     locked = np.array([effective_mass_batch(puma, Q[i][None], D[i], lam)[0] for i in range(len(Q))])
@@ -115,7 +116,7 @@ def test_the_fit_recovers_damping_and_friction_from_synthetic_masses_of_two_gain
     beta, c = np.array([18.0, 29.0, 12.0]), 0.0045
     H, Jn = design_arrays(puma, Q, D)
     G = pulse_compliance(H, stiffness=K, damping=Kd + beta, duration=T, shape=shape)
-    m = apparent_mass(G, Jn, c * puma.coulomb_pos, c * puma.coulomb_neg, speed=v, e=0.55, m_b=0.72)
+    m = apparent_mass(G, Jn, kappa_pos=c * puma.coulomb_pos, kappa_neg=c * puma.coulomb_neg, speed=v, e=0.55, m_b=0.72)
     m_obs = m * np.exp(rng.normal(scale=0.005, size=m.size))
     est = ImpedanceFit(puma).fit(Q, D, m_obs, speed=v, e=np.full(v.size, 0.55), m_b=np.full(v.size, 0.72),
                                  duration=T, stiffness=K, damping=Kd, pulse_shape=shape)
@@ -142,25 +143,31 @@ def test_bad_inputs_are_refused_before_any_work(puma, arm):
                                    damping=np.zeros((1, 3)))
 
 
-def test_a_custom_pose_trial_is_filed_under_its_pose_and_gives_its_measured_pulse(tmp_path):
+def test_custom_pose_trials_are_filed_under_their_poses_and_give_their_measured_pulse(tmp_path):
     import h5py
 
-    from campaign.archive import trial_path, write_trial
+    from campaign.archive import finalize_campaign, trial_path, verify, write_trial
     from campaign.cellpath import misfiled
     from campaign.rig import simulate_arrays
     from campaign.runner import identify_trials, read_identification
     from campaign.scene import make_scene
 
-    sc = make_scene(base="fixed", config=0, q_paper_deg=(45.0, 150.0, 90.0), direction=(-0.8660254, -0.5, 0.0),
-                    gain="zero", speed=1.5, repeat=0)
-    path = trial_path(tmp_path / "camp", sc)
-    write_trial(simulate_arrays(sc), path)
+    paths = []
+    for n in ((-0.8660254, -0.5, 0.0), (0.8660254, 0.5, 0.0)):       # one pose, two directions
+        sc = make_scene(base="fixed", config=0, q_paper_deg=(45.0, 150.0, 90.0), direction=n, gain="zero",
+                        speed=1.5, repeat=0)
+        paths.append(trial_path(tmp_path / "camp", sc))
+        write_trial(simulate_arrays(sc), paths[-1])
+    path = paths[0]
     with h5py.File(path) as f:
         attrs = dict(f.attrs)
         t, F = f["truth/t_truth"][:], f["truth/f_contact"][:]
     assert misfiled(path, attrs) is None
     wrong = tmp_path / "camp" / "fixed" / "pose-45.000_150.000_90.000-n0.000" / "zero" / "v1.500" / "r00.nc"
     assert "n30.000" in misfiled(wrong, attrs)
+    # two custom poses of the same gain, speed and repeat are two cells, not a copy
+    finalize_campaign(tmp_path / "camp")
+    assert verify(tmp_path / "camp") == []
     identify_trials([path], tmp_path / "id.csv")      # refuses a misfiled trial
     r = read_identification([tmp_path / "id.csv"])[0]
     assert not r["excluded"]

@@ -23,7 +23,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import h5py
 
-from ..cellpath import misfiled
+from ..cellpath import misfiled, pose_folder
 
 __all__ = ["CELL_FIELDS", "filing_problems", "group_digests"]
 
@@ -92,8 +92,9 @@ def filing_problems(campaign: Path, records: Iterable[Mapping[str, Any]],
                       if not _same(key, rec[key], scene.get(key))]
             if differ:
                 problems.append((rel, "root attributes contradict the file's own scene_json: " + ", ".join(differ)))
-        cell = (str(rec["base"]), int(rec["config"]), str(rec["gain"]), f"{float(rec['speed']):.3f}",
-                int(rec["repeat"]))
+        # the pose folder, not the configuration number: every custom pose has config 0
+        cell = (str(rec["base"]), pose_folder(int(rec["config"]), rec.get("scene_json")), str(rec["gain"]),
+                f"{float(rec['speed']):.3f}", int(rec["repeat"]))
         if cell in by_cell:
             problems.append((rel, f"holds the same cell ({'/'.join(map(str, cell))}) as {by_cell[cell]}: "
                                   "one of the two is a copy"))
