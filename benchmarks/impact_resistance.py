@@ -98,7 +98,8 @@ def ablation(folder) -> None:
             Hh, Jh = design_arrays(robot, a["Q"], a["D"]) if a is not des else (H, Jn)
             G = pulse_compliance(Hh, stiffness=z * a["stiffness"], damping=z * a["damping"] + beta,
                                  duration=np.interp(a["speed"], sp, Tm), shape=shape)
-            return apparent_mass(G, Jh, np.zeros(3), np.zeros(3), speed=a["speed"], e=des["e"].mean(), m_b=a["m_b"])
+            return apparent_mass(G, Jh, kappa_pos=np.zeros(3), kappa_neg=np.zeros(3), speed=a["speed"],
+                                 e=des["e"].mean(), m_b=a["m_b"])
 
         fit = least_squares(lambda th: np.log(mass(np.exp(th), des)) - np.log(des["m"]), np.log(robot.viscous),
                             diff_step=1e-4)
