@@ -3,7 +3,7 @@
 The Virtual Rotor Inertia (eq 5) treats the joints' resistance during the impact as an
 inertia ``lambda``: a generalised impulse proportional to the velocity change, whatever
 the pose. On the rig the contact lasts about 70 ms, as long as the joints' own viscous
-time constants ``(H + ...)_jj / b_j``, and the resistance is a damper, the servo's spring
+time constants ``H_jj / b_j``, and the resistance is a damper, the servo's spring
 and damper, and Coulomb friction that holds a lightly loaded joint still. None of these
 is an inertia, so their equivalent lambda changes with the pose's inertia and with how
 much of the impulse each joint sees. This model keeps eq 11's structure and replaces
@@ -415,8 +415,8 @@ class ImpedanceFit:
     def predict(self, Q, D, *, speed, m_b, stiffness, damping, e=None) -> np.ndarray:
         """Apparent m* [kg] at DH poses ``Q`` along ``D`` for hammer ``speed`` and mass ``m_b``
         (per row) under servo gains ``stiffness``, ``damping`` (shape (N, nv)); the pulse
-        duration comes from the fitted trials' contacts at that speed, the restitution is
-        theirs unless given."""
+        duration comes from the fitted trials' contacts, interpolated in speed (held at the
+        fitted speeds' ends), the restitution is theirs unless given."""
         from .fit import design_arrays
 
         if not hasattr(self, "damping_"):
