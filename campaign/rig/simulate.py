@@ -136,6 +136,10 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
             plant = VesLoopPlant(robot, q0, n, pend, contact, beam, **friction,
                                  rate=float(p("ves.rate")), latency=float(p("ves.latency")),
                                  bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
+            linear = scene.param_dict.get("flexible.linear_phases", False)
+            if not isinstance(linear, bool):
+                raise InputError(f"flexible.linear_phases must be true or false, got {linear!r}")
+            plant.linear_phases = linear
             T_e = plant.emulator_period
             plant.reset_loop(math.floor(t_contact / T_e + 1e-9) * T_e)
             # the emulation loop closed through the (locked) arm must be stable
