@@ -88,8 +88,9 @@ def test_committed_benchmark_data_holds_both_structures_and_the_map():
 
 def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
     """The stiff mast is the structure the committed reference campaign ran: selecting it gives
-    that trial's scene (every rig value and the seed; only the keys that name the structure and
-    the platform's stroke, and the pendulum's placement checks are new), so its trials are today's."""
+    that trial's scene (every rig value and the seed; only the keys that name the structure, its
+    closed-form switch (off for the stiff mast) and the platform's stroke, and the pendulum's
+    placement checks are new), so its trials are today's."""
     from campaign.archive import open_trial_arrays
     from campaign.scene import Scene, make_scene
 
@@ -98,7 +99,7 @@ def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
     stored = Scene.from_json(str(open_trial_arrays(trial, group="measured").attrs["scene_json"]))
     now = make_scene(base="flexible", config=1, gain="low", speed=2.5, repeat=0, campaign_seed=1996,
                      params={"flexible.structure": "stiff_mast"})
-    new_keys = {"flexible.structure", "ves.stroke", "ves.stroke_rotation", "placement.link_radius",
+    new_keys = {"flexible.structure", "flexible.linear_phases", "ves.stroke", "ves.stroke_rotation", "placement.link_radius",
                 "placement.struck_zone", "placement.pivot_z_max", "placement.floor_z", "placement.head_radius"}
     assert set(now.param_dict) - set(stored.param_dict) == new_keys
     assert {k: v for k, v in now.param_dict.items() if k not in new_keys} == stored.param_dict

@@ -71,6 +71,11 @@ class FrozenArm:
         The trial's plant (its F/T model, emulator matrices and latency).
     q_arm : ndarray, shape (na,)
         The arm's (frozen) joint angles [rad].
+    pose_terms : bool, optional
+        Keep the wrench's and the bias's dependence on the platform's pose (gravity seen in
+        the tilted sensor's axes: a lateral force ``m g`` times the tilt, a ~0.1 % stiffness
+        change of the space-class first mode). Off, the loop is closed through the arm's
+        inertia alone, as :meth:`.ves.VesLoop.closed_loop_matrix` closes it (tests).
 
     Attributes
     ----------
@@ -84,7 +89,7 @@ class FrozenArm:
         The arm's bias torques with the platform at the state's pose and acceleration.
     """
 
-    def __init__(self, plant, q_arm):
+    def __init__(self, plant, q_arm, *, pose_terms: bool = True):
         loop = plant.loop
         self.plant = plant
         self.q_arm = np.asarray(q_arm, float).copy()
@@ -100,6 +105,12 @@ class FrozenArm:
         Wa, Ba = np.zeros((6, 6)), np.zeros((na, 6))
         Wp, Bp = np.zeros((6, 6)), np.zeros((na, 6))
         for i in range(6):
+            if not pose_terms:
+                e = np.zeros(6)
+                e[i] = 1.0
+                w1, b1 = frozen_wrench(plant, self.q_arm, z6, e)
+                Wa[:, i], Ba[:, i] = w1 - w0, b1 - b0
+                continue
             e = np.zeros(6)
             e[i] = 1.0
             w1, b1 = frozen_wrench(plant, self.q_arm, z6, e)       # exact: linear in accel
