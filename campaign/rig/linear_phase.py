@@ -4,7 +4,7 @@ On the flexible base (``ves.mode = loop``) the arm is frozen once every joint is
 hammer is caught and the contact is over: nothing in the arm's state moves, the arm rides on
 the platform as one rigid body, and the emulator (structure + latency + platform servo,
 :class:`.ves.VesLoop`) is linear and time-invariant. What closes the loop is the F/T wrench
-of the rigid arm on the platform,
+of the rigid arm on the platform::
 
     w = w(pose, twist, accel) = w_0 + W_p pose + W_a accel + O(|twist|^2, |pose| |accel|, |pose|^2)
 
@@ -17,7 +17,7 @@ in flight (6 N), 1]``. :class:`FrozenArm` builds it from the plant's own Pinocch
 in ``accel``, central in ``pose``) and :meth:`FrozenArm.propagate` runs it tick by tick as
 matrix-vector products: no RNEA, no Python-side platform kinematics, no per-tick
 consistency solve. The holding torques ``lam = -(tau - bias(pose, accel))`` are affine in
-the same state, so the stick check of every tick is one matrix product over the phase; the
+the same state, so the stick check of every tick comes with the same products; the
 phase ends (and the per-tick path resumes) at the first tick where a joint would break loose.
 
 What is dropped, and its size: the centrifugal and Coriolis wrench of the platform's twist
