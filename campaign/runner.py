@@ -125,23 +125,6 @@ def find_cell_trials(archive_dir: str | os.PathLike, base: str, config: int, gai
     return sorted(str(p) for p in folder.glob(f"v*/r*{TRIAL_SUFFIX}") if p.is_file() and not p.name.startswith("."))
 
 
-def trial_structures(paths: Iterable[str | os.PathLike]) -> list[str]:
-    """The named structures (:func:`campaign.scene.structure_of`) the flexible-base trial files
-    ``paths`` emulate, each read from the trial's stored scene (root attribute ``scene_json``),
-    sorted and without repeats."""
-    import h5py
-
-    from .scene import structure_of
-
-    found = set()
-    for path in paths:
-        with h5py.File(path, "r") as f:
-            text = f.attrs["scene_json"]
-        params = json.loads(text.decode() if isinstance(text, bytes) else str(text))["params"]
-        found.add(structure_of(params))
-    return sorted(found)
-
-
 def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], list[str]]:
     """The trials of a finalized archive by cell, from its own ``index.csv``.
 

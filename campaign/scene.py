@@ -22,7 +22,7 @@ from typing import Any, Mapping
 from .errors import InputError, allowed_names
 from .paper import config_dir, load_paper, read_yaml
 
-__all__ = ["Scene", "load_rig", "load_structures", "structure_of", "make_scene", "derive_seed", "check_direction", "direction_azimuth",
+__all__ = ["Scene", "load_rig", "load_structures", "structure_of", "trial_structures", "make_scene", "derive_seed", "check_direction", "direction_azimuth",
            "direction_from_azimuth", "pose_tag", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX", "hammer_reach"]
 
 BASES = ("fixed", "flexible")
@@ -158,6 +158,20 @@ def structure_of(params: Mapping[str, Any], rig: str | Path | None = None) -> st
         return name if not diff else f"{name} with {', '.join(diff)} changed"
     match = [n for n in named if not changed(n) and all(k in params for k in _STRUCTURE_IDENTITY)]
     return match[0] if len(match) == 1 else "unnamed"
+
+
+def trial_structures(paths) -> list[str]:
+    """The named structures (:func:`structure_of`) the flexible-base trial files ``paths``
+    emulate, each read from the trial's stored scene (root attribute ``scene_json``), sorted
+    and without repeats."""
+    import h5py
+
+    found = set()
+    for path in paths:
+        with h5py.File(path, "r") as f:
+            text = f.attrs["scene_json"]
+        found.add(structure_of(json.loads(text.decode() if isinstance(text, bytes) else str(text))["params"]))
+    return sorted(found)
 
 
 def derive_seed(*parts: Any) -> int:

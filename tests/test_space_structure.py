@@ -111,7 +111,7 @@ def test_structure_is_read_from_the_stored_scene():
     a named one with a changed value says so."""
     from campaign import runner
     from campaign.archive import open_trial_arrays
-    from campaign.scene import Scene, make_scene, structure_of
+    from campaign.scene import Scene, make_scene, structure_of, trial_structures
 
     root = Path(__file__).resolve().parents[1] / "archive" / "reference"
     trial = sorted((root / "flexible" / "config1" / "low").glob("v2.500/r00.nc"))[0]
@@ -125,4 +125,4 @@ def test_structure_is_read_from_the_stored_scene():
     odd = dict(stored.param_dict, **{"flexible.beam_length": 33.0})
     assert structure_of(odd) == "unnamed"
     flexible = [p for cell, paths in runner.index_cells(root).items() if cell[0] == "flexible" for p in paths]
-    assert flexible and runner.trial_structures(flexible) == ["stiff_mast"]
+    assert flexible and trial_structures(flexible) == ["stiff_mast"]

@@ -223,7 +223,9 @@ def _configured_structure():
 # the one the flexible sweep simulates
 FLEX_STRUCTURE = _configured_structure()
 if not SIMULATE and any(c[0] == "flexible" for c in REUSED):
-    _held = ", ".join(runner.trial_structures([p for c, ps in REUSED.items() if c[0] == "flexible" for p in ps]))
+    from campaign.scene import trial_structures   # numpy and h5py: only when reusing an archive
+
+    _held = ", ".join(trial_structures([p for c, ps in REUSED.items() if c[0] == "flexible" for p in ps]))
     if _held != FLEX_STRUCTURE:
         print(f"reuse_archive: its flexible-base trials emulate the structure {_held} (their stored scenes), not "
               f"{FLEX_STRUCTURE} that the campaign config names; Table 4 and Figure 9 show {_held}", file=sys.stderr)
