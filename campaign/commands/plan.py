@@ -18,7 +18,7 @@ from pathlib import Path
 
 from .meff import _NEGATIVE_VALUE, parse_vector
 
-__all__ = ["register", "run", "read_lambdas", "rig_defaults", "build_planner"]
+__all__ = ["register", "run", "read_lambdas", "rig_defaults", "build_planner", "gain_sets", "arm_after_impact"]
 
 HELP = "rank the arm's poses, gain classes and impact directions for catching an object at a point"
 
@@ -140,26 +140,83 @@ def rig_defaults(rig=None) -> dict:
             "contact_stiffness": float(p("contact.stiffness")), "contact_exponent": float(p("contact.exponent"))}
 
 
+def gain_sets(lambdas) -> dict[str, list[float]]:
+    """``lambdas`` with each of the paper's pooled gain classes (``zero_low``) split into its
+    gain sets (``zero``, ``low``), each with the class's lambda: after the impact their servos
+    differ, so the structure's response does too."""
+    from ..paper import load_paper
+
+    pooled = load_paper()["gain_classes"]
+    out: dict[str, list[float]] = {}
+    for name, lam in lambdas.items():
+        members = pooled.get(name, [name])
+        for member in members if len(members) > 1 else [name]:
+            if member == name or member not in lambdas:      # a set named on its own keeps its lambda
+                out[str(member)] = lam
+    return out
+
+
+def arm_after_impact(rig=None, params=None, robot=None):
+    """The rig's arm after the impact (:class:`campaign.post_contact.ArmAfterImpact`): the
+    paper's Table 1 PID gains in joint units (proportional and derivative, controller.
+    torque_per_unit over the encoder resolution) per gain set and per single-set gain class,
+    the joints' viscous friction (drives.yaml times arm.viscous_scale) and gravity."""
+    import numpy as np
+
+    from ..paper import load_paper
+    from ..post_contact import ArmAfterImpact
+    from ..rig.controller import equivalent_gains
+    from ..robot import load_robot
+    from ..scene import make_scene
+
+    p = make_scene(base="fixed", rig=rig, params=params).p
+    robot = load_robot(p("robot")) if robot is None else robot
+    paper = load_paper()
+    gains = {}
+    for name, g in paper["gains"].items():
+        kp, kd, _ = equivalent_gains(float(g["P"]), float(g["D"]), float(g["I"]),
+                                     scale=float(p("controller.torque_per_unit")),
+                                     resolution=robot.encoder_resolution,
+                                     period=1.0 / float(p("controller.servo_rate")))
+        gains[str(name)] = (kp, kd)
+    for cls, members in paper["gain_classes"].items():
+        if len(members) == 1 and cls not in gains:
+            gains[str(cls)] = gains[str(members[0])]
+    return ArmAfterImpact(gains=gains, viscous=np.asarray(robot.viscous) * float(p("arm.viscous_scale")),
+                          gravity=float(p("gravity")))
+
+
 def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=None, objective="impulse",
-                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None):
+                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None, params=None,
+                  post_contact: bool = True):
     """An :class:`campaign.plan.ImpactPlanner` with the rig's contact law and structure
-    (``structure``: a name of the rig file's ``structures:``, by default the file's own)."""
+    (``structure``: a name of the rig file's ``structures:``, by default the file's own;
+    ``params``: dotted rig overrides). On the flexible base with ``post_contact`` the paper's
+    pooled gain classes are split into their gain sets (:func:`gain_sets`) and the structure's
+    peak follows the arm's post-contact motion under the rig's servo, friction and gravity
+    (:func:`arm_after_impact`)."""
     from ..paper import load_paper
     from ..plan import ImpactPlanner
     from ..robot import load_robot
 
     d = rig_defaults(rig)
     beam = None
+    arm = None
+    robot = load_robot(load_paper()["robot"]) if robot is None else robot
     if base == "flexible":
         from ..rig.beam import Beam
         from ..scene import make_scene
-        params = None if structure is None else {"flexible.structure": structure}
-        beam = Beam.from_scene(make_scene(base="flexible", rig=rig, params=params))
-    robot = load_robot(load_paper()["robot"]) if robot is None else robot
+        over = dict(params or {})
+        if structure is not None:
+            over["flexible.structure"] = structure
+        beam = Beam.from_scene(make_scene(base="flexible", rig=rig, params=over or None))
+        if post_contact:
+            lambdas = gain_sets(lambdas)
+            arm = arm_after_impact(rig, params, robot)
     return ImpactPlanner(robot, lambdas=lambdas, mass=d["mass"] if mass is None else mass, speed=speed,
                          restitution=d["restitution"] if restitution is None else restitution,
                          contact_stiffness=d["contact_stiffness"], contact_exponent=d["contact_exponent"],
-                         beam=beam, objective=objective, weights=weights)
+                         beam=beam, objective=objective, weights=weights, arm=arm)
 
 
 def _directions(args):
