@@ -496,13 +496,14 @@ class ImpactPlanner:
 
 def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
                   restitution: float, direction, y: float, x_range=(-1.0, 1.0), z_range=(-1.0, 1.0),
-                  resolution: float = 0.05, beam=None) -> dict:
+                  resolution: float = 0.05, beam=None, arm=None) -> dict:
     """m* (eq 7) and, on a flexible base, the structure's peak displacement over a vertical plane.
 
     The plane ``y = const`` of the arm's base frame is sampled every ``resolution`` metres;
     at each point every IK branch is evaluated, and the best (smallest) and worst branch of
     each quantity are kept per gain class. Unreachable points hold NaN (they are masked in
-    the figures, never stored as numbers).
+    the figures, never stored as numbers). ``arm``: the post-contact term of the structure's
+    peak (:func:`predict`).
 
     Returns
     -------
@@ -544,7 +545,7 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
                                    restitution=restitution, contact=contact).m_eff[:, :, 0]}
     if beam is not None:
         P = predict(pose_terms(robot, Q, beam=beam), lams, n, mass=mass, speed=speed, restitution=restitution,
-                    contact=contact)
+                    contact=contact, arm=arm, gain_names=names)
         quantities["m_eff_flexible"] = P.m_eff[:, :, 0]
         quantities["structure_peak"] = P.structure_peak[:, :, 0]
     for name, vals in quantities.items():
@@ -560,8 +561,9 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
 
 
 def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
-                  restitution: float, count: int = 72, beam=None) -> dict:
-    """m* and the structure's peak displacement against the horizontal impact direction at a pose.
+                  restitution: float, count: int = 72, beam=None, arm=None) -> dict:
+    """m* and the structure's peak displacement against the horizontal impact direction at a pose
+    (``arm``: the post-contact term of the structure's peak, :func:`predict`).
 
     Returns
     -------
@@ -578,7 +580,7 @@ def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, ma
     out = {"azimuth": np.arctan2(n[:, 1], n[:, 0]) % (2 * np.pi), "gain_classes": names, "q": q,
            "m_eff": predict(pose_terms(robot, q[None]), lams, n, **kw).m_eff[0]}
     if beam is not None:
-        P = predict(pose_terms(robot, q[None], beam=beam), lams, n, **kw)
+        P = predict(pose_terms(robot, q[None], beam=beam), lams, n, **kw, arm=arm, gain_names=names)
         out["m_eff_flexible"] = P.m_eff[0]
         out["structure_peak"] = P.structure_peak[0]
     return out

@@ -29,8 +29,9 @@ contact point, finds every pose of the arm's positioning chain that puts the imp
 Pinocchio's kinematics), and predicts for each pose x gain class x impact direction n:
 m* (eq 7 fixed base, eq 8 flexible base, eq 11), the impulse (eq 14), the post-impact joint
 velocities (eq 13), the peak contact force of the rig's contact law, and on the flexible
-base the base momentum and the peak base displacement of the structure's first bending
-pair. The candidates are ranked by --objective (smallest first).
+base the base momentum and the peak base displacement of the structure, released with
+eq 8's velocities and followed while the servo, the joints' friction and gravity pass the
+arm's momentum to the base. The candidates are ranked by --objective (smallest first).
 
 Units: point in metres in the arm's base frame (DH frame 0); n is the direction of the
 force on the arm (the object moves along n), normalised; object mass in kg, speed in m/s;
@@ -47,8 +48,15 @@ contact and structure: the contact law F = k delta^p (1 + d ddelta/v0) with k, p
 config/rig.yaml (contact.stiffness, contact.exponent) and d solved for --restitution; the
 peak force is that of two free bodies of reduced mass m* m_b / (m* + m_b). The flexible
 base is the rig's cantilever (flexible.* of config/rig.yaml): in the impulsive phase a free
-base body (eq 8); its velocity change is projected on the structure's two lowest (bending)
-modes with the arm locked on top, each at its first peak with the structure's damping.
+base body (eq 8). Its peak displacement (x_b) is that of the linearised arm on the structure
+released with eq 8's base and joint velocities and followed over one period of the first
+mode, under the servo's proportional and derivative gains (the paper's Table 1 gains in
+joint units, controller.torque_per_unit of config/rig.yaml), the joints' viscous friction
+and gravity: the structure peaks a quarter period after the impact, while the joints are
+still being slowed. On the flexible base the paper's pooled class zero_low is planned as its
+gain sets zero and low (same lambda, different servo); a class not named in Table 1 has no
+servo after the impact. --json also gives structure_peak_release: the structure's modes
+released with eq 8's base velocity change alone.
 
 output: the best --top candidates (all with --top 0); --json prints every candidate.
 
@@ -276,10 +284,11 @@ def run(args) -> int:
         print(json.dumps({
             "point": point, "base": args.base, "objective": args.objective, "weights": weights,
             "object_mass": planner.mass, "speed": planner.speed, "restitution": planner.restitution,
-            "lambdas": lambdas, "branches_dh_deg": np.degrees(planner.q_).tolist(),
+            "lambdas": planner.lambdas, "branches_dh_deg": np.degrees(planner.q_).tolist(),
             "structure_frequency_hz": None if planner.frequency_ is None else planner.frequency_.tolist(),
             "units": {"m_eff": "kg", "impulse": "N s", "peak_force": "N", "tip_velocity": "m/s", "dq": "rad/s",
                       "base_velocity": "m/s, rad/s", "base_momentum": "N s", "structure_peak": "m",
+                      "structure_peak_release": "m",
                       "q_dh_deg": "deg"},
             "candidates": rows,
         }))
@@ -287,7 +296,7 @@ def run(args) -> int:
     flex = args.base == "flexible"
     print(f"point      = {_fmt(point, '.4g')} m, base {args.base} (eq {'8' if flex else '7'})")
     print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")
-    print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in lambdas.items()))
+    print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in planner.lambdas.items()))
     print(f"branches   = {len(planner.q_)} poses reach the point (DH deg):")
     for i, q in enumerate(planner.q_, start=1):
         print(f"  {i}: {_fmt(np.degrees(q))}")
