@@ -14,8 +14,10 @@ every gain class (its Virtual Rotor Inertia lambda) and every allowed impact dir
 * the peak contact force of the rig's contact law between two free bodies of reduced mass
   ``m* m_b / (m* + m_b)`` (:meth:`campaign.rig.contact.Contact.peak_force`);
 * on the flexible base, the base's velocity change (the free base of eq 8 under the
-  impulse), the momentum of the structure's tip body, and the predicted peak displacement
-  of the structure's first bending pair (modal data from :func:`pose_terms`).
+  impulse), the momentum of the structure's tip body, and the predicted peak base
+  displacement: the structure's first bending pair released with eq 8's base velocity
+  change, or (given the arm's servo, friction and gravity) the linearised arm on the
+  structure followed until the structure's peak (:mod:`campaign.post_contact`).
 
 Everything per pose is one Pinocchio pass (:func:`pose_terms`); the rest is NumPy over the
 (pose, gain, direction) axes (:func:`predict`). :class:`ImpactPlanner` wraps the search and
@@ -31,7 +33,7 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError
+from .errors import InputError, SimulationError
 from .exiit import RANGE_RTOL, impulse, lambda_matrix
 from .robot import Robot
 
@@ -324,6 +326,10 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
         kp, damping, _ = arm.matrices(names, nv)
         R, _ = unit_responses(terms, X, kp, damping, gravity=float(arm.gravity), samples=int(arm.samples))
         peak_x = peak_displacement(R, n[None, None] * imp[..., None])
+        if not np.all(np.isfinite(peak_x)):
+            i, g, d = (int(k[0]) for k in np.nonzero(~np.isfinite(peak_x)))
+            raise SimulationError(f"post-contact response is not finite at pose {np.degrees(terms.q[i]).tolist()} "
+                                  f"deg, gain class {names[g]!r}, direction {n[d].tolist()}")
     return Predictions(m_eff=m_eff, impulse=imp, dq=dq, tip_velocity=tip_velocity, peak_force=peak,
                        base_velocity=dvb, base_momentum=momentum, structure_peak=peak_x,
                        structure_peak_release=release)
@@ -412,6 +418,8 @@ class ImpactPlanner:
                 lambda_matrix(lam, self.robot.nv)
             except ValueError as exc:
                 raise InputError(f"gain class {name!r}: {exc}") from None
+        if self.arm is not None:
+            self.arm.matrices(list(self.lambdas), self.robot.nv)     # refuses bad gains before any work
         if self.objective not in OBJECTIVES:
             raise InputError(f"objective {self.objective!r} is not one of {list(OBJECTIVES)}")
         if self.objective == "displacement" and self.beam is None:

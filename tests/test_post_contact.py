@@ -172,3 +172,12 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
     release = float(planner.predictions_.structure_peak_release[i, 0, 0])
     assert abs(post / measured - 1) < 0.06
     assert abs(post / measured - 1) < abs(release / measured - 1)
+
+
+def test_a_response_that_blows_up_is_reported_not_stored(puma):
+    from campaign.errors import SimulationError
+
+    arm = ArmAfterImpact(gains={}, viscous=np.zeros(3), gravity=1e300)     # an absurd gravity stiffness
+    with pytest.raises(SimulationError, match="post-contact response is not finite at pose"):
+        with np.errstate(all="ignore"):
+            run_predict(puma, beam_of(), arm)
