@@ -467,7 +467,10 @@ def main(argv: list[str] | None = None) -> int:
         "predicted spread over the candidates is "
         + ", ".join(f"x{r['pred_range'][1] / r['pred_range'][0]:.2f}" for r in rows
                     if r["structure"] == "space_class" and r["object_kg"] == light)
-        + " with the rig's hammer, so no choice among them halves the structure's peak. With the heavier object "
+        + " with the rig's hammer, so no choice among them halves the structure's peak: the servo and friction "
+        "hand most of the arm's share of the momentum to the base before the peak, whatever the pose and "
+        "direction (with a passive arm, whose free joints keep it, best / worst reaches 0.16 at the side point, "
+        "table below). With the heavier object "
         f"the contact lasts {contact_ms(heavy, 'space_class'):.0f} ms (the hammer's {contact_ms(light, 'space_class'):.0f} ms), "
         "over half the quarter period: the impact is no longer impulsive against the structure, the pendulum's "
         "gravity and the structure's spring act during the contact, and measured / predicted spreads to "
