@@ -740,7 +740,7 @@ def load_fits(results: Mapping[str, str | os.PathLike]) -> dict[str, Any]:
 def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike, *,
                ident_tables: Iterable[str | os.PathLike] = (), fits: Mapping[str, str | os.PathLike] | None = None,
                source: str | os.PathLike | None = None, out_html: str | os.PathLike | None = None,
-               timer: Timer | None = None):
+               structure: str | None = None, timer: Timer | None = None):
     """Write Table 2, 3, 4 or Table 4 under both structures (:mod:`campaign.tables`) as CSV,
     Markdown and HTML, each atomically.
 
@@ -758,6 +758,8 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
     source : path-like, optional
         For ``table4_structures``: the CSV ``benchmarks/space_structure.py`` writes; for
         ``plan_rig_check``: the CSV ``benchmarks/plan_rig_check.py`` writes.
+    structure : str, optional
+        For ``table4``: the structure its flexible-base trials emulate (a note names it).
     timer : Timer, optional
 
     Returns
@@ -775,7 +777,7 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
         elif name == "table3":
             table = tables.table3(loaded)
         elif name == "table4":
-            table = tables.table4(records, loaded)
+            table = tables.table4(records, loaded, structure=structure)
         elif name == "table4_structures":
             table = tables.structures_table(source)
         elif name == "plan_rig_check":

@@ -22,7 +22,7 @@ from typing import Any, Mapping
 from .errors import InputError, allowed_names
 from .paper import config_dir, load_paper, read_yaml
 
-__all__ = ["Scene", "load_rig", "load_structures", "make_scene", "derive_seed", "check_direction", "direction_azimuth",
+__all__ = ["Scene", "load_rig", "load_structures", "structure_of", "trial_structures", "make_scene", "derive_seed", "check_direction", "direction_azimuth",
            "direction_from_azimuth", "pose_tag", "BASES", "GAINS", "SCENE_NAMES", "SEED_MAX", "hammer_reach"]
 
 BASES = ("fixed", "flexible")
@@ -118,6 +118,60 @@ def load_structures(path: str | Path | None = None) -> dict[str, dict[str, Any]]
             over[str(key)] = leaf["value"] if isinstance(leaf, Mapping) and "value" in leaf else leaf
         out[str(name)] = over
     return out
+
+
+#: the parameters that make a structure what it is (beam and end fitting): the recording
+#: length and the closed-form switch do not
+_STRUCTURE_IDENTITY = ("flexible.beam_EI", "flexible.beam_length", "flexible.beam_mass", "flexible.beam_GJ_ratio",
+                       "flexible.beam_EA_ratio", "flexible.damping_ratio", "flexible.platform_mass",
+                       "flexible.platform_inertia", "flexible.mount_height")
+
+
+def structure_of(params: Mapping[str, Any], rig: str | Path | None = None) -> str:
+    """The named structure a (stored) scene's parameters ``params`` emulate.
+
+    A scene that names its structure (``flexible.structure``) and keeps its values is that
+    one; one stored before structures were named is the structure whose values it holds.
+    Otherwise ``"<name> with <keys> changed"`` (a named structure with overrides) or
+    ``"unnamed"``. Read from the values, never assumed."""
+    values = _flatten(_read_rig(rig)[0])
+    named = {}
+    for name, over in load_structures(rig).items():
+        ref = dict(values)
+        ref.update(over)
+        named[name] = {k: ref.get(k) for k in _STRUCTURE_IDENTITY}
+
+    def same(a, b):
+        if isinstance(a, (list, tuple)) or isinstance(b, (list, tuple)):
+            return a is not None and b is not None and [float(x) for x in a] == [float(x) for x in b]
+        try:
+            return float(a) == float(b)
+        except (TypeError, ValueError):
+            return a == b
+
+    def changed(name):
+        return [k for k in _STRUCTURE_IDENTITY if k in params and not same(params[k], named[name][k])]
+
+    name = params.get("flexible.structure")
+    if name in named:
+        diff = changed(name)
+        return name if not diff else f"{name} with {', '.join(diff)} changed"
+    match = [n for n in named if not changed(n) and all(k in params for k in _STRUCTURE_IDENTITY)]
+    return match[0] if len(match) == 1 else "unnamed"
+
+
+def trial_structures(paths) -> list[str]:
+    """The named structures (:func:`structure_of`) the flexible-base trial files ``paths``
+    emulate, each read from the trial's stored scene (root attribute ``scene_json``), sorted
+    and without repeats."""
+    import h5py
+
+    found = set()
+    for path in paths:
+        with h5py.File(path, "r") as f:
+            text = f.attrs["scene_json"]
+        found.add(structure_of(json.loads(text.decode() if isinstance(text, bytes) else str(text))["params"]))
+    return sorted(found)
 
 
 def derive_seed(*parts: Any) -> int:

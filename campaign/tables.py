@@ -370,8 +370,9 @@ def flexible_prediction(record: Mapping, lam, robot) -> float:
     return effective_mass_from_G(G, n)
 
 
-def table4(records, fits: Mapping, *, robot=None, gain_classes=None) -> Table:
-    """Table 4: flexible base, m* predicted by eq 8 (identified lambda) vs identified m*."""
+def table4(records, fits: Mapping, *, robot=None, gain_classes=None, structure: str | None = None) -> Table:
+    """Table 4: flexible base, m* predicted by eq 8 (identified lambda) vs identified m*;
+    ``structure`` (the named structure the trials emulate) goes into a note."""
     from .paper import load_paper
 
     paper = load_paper()
@@ -414,6 +415,8 @@ def table4(records, fits: Mapping, *, robot=None, gain_classes=None) -> Table:
     notes = [("predicted: eq 8 with the gain class's identified lambda (Table 3) and each trial's emulated base "
               "mass, inertia, centre of mass and mount, averaged over the cell's usable trials."),
              "rows with 'in paper' = no are the other flexible cells of the campaign (extended table)."]
+    if structure:
+        notes.append(f"structure of the flexible-base trials: {structure}.")
     if not flex:
         notes.append("the campaign has no flexible-base trials: the cells are empty.")
     return Table("table4", "Table 4: effective mass of the flexible-base manipulator", cols, rows, notes)

@@ -88,8 +88,9 @@ def test_committed_benchmark_data_holds_both_structures_and_the_map():
 
 def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
     """The stiff mast is the structure the committed reference campaign ran: selecting it gives
-    that trial's scene (every rig value and the seed; only the keys that name the structure and
-    the platform's stroke, and the pendulum's placement checks are new), so its trials are today's."""
+    that trial's scene (every rig value and the seed; only the keys that name the structure, its
+    closed-form switch (off for the stiff mast) and the platform's stroke, and the pendulum's
+    placement checks are new), so its trials are today's."""
     from campaign.archive import open_trial_arrays
     from campaign.scene import Scene, make_scene
 
@@ -98,8 +99,30 @@ def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
     stored = Scene.from_json(str(open_trial_arrays(trial, group="measured").attrs["scene_json"]))
     now = make_scene(base="flexible", config=1, gain="low", speed=2.5, repeat=0, campaign_seed=1996,
                      params={"flexible.structure": "stiff_mast"})
-    new_keys = {"flexible.structure", "ves.stroke", "ves.stroke_rotation", "placement.link_radius",
+    new_keys = {"flexible.structure", "flexible.linear_phases", "ves.stroke", "ves.stroke_rotation", "placement.link_radius",
                 "placement.struck_zone", "placement.pivot_z_max", "placement.floor_z", "placement.head_radius"}
     assert set(now.param_dict) - set(stored.param_dict) == new_keys
     assert {k: v for k, v in now.param_dict.items() if k not in new_keys} == stored.param_dict
     assert now.seed == stored.seed
+
+
+def test_structure_is_read_from_the_stored_scene():
+    """A trial stored before structures were named is the structure whose values it holds;
+    a named one with a changed value says so."""
+    from campaign import runner
+    from campaign.archive import open_trial_arrays
+    from campaign.scene import Scene, make_scene, structure_of, trial_structures
+
+    root = Path(__file__).resolve().parents[1] / "archive" / "reference"
+    trial = sorted((root / "flexible" / "config1" / "low").glob("v2.500/r00.nc"))[0]
+    stored = Scene.from_json(str(open_trial_arrays(trial, group="measured").attrs["scene_json"]))
+    assert "flexible.structure" not in stored.param_dict
+    assert structure_of(stored.param_dict) == "stiff_mast"
+    for name in ("stiff_mast", "space_class"):
+        assert structure_of(make_scene(base="flexible", params={"flexible.structure": name}).param_dict) == name
+    soft = make_scene(base="flexible", params={"flexible.structure": "space_class", "flexible.beam_EI": 1e8})
+    assert structure_of(soft.param_dict) == "space_class with flexible.beam_EI changed"
+    odd = dict(stored.param_dict, **{"flexible.beam_length": 33.0})
+    assert structure_of(odd) == "unnamed"
+    flexible = [p for cell, paths in runner.index_cells(root).items() if cell[0] == "flexible" for p in paths]
+    assert flexible and trial_structures(flexible) == ["stiff_mast"]

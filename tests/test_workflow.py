@@ -237,8 +237,14 @@ def test_reuse_of_the_reference_archive_as_documented(tmp_path):
     (tmp_path / "archive").mkdir()
     (tmp_path / "archive" / "reference").symlink_to(REPO / "archive" / "reference")
     before = _digest_tree(REPO / "archive" / "reference")
-    snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None)
+    out = snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None)
     assert _digest_tree(REPO / "archive" / "reference") == before
+    # the reference holds stiff-mast flexible trials (their stored scenes say so) while the
+    # default flexible sweep is the space class: said in one line, and Table 4 names it
+    said = [line for line in out.stderr.splitlines() if line.startswith("reuse_archive: its flexible-base trials")]
+    assert said and "structure stiff_mast" in said[0] and "not space_class" in said[0]
+    assert "structure of the flexible-base trials: stiff_mast" in \
+        (tmp_path / "results" / "full" / "tables" / "table4.md").read_text()
     assert [p.name for p in (tmp_path / "archive").iterdir()] == ["reference"]
     results = tmp_path / "results" / "full"
     assert (results / "archive_verify.txt").is_file()

@@ -50,11 +50,11 @@ def series(trial: str | os.PathLike) -> dict:
     x = 1e3 * np.asarray(measured["base_position"].values, float)[:, list(measured["axis"].values).index("x")]
     after = t >= 0
     from ..rig.simulate import structure_modes
-    from ..scene import Scene
+    from ..scene import Scene, structure_of
     scene = Scene.from_json(str(measured.attrs["scene_json"]))
     return {"t": t, "x": x, "max_amplitude": float(np.max(np.abs(x[after]))) if after.any() else float("nan"),
             "T1": 1.0 / float(structure_modes(scene)[0]),
-            "structure": str(scene.param_dict.get("flexible.structure", "")),
+            "structure": structure_of(scene.param_dict),
             "speed": float(measured.attrs.get("speed", np.nan)), "config": measured.attrs.get("config", "?"),
             "gain": str(measured.attrs.get("gain", "?"))}
 

@@ -159,6 +159,29 @@ class PID:
         c = q / self.resolution
         return np.round(c) if self.quantize else c
 
+    def held(self, q: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The next ``n`` ticks of :meth:`update` with the arm still at ``q``, without changing
+        the controller: ``(tau (n, na), e_sum after each tick (n, na), e (na,))``. The same
+        operations as :meth:`update` in the same order (the integral a running sum), so
+        :meth:`set_state` with a prefix of them leaves the controller where that many
+        :meth:`update` calls would."""
+        res = np.asarray(self.resolution, dtype=float)
+        c = np.asarray(q, dtype=float) / res
+        e = self._ref - (np.rint(c) if self.quantize else c)
+        e_sum = np.cumsum(np.vstack([np.asarray(self._e_sum, dtype=float), np.broadcast_to(e, (n, e.size))]), axis=0)[1:]
+        if not self.active:      # update() leaves the state alone
+            tau = np.broadcast_to(np.minimum(np.maximum(self.tau_gc, self._lo), self.tau_max), (n, e.size)).copy()
+            return tau, np.broadcast_to(np.asarray(self._e_sum, dtype=float), (n, e.size)), np.asarray(self._e_prev)
+        de = np.broadcast_to(e, (n, e.size)).copy()
+        de[0] = e - np.asarray(self._e_prev, dtype=float)
+        de[1:] = 0.0
+        u = self._kP * e + self._kD * de + self._kI * e_sum + np.asarray(self.tau_gc, dtype=float)
+        return np.minimum(np.maximum(u, self._lo), np.asarray(self.tau_max, dtype=float)), e_sum, e
+
+    def set_state(self, e_prev, e_sum) -> None:
+        """Set the last error and the integral sum [counts] (after :meth:`held`)."""
+        self.e_prev, self.e_sum = e_prev, e_sum
+
     def update(self, q: np.ndarray) -> np.ndarray:
         """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m].
 

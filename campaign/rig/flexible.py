@@ -370,6 +370,10 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         self.p_tip0 = np.array(self.fdata.oMf[self.ffid].translation)
         self._s0 = float(self.n @ self.p_tip0)
         self._M_ftip = self.fdata.oMf[self.ffid]     # live reference (see FixedBasePlant.tip)
+        #: propagate a frozen arm's ticks in closed form (:mod:`.linear_phase`; the scene's
+        #: ``flexible.linear_phases``), and the closed-form loops built so far, per arm pose
+        self.linear_phases = False
+        self._frozen = {}
 
     # -- the emulator ------------------------------------------------------------------
     def reset_loop(self, t_last: float):

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from .controller import PID
+from .linear_phase import last_tick, run_frozen
 from .plant import FixedBasePlant
 
 __all__ = ["Lane", "Trajectory", "integrate_trial", "trial_steps"]
@@ -140,6 +141,8 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
     can_freeze = friction_events and bool(np.all(sticky))
     arm_q = plant.arm_q
     T_emu = plant.emulator_period    # VES emulator ticks (None: no emulator)
+    # a frozen arm's ticks in closed form: an emulator on the servo's grid whose scene asks for it
+    linear = T_emu is not None and T_emu == servo_period and getattr(plant, "linear_phases", False)
     zero_xd = np.zeros(plant.size)
 
     # -- initial state at the first touch: arm at rest on q0, head at the bottom ------------
@@ -350,6 +353,22 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
                 xs[-1] = x
                 continue
             h = t_catch - t
+        if (linear and h > 1e-15 and can_freeze and fs.all_stuck and caught and contact_v0 is None
+                and k_tick == k_emu and abs(t - (k_emu - 1) * T_emu) <= 1e-12):
+            # -- frozen arm on a linear emulator, on a tick: the ticks up to the end of the
+            # recording (or a break-away) in closed form (see .linear_phase)
+            m, taus = run_frozen(plant, pid, x, tau, fs, k_emu, last_tick(t_max_end, T_emu), T_emu)
+            if m:
+                tk = ((k_emu + np.arange(m)) * T_emu).tolist()
+                ts.extend(tk)
+                xs.extend([x] * m)
+                xds.extend([zero_xd] * m)
+                servo_t.extend(tk)
+                servo_tau.extend(taus)
+                t, k_emu, k_tick = tk[-1], k_emu + m, k_tick + m
+                tau = taus[-1]
+                tick_events = 0
+                continue
         if h > 1e-15 and can_freeze and fs.all_stuck and caught and contact_v0 is None:
             # -- frozen arm: every joint stuck, hammer caught, no contact. Nothing in x moves,
             # so no integration: hold x to the boundary. Only a prescribed platform can change

@@ -28,7 +28,8 @@ from .placement import place_pendulum, placement_params
 from .plant import FixedBasePlant
 from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
 
-__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "structure_modes", "Rig"]
+__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "check_stroke_before",
+           "predicted_platform_peak", "structure_modes", "Rig"]
 
 # imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
 # the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
@@ -48,6 +49,15 @@ MAX_SUBSTEPS_IDEAL = 16
 MIN_STEPS_PER_CONTACT = 8
 #: a contact needing more RK4 substeps than this per servo tick is refused as too stiff
 MAX_SUBSTEPS = 4096
+#: lambda [kg m^2] standing for a locked arm in the stroke prediction (far above any servo's)
+LOCKED_LAMBDA = 1e6
+#: a trial is refused before simulating when eq 8's predicted platform excursion exceeds the
+#: stroke this many times. The prediction (impulsive contact, the larger of a free and a
+#: locked arm) bounds the simulated peak from above: 0.64-0.98 of it over configurations
+#: 1-3, Zero/Low/High gains, 1.0 and 2.5 m/s on both structures (the stiff mast lowest, its
+#: contact is not impulsive). Twice the stroke refuses only trials the simulation would refuse
+#: too; those in between are simulated and refused by the definitive check after it.
+STROKE_MARGIN = 2.0
 
 
 @dataclasses.dataclass
@@ -136,6 +146,10 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
             plant = VesLoopPlant(robot, q0, n, pend, contact, beam, **friction,
                                  rate=float(p("ves.rate")), latency=float(p("ves.latency")),
                                  bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
+            linear = scene.param_dict.get("flexible.linear_phases", False)
+            if not isinstance(linear, bool):
+                raise InputError(f"flexible.linear_phases must be true or false, got {linear!r}")
+            plant.linear_phases = linear
             T_e = plant.emulator_period
             plant.reset_loop(math.floor(t_contact / T_e + 1e-9) * T_e)
             # the emulation loop closed through the (locked) arm must be stable
@@ -146,6 +160,12 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                     f"the VES emulation loop is unstable at ves.rate = {p('ves.rate'):g} Hz, ves.latency = "
                     f"{p('ves.latency'):g} s, ves.bandwidth = {p('ves.bandwidth'):g} Hz: its {fz[k]:.4g} Hz mode has "
                     f"damping ratio {zeta[k]:.3g} < 0 with the arm on the platform; lower the bandwidth or the latency")
+
+    if scene.base == "flexible" and "ves.stroke" in scene.param_dict:
+        peak = predicted_platform_peak(robot, q0, n, beam, mass=pend.m_b, speed=scene.speed,
+                                       restitution=contact.restitution, contact=contact)
+        check_stroke_before(peak, stroke=float(p("ves.stroke")),
+                            structure=str(scene.param_dict.get("flexible.structure", "")))
 
     T = 1.0 / float(p("controller.servo_rate"))
     P, D, I = scene.gains_counts
@@ -234,6 +254,32 @@ def structure_modes(scene: Scene) -> np.ndarray:
     robot = load_robot(scene.p("robot"))
     q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
     return _modes_with_arm(robot, q0, Beam.from_scene(scene))[0]
+
+
+def predicted_platform_peak(robot, q0, n, beam, *, mass: float, speed: float, restitution: float, contact) -> float:
+    """The platform's peak excursion [m] eq 8 predicts before simulating: the base velocity
+    change of an impulsive contact (eq 8, 13-14) fed into the structure's first bending pair
+    (:func:`campaign.plan.predict`), the larger of a free arm (lambda = 0) and a locked one."""
+    from ..plan import pose_terms, predict
+
+    terms = pose_terms(robot, np.asarray(q0, float)[None], beam=beam)
+    lam = [np.zeros(robot.nv), np.full(robot.nv, LOCKED_LAMBDA)]
+    pred = predict(terms, lam, np.asarray(n, float)[None], mass=mass, speed=speed, restitution=restitution,
+                   contact=contact)
+    return float(np.max(pred.structure_peak))
+
+
+def check_stroke_before(peak: float, *, stroke: float, structure: str = "") -> None:
+    """Refuse, before any integration, a trial whose predicted platform excursion ``peak``
+    (:func:`predicted_platform_peak`) exceeds the stroke by more than the prediction's
+    error (:data:`STROKE_MARGIN`); :func:`check_stroke` on the simulated platform stays the
+    definitive check."""
+    if peak > STROKE_MARGIN * stroke:
+        raise InputError(
+            f"the emulated base would move about {peak:.4g} m from rest (eq 8's impulsive base velocity on the "
+            f"structure's first mode), beyond the VES platform's stroke ves.stroke = {stroke:g} m"
+            + (f" (structure {structure})" if structure else "")
+            + ": a slower hammer or a stiffer or heavier structure keeps the platform in range")
 
 
 def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: str = "") -> None:

@@ -209,6 +209,28 @@ else:
     REUSED = _reuse_cells(TRIAL_ROOT)
     SWEEPS = _held_sweeps(REUSED)
 
+def _configured_structure():
+    """The structure the flexible sweep simulates: the config's, else the rig file's default."""
+    if STRUCTURE is not None:
+        return STRUCTURE
+    with open(RIG_FILE) as fh:
+        leaf = (yaml.safe_load(fh).get("flexible") or {}).get("structure")
+    return leaf.get("value") if isinstance(leaf, dict) else leaf
+
+
+# the structure Table 4 and Figure 9 show: a reused archive's own, read from its flexible
+# trials' stored scenes (an archive made before the default changed holds another one), else
+# the one the flexible sweep simulates
+FLEX_STRUCTURE = _configured_structure()
+if not SIMULATE and any(c[0] == "flexible" for c in REUSED):
+    from campaign.scene import trial_structures   # numpy and h5py: only when reusing an archive
+
+    _held = ", ".join(trial_structures([p for c, ps in REUSED.items() if c[0] == "flexible" for p in ps]))
+    if _held != FLEX_STRUCTURE:
+        print(f"reuse_archive: its flexible-base trials emulate the structure {_held} (their stored scenes), not "
+              f"{FLEX_STRUCTURE} that the campaign config names; Table 4 and Figure 9 show {_held}", file=sys.stderr)
+    FLEX_STRUCTURE = _held
+
 try:
     checks.check_workflow_config(config, sweeps=SWEEPS if SIMULATE else {})
 except InputError as exc:

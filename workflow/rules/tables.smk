@@ -62,6 +62,7 @@ rule table4_flexible_effective_mass:
     params:
         code=CODE_TABLES,
         classes=lambda wc: list(fit_jsons()),
+        structure=FLEX_STRUCTURE,
     log:
         log_file("table4"),
     resources:

@@ -2,7 +2,7 @@
 
 The table is named by the rule (``table2_...``); Tables 3-4 read the lambda fits of the
 gain classes in ``params.classes`` (named inputs), Tables 2 and 4 the identification tables
-in ``input.tables``.
+in ``input.tables``; Table 4 names its trials' structure (``params.structure``).
 """
 
 from campaign import runner
@@ -15,5 +15,6 @@ with runner.job_log(snakemake.log[0], job=name, exit_process=True) as timer:  # 
         ident_tables=list(getattr(snakemake.input, "tables", [])),  # noqa: F821
         fits={k: snakemake.input[k] for k in classes},  # noqa: F821
         out_html=snakemake.output.html,  # noqa: F821
+        structure=getattr(snakemake.params, "structure", None),  # noqa: F821
         timer=timer,
     )
