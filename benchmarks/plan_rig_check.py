@@ -5,11 +5,14 @@ direction) is simulated on the VES-II rig (``campaign.rig.simulate.simulate_arra
 impact speed, and the rig's peak contact force (fixed base, simulator truth ``f_contact``)
 and peak base displacement (flexible base, truth ``base_position``, translation) are set
 beside the planner's predictions (``campaign.plan``: the peak force of the contact law at
-the reduced mass of m*, and the structure's first bending pair released with eq 8's base
-velocity change). Gain sets map to the paper's gain classes (zero and low: zero_low; high:
-high) with the paper's Table 3 lambda, as the rig is calibrated to reproduce Table 2 with
-them. Reported per point and base: Spearman's rank correlation of predicted and measured
-values, and the measured value of the planner's best candidate over the worst measured one.
+the reduced mass of m*; on the flexible base the structure's response to eq 8's release
+with the arm's post-contact motion, ``campaign.post_contact``, and to eq 8's release alone).
+Gain sets zero, low and high carry the paper's Table 3 lambda of their class (zero_low,
+high), as the rig is calibrated to reproduce Table 2 with them, and their own servo gains
+after the impact. Objects: the rig's hammer and a heavier head (``--head-masses``), the
+planner given the same mass. Reported per object, point and base: Spearman's rank
+correlation of predicted and measured values, and the measured value of the planner's best
+candidate over the worst measured one.
 
 Directions: the paper's n only, unless :func:`campaign.scene.make_scene` takes a
 ``direction`` (the rig striking along any horizontal direction); then ``--directions``
@@ -20,7 +23,7 @@ Usage::
 
     python benchmarks/plan_rig_check.py                                  # print the tables
     # also record them; the CSV feeds the campaign report's table
-    python benchmarks/plan_rig_check.py --head-masses 3 --csv benchmarks/plan_rig_check.csv --readme benchmarks/README.md
+    python benchmarks/plan_rig_check.py --head-masses 5 --csv benchmarks/plan_rig_check.csv --readme benchmarks/README.md
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ POINTS = {"config 1 wrist centre": None, "side point": (30.0, 120.0, 0.0)}
 BASES = (("fixed", None), ("flexible", "space_class"), ("flexible", "stiff_mast"))
 CSV_COLUMNS = ("object_kg", "point", "base", "structure", "f1_Hz", "branches", "candidates", "refused",
                "quantity", "unit", "predicted_min", "predicted_max", "measured_min", "measured_max",
-               "spearman", "best_over_worst")
+               "spearman", "best_over_worst", "spearman_release", "best_over_worst_release")
 GAIN_CLASS = {"zero": "zero_low", "low": "zero_low", "high": "high"}
 
 
@@ -75,8 +78,9 @@ def with_structure(params, structure):
     return out or None
 
 
-def measure(base: str, q_dh, gain: str, n, speed: float, params=None):
-    """(measured peak, refusal reason) of one rig trial."""
+def measure(base: str, q_dh, gain: str, n, speed: float, params=None, *, duration: bool = False):
+    """(measured peak, refusal reason) of one rig trial; with ``duration`` also the time the
+    contact force is non-zero [s] (None when refused)."""
     from campaign.errors import InputError
     from campaign.paper import impact_direction, load_paper
     from campaign.rig.simulate import simulate_arrays
@@ -88,13 +92,18 @@ def measure(base: str, q_dh, gain: str, n, speed: float, params=None):
     if not np.allclose(n, impact_direction()):
         kw["direction"] = [float(x) for x in n]
     try:
-        trial = simulate_arrays(make_scene(**kw))
+        scene = make_scene(**kw)
+        trial = simulate_arrays(scene)
     except InputError as exc:
-        return None, str(exc)
+        return (None, str(exc), None) if duration else (None, str(exc))
     truth = trial["truth"] if not hasattr(trial, "groups") else trial.groups["truth"]
     if base == "fixed":
-        return float(np.max(truth["f_contact"].values)), None
-    return float(np.max(np.linalg.norm(truth["base_position"].values, axis=1))), None
+        peak = float(np.max(truth["f_contact"].values))
+    else:
+        peak = float(np.max(np.linalg.norm(truth["base_position"].values, axis=1)))
+    if not duration:
+        return peak, None
+    return peak, None, np.count_nonzero(truth["f_contact"].values > 0) / float(scene.p("sensors.truth_rate"))
 
 
 def hammer_mass(params=None) -> float:
@@ -107,55 +116,81 @@ def hammer_mass(params=None) -> float:
                     float(p("gravity"))).m_b
 
 
-def check_point(name: str, point, *, directions, speed: float, params=None) -> list[dict]:
-    from scipy.stats import spearmanr
-
+def check_point(name: str, point, *, directions, speed: float, params=None, bases=BASES,
+                gains=tuple(GAIN_CLASS)) -> list[dict]:
+    """Simulate every branch x gain set (``gains``) x direction at ``point`` on each of ``bases``
+    and score the planner's predictions against the rig's measurements (one row per base)."""
     from campaign.commands.plan import build_planner
     from campaign.paper import load_paper
 
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     rows = []
-    for base, structure in BASES:
+    for base, structure in bases:
+        # the planner gets the object's mass and the rig's parameters (servo gains, friction,
+        # gravity), never the rig's answers
         planner = build_planner(base=base, lambdas=table3, speed=speed, mass=hammer_mass(params),
-                                objective="force" if base == "fixed" else "displacement", structure=structure)
+                                objective="force" if base == "fixed" else "displacement", structure=structure,
+                                params=params)
         trial_params = with_structure(params, structure)
         planner.fit(point, directions)
         P = planner.predictions_
         predicted_all = P.peak_force if base == "fixed" else P.structure_peak
+        release_all = None if base == "fixed" else P.structure_peak_release
+        names = planner.gain_classes_
         cands = []
         refused = []
         t0 = time.perf_counter()
         for i, q in enumerate(planner.q_):
-            for gain, cls in GAIN_CLASS.items():
-                g = planner.gain_classes_.index(cls)
+            for gain in gains:
+                g = names.index(gain) if gain in names else names.index(GAIN_CLASS[gain])
                 for d, n in enumerate(planner.directions_):
-                    measured, why = measure(base, q, gain, n, speed, trial_params)
+                    measured, why, contact = measure(base, q, gain, n, speed, trial_params, duration=True)
                     if why is not None:
                         refused.append(why)
                         continue
-                    cands.append({"branch": i + 1, "gain": gain, "d": d,
-                                  "predicted": float(predicted_all[i, g, d]), "measured": measured})
+                    cands.append({"branch": i + 1, "gain": gain, "d": d, "contact": contact,
+                                  "predicted": float(predicted_all[i, g, d]), "measured": measured,
+                                  "release": None if release_all is None else float(release_all[i, g, d])})
         wall = time.perf_counter() - t0
         pred = np.array([c["predicted"] for c in cands])
         meas = np.array([c["measured"] for c in cands])
-        rho = float(spearmanr(pred, meas).statistic) if len(cands) >= 3 else float("nan")
-        best = cands[int(np.argmin(pred))] if cands else None
-        rows.append({
+        row = {
             "point": name, "base": base, "structure": structure or "", "object_kg": hammer_mass(params),
             "branches": int(planner.q_.shape[0]), "candidates": len(cands),
-            "refused": len(refused), "refusals": sorted(set(refused)), "spearman": rho,
-            "best_over_worst": (best["measured"] / meas.max()) if cands else float("nan"),
+            "refused": len(refused), "refusals": sorted(set(refused)),
+            **rank_scores(pred, meas),
             "pred_range": (pred.min(), pred.max()) if cands else (np.nan, np.nan),
             "meas_range": (meas.min(), meas.max()) if cands else (np.nan, np.nan),
             "frequency": float(np.mean(planner.frequency_)) if planner.frequency_ is not None else None,
+            "contact": float(np.median([c["contact"] for c in cands])) if cands else float("nan"),
             "wall": wall, "cands": cands,
-        })
+        }
+        if release_all is not None:
+            rel = rank_scores(np.array([c["release"] for c in cands]), meas)
+            row.update(spearman_release=rel["spearman"], best_over_worst_release=rel["best_over_worst"])
+        rows.append(row)
     return rows
 
 
+def rank_scores(predicted, measured) -> dict:
+    """Spearman's rank correlation of predicted and measured values, and the measured value of the
+    best predicted candidate over the largest measured value (NaN below 3 candidates)."""
+    from scipy.stats import spearmanr
+
+    predicted, measured = np.asarray(predicted, float), np.asarray(measured, float)
+    if predicted.size < 3:
+        return {"spearman": float("nan"), "best_over_worst": float("nan")}
+    return {"spearman": float(spearmanr(predicted, measured).statistic),
+            "best_over_worst": float(measured[int(np.argmin(predicted))] / measured.max())}
+
+
+def _num(x: float) -> str:
+    return "-" if x is None or not np.isfinite(x) else f"{x:.2f}"
+
+
 def format_rows(rows: list[dict]) -> str:
-    head = ("| point | base | f_1 | branches | candidates (refused) | quantity | predicted range | measured range | "
-            "Spearman | best / worst measured |")
+    head = ("| point | base | f_1 | contact | branches | candidates (refused) | quantity | predicted range | measured range | "
+            "Spearman | best / worst measured | eq 8 release alone: Spearman | best / worst |")
     lines = [head, "|" + "|".join("---" for _ in head.split("|")[1:-1]) + "|"]
     for r in rows:
         unit, scale, q = ("N", 1.0, "peak contact force") if r["base"] == "fixed" else \
@@ -163,10 +198,11 @@ def format_rows(rows: list[dict]) -> str:
         pr, mr = r["pred_range"], r["meas_range"]
         base = r["base"] if not r["structure"] else f"{r['base']} ({r['structure']})"
         f1 = "-" if r["frequency"] is None else f"{r['frequency']:.2f} Hz"
-        lines.append(f"| {r['point']} | {base} | {f1} | {r['branches']} | {r['candidates']} ({r['refused']}) | {q} | "
+        lines.append(f"| {r['point']} | {base} | {f1} | {1e3 * r['contact']:.0f} ms | {r['branches']} | {r['candidates']} ({r['refused']}) | {q} | "
                      f"{scale * pr[0]:.3g}-{scale * pr[1]:.3g} {unit} | "
                      f"{scale * mr[0]:.3g}-{scale * mr[1]:.3g} {unit} | "
-                     f"{r['spearman']:.2f} | {r['best_over_worst']:.2f} |")
+                     f"{_num(r['spearman'])} | {_num(r['best_over_worst'])} | "
+                     f"{_num(r.get('spearman_release'))} | {_num(r.get('best_over_worst_release'))} |")
     return "\n".join(lines)
 
 
@@ -212,46 +248,69 @@ PASSIVE = {"gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0}
 
 def passive_check(speed: float, directions) -> list[str]:
     """Both contact points on both structures with a passive arm (lambda = 0 in the planner):
-    the rig's peak base displacement against the prediction over every branch x direction, to
-    separate eq 8's model from the rig's arm (gravity hold, friction, servo) acting on the
-    structure during the quarter period before its peak."""
-    from scipy.stats import spearmanr
-
+    the rig's peak base displacement against the prediction over every branch x direction, with
+    the arm's joints free after the impact (the post-contact term without servo, friction or
+    gravity) and with eq 8's release alone (the arm locked after the impact)."""
     from campaign.commands.plan import build_planner
 
-    lines = ["| point | structure | candidates | predicted / measured | Spearman | best / worst measured |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| point | structure | candidates | predicted / measured | Spearman | best / worst measured | "
+             "eq 8 release alone: predicted / measured | Spearman | best / worst |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for name, point in contact_points().items():
         for structure in ("space_class", "stiff_mast"):
             planner = build_planner(base="flexible", lambdas={"zero": [0.0, 0.0, 0.0]}, speed=speed,
-                                    mass=hammer_mass(), objective="displacement", structure=structure)
+                                    mass=hammer_mass(), objective="displacement", structure=structure,
+                                    params=PASSIVE)
             planner.fit(point, directions)
-            pred, meas = [], []
+            P = planner.predictions_
+            pred, rel, meas = [], [], []
             for i, q in enumerate(planner.q_):
                 for d, n in enumerate(planner.directions_):
                     measured, why = measure("flexible", q, "zero", n, speed, with_structure(PASSIVE, structure))
                     if why is None:
-                        pred.append(float(planner.predictions_.structure_peak[i, 0, d]))
+                        pred.append(float(P.structure_peak[i, 0, d]))
+                        rel.append(float(P.structure_peak_release[i, 0, d]))
                         meas.append(measured)
-            pred, meas = np.array(pred), np.array(meas)
-            rho = float(spearmanr(pred, meas).statistic)
-            ratio = pred / meas
-            lines.append(f"| {name} | {structure} | {len(pred)} | {ratio.min():.2f}-{ratio.max():.2f} | {rho:.2f} | "
-                         f"{meas[np.argmin(pred)] / meas.max():.2f} |")
+            pred, rel, meas = np.array(pred), np.array(rel), np.array(meas)
+            a, b = rank_scores(pred, meas), rank_scores(rel, meas)
+            lines.append(f"| {name} | {structure} | {len(pred)} | {(pred / meas).min():.2f}-{(pred / meas).max():.2f} | "
+                         f"{_num(a['spearman'])} | {_num(a['best_over_worst'])} | "
+                         f"{(rel / meas).min():.2f}-{(rel / meas).max():.2f} | {_num(b['spearman'])} | "
+                         f"{_num(b['best_over_worst'])} |")
     return lines
 
 
 def verdicts(rows: list[dict]) -> list[str]:
     """The planner's rig-check targets (Spearman >= 0.9, best / worst measured <= 0.5) per object,
-    contact point and base, as measured in this run."""
+    contact point and base, as measured in this run, with the shortfall where one misses."""
+    def verdict(value, target, above):
+        ok = value >= target if above else value <= target
+        return "holds" if ok else f"misses by {abs(value - target):.2f}"
+
     lines = []
     for r in rows:
         base = r["base"] if not r["structure"] else f"{r['base']} ({r['structure']})"
-        rho_ok, ratio_ok = r["spearman"] >= 0.9, r["best_over_worst"] <= 0.5
         lines.append(f"- m_b {r['object_kg']:.3g} kg, {r['point']}, {base}: Spearman {r['spearman']:.2f} "
-                     f"({'holds' if rho_ok else 'misses'}), best / worst {r['best_over_worst']:.2f} "
-                     f"({'holds' if ratio_ok else 'misses'}).")
+                     f"({verdict(r['spearman'], 0.9, True)}), best / worst {r['best_over_worst']:.2f} "
+                     f"({verdict(r['best_over_worst'], 0.5, False)}).")
     return lines
+
+
+def smallest_free_meff(directions) -> float:
+    """The smallest free effective mass (eq 11, lambda = 0) over every branch x direction of the
+    contact points [kg]: the rig strikes only objects lighter than it."""
+    from campaign.exiit import effective_mass
+    from campaign.robot import load_robot
+    from campaign.robot.ik import position_branches
+
+    robot = load_robot("puma560")
+    return min(effective_mass(robot, q, n) for p in contact_points().values()
+               for q in position_branches(robot, p).q for n in directions)
+
+
+def make_scene_p(params=None):
+    from campaign.scene import make_scene
+    return make_scene(params=params).p
 
 
 def make_head(params=None) -> float:
@@ -272,7 +331,10 @@ def csv_rows(rows: list[dict]) -> list[dict]:
                     "unit": "N" if fixed else "m",
                     "predicted_min": f"{r['pred_range'][0]:.6g}", "predicted_max": f"{r['pred_range'][1]:.6g}",
                     "measured_min": f"{r['meas_range'][0]:.6g}", "measured_max": f"{r['meas_range'][1]:.6g}",
-                    "spearman": f"{r['spearman']:.4f}", "best_over_worst": f"{r['best_over_worst']:.4f}"})
+                    "spearman": f"{r['spearman']:.4f}", "best_over_worst": f"{r['best_over_worst']:.4f}",
+                    # the flexible base's prediction without the post-contact term (eq 8's release)
+                    "spearman_release": "" if fixed else f"{r['spearman_release']:.4f}",
+                    "best_over_worst_release": "" if fixed else f"{r['best_over_worst_release']:.4f}"})
     return out
 
 
@@ -305,8 +367,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--directions", type=int, default=4, help="horizontal directions (default 4)")
     parser.add_argument("--speed", type=float, default=2.0, help="impact speed [m/s] (default 2.0)")
-    parser.add_argument("--head-masses", default="",
-                        help="also run with these pendulum head masses [kg], comma-separated (a heavier object)")
+    parser.add_argument("--head-masses", default="5",
+                        help="also run with these pendulum head masses [kg], comma-separated: objects the planner "
+                             "is meant for, comparable to m* (default 5; '' for the rig's hammer only)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     parser.add_argument("--csv", type=Path,
                         help="write the summary table as CSV here (the campaign report's rig check table reads "
@@ -319,7 +382,8 @@ def main(argv: list[str] | None = None) -> int:
 
     any_direction = rig_takes_directions()
     directions = horizontal_directions(args.directions) if any_direction else impact_direction()[None]
-    variants = [None] + [{"pendulum.head_mass": float(x)} for x in args.head_masses.split(",") if x.strip()]
+    head_masses = [float(x) for x in args.head_masses.split(",") if x.strip()]
+    variants = [None] + [{"pendulum.head_mass": x} for x in head_masses]
     tables = []
     rows = []
     for params in variants:
@@ -334,65 +398,109 @@ def main(argv: list[str] | None = None) -> int:
         tables += ["", f"Largest predicted spread of the peak force over one point's candidates: x{spread:.3f}."]
         rows += part
     refusals = sorted({w for r in rows for w in r["refusals"]})
-    space = [c["measured"] / c["predicted"] for r in rows if r["structure"] == "space_class"
-             and r["object_kg"] == hammer_mass() for c in r["cands"]]
-    space_lo, space_hi = min(space), max(space)
-    flex_spread = max(r["pred_range"][1] / r["pred_range"][0] for r in rows if r["base"] == "flexible")
+    m1_min = smallest_free_meff(directions)
+    p_exp = float(make_scene_p()("contact.exponent"))
     f1 = next(r["frequency"] for r in rows if r["structure"] == "space_class")
     f1_mast = next(r["frequency"] for r in rows if r["structure"] == "stiff_mast")
+    heavy = max(r["object_kg"] for r in rows)
+    light = min(r["object_kg"] for r in rows)
+
+    def ratio_span(kg, base, structure, gains, key="predicted"):
+        x = [c["measured"] / c[key] for r in rows if r["object_kg"] == kg and r["base"] == base
+             and r["structure"] == structure for c in r["cands"] if c["gain"] in gains]
+        return f"{min(x):.2f}-{max(x):.2f}"
+
+    def contact_ms(kg, structure):
+        return 1e3 * float(np.median([r["contact"] for r in rows if r["object_kg"] == kg
+                                      and r["structure"] == structure]))
+
+    fixed_pred_bw = min(r["pred_range"][0] / r["pred_range"][1] for r in rows if r["base"] == "fixed")
     body = "\n".join([
-        f"The planner's candidates at two contact points simulated on the rig at {args.speed:g} m/s with the "
-        "rig's hammer, the paper's Table 3 lambda for the predictions (zero and low gains: zero_low; high: high): "
-        "every IK branch x gain set x "
+        f"The planner's candidates at two contact points simulated on the rig at {args.speed:g} m/s: "
+        "every IK branch x gain set (zero, low, high; the paper's Table 3 lambda of their class) x "
         + (f"{len(directions)} horizontal directions" if any_direction else
            "the paper's direction only (the rig strikes along the paper's n only in this version)")
-        + ". Measured: the simulator truth's peak contact force (fixed base) and peak translational base "
-        "displacement (flexible base, the VES-II loop). `best / worst measured`: the measured value of the "
-        "planner's best candidate over the largest measured value.",
+        + ". The planner gets the object's mass and the rig's own parameters (contact law, structure, servo "
+        "gains, joint friction, gravity), never the rig's answers. Measured: the simulator truth's peak contact "
+        "force (fixed base) and peak translational base displacement (flexible base, the VES-II loop). "
+        "`best / worst measured`: the measured value of the planner's best candidate over the largest measured "
+        "value; `contact`: the median contact duration. On the flexible base the prediction includes the arm's "
+        "post-contact momentum transfer (`campaign.post_contact`: the linearised arm on the structure under "
+        "the servo's PD, viscous friction and gravity, released with eq 8's velocities); the last two columns "
+        "rank by eq 8's release alone (the structure's modes released with eq 8's base velocity change).",
+        "",
+        f"Objects: the rig's hammer (m_b = {light:.3g} kg) and an object the planner is meant for, a heavier head "
+        f"(m_b = {heavy:.3g} kg), comparable to the arm's m* (eq 11: {m1_min:.3g} kg and up without the servo, "
+        "several times that with Table 3's lambda). The rig strikes only objects lighter than the arm's free "
+        f"m* (eq 11, lambda = 0) at the struck pose, or the hammer keeps pushing the arm; the smallest free m* over "
+        f"these candidates is {m1_min:.3g} kg, so {heavy:.3g} kg ({heavy / m1_min:.2f} of it) is about as heavy as "
+        "the rig allows with margin. The contact law is the rig's calibrated one, unchanged.",
         *tables,
         "",
         "Targets (Spearman >= 0.9 and best / worst <= 0.5 per contact point and base):",
         "",
         *verdicts(rows),
         "",
-        "The peak force depends on the candidate only through the reduced mass m* m_b / (m* + m_b): with a "
-        "hammer far lighter than m* (5-75 kg along the paper's n) it is close to m_b for every candidate, so no "
-        "pose, gain set or direction can change the peak force much; only an object of mass comparable to m* "
-        "makes the choice matter (the heavier-head rows, where the rig accepts them: a hammer heavier than the "
-        "arm's free m* at a pose is refused, it would not rebound).",
+        "Peak contact force (fixed base): it depends on the candidate only through the reduced mass "
+        f"mu = m* m_b / (m* + m_b), as mu^(p/(p+1)) with the contact exponent p = {p_exp:.3g}. With the rig's "
+        "hammer mu is within a few per cent of m_b for every candidate, so the ranking rests on differences of "
+        "about 2 %. The heavier object spreads the prediction and the ranking holds at the side point, not at "
+        "configuration 1. Its peak force is over-predicted, more for the high gain set (measured / predicted "
+        f"{ratio_span(heavy, 'fixed', '', ('high',))}) than for zero and low "
+        f"({ratio_span(heavy, 'fixed', '', ('zero', 'low'))}): Table 3's lambda was identified with the hammer's "
+        f"{contact_ms(light, '') :.0f} ms contact, the heavier object's lasts {contact_ms(heavy, ''):.0f} ms, "
+        "longer than the impulsive regime the Virtual Rotor Inertia describes. "
+        "Best / worst <= 0.5 is out of reach for any object the rig can strike: with m* >= m1 and m_b < m1, "
+        "mu lies between m_b m1 / (m1 + m_b) and m_b, a ratio below 2, so the peak force varies by at most "
+        f"2^(p/(p+1)) = {2 ** (p_exp / (p_exp + 1)):.2f}x (best / worst >= {0.5 ** (p_exp / (p_exp + 1)):.2f}); "
+        f"the planner's own predicted best / worst here is {fixed_pred_bw:.2f} at the lowest.",
         "",
-        f"The space-class structure's first bending pair is at {f1:.2f} Hz with the arm on top, the stiff "
-        f"mast's at {f1_mast:.2f} Hz; against a contact of ~70 ms the stiff mast is not impulsive (contact / "
-        "period ~0.3), which eq 8 assumes (see *Flexible-base validation*). Where the contact is impulsive the structure prediction holds: configuration 1 on the space-class structure, a "
-        "passive arm (no gravity, friction or servo, so lambda = 0 exactly), the calibrated contact and one "
-        "100x stiffer:",
+        "Peak base displacement (flexible base): eq 8 gives the base's velocity right after the impact with the "
+        "arm's joints free, but the structure peaks a quarter period later "
+        f"({0.25 / f1:.2f} s on the space-class structure, {f1:.2f} Hz with the arm on top), and meanwhile the "
+        "servo, the joints' friction and gravity slow the arm's joints and pass their momentum to the base. "
+        "The post-contact term follows that exchange; with the rig's hammer it lifts Spearman on the "
+        "space-class structure from the release-alone columns to the first columns above, with measured / "
+        f"predicted {ratio_span(light, 'flexible', 'space_class', ('zero', 'low', 'high'))} "
+        f"(eq 8's release alone: {ratio_span(light, 'flexible', 'space_class', ('zero', 'low', 'high'), 'release')}). "
+        "Best / worst <= 0.5 needs candidates whose peaks differ by 2x; at configuration 1 and the side point the "
+        "predicted spread over the candidates is "
+        + ", ".join(f"x{r['pred_range'][1] / r['pred_range'][0]:.2f}" for r in rows
+                    if r["structure"] == "space_class" and r["object_kg"] == light)
+        + " with the rig's hammer, so no choice among them halves the structure's peak: the servo and friction "
+        "hand most of the arm's share of the momentum to the base before the peak, whatever the pose and "
+        "direction (with a passive arm, whose free joints keep it, best / worst reaches 0.16 at the side point, "
+        "table below). With the heavier object "
+        f"the contact lasts {contact_ms(heavy, 'space_class'):.0f} ms (the hammer's {contact_ms(light, 'space_class'):.0f} ms), "
+        "over half the quarter period: the impact is no longer impulsive against the structure, the pendulum's "
+        "gravity and the structure's spring act during the contact, and measured / predicted spreads to "
+        f"{ratio_span(heavy, 'flexible', 'space_class', ('zero', 'low'))} for the zero and low gain sets and "
+        f"{ratio_span(heavy, 'flexible', 'space_class', ('high',))} for high.",
+        "",
+        f"Stiff mast ({f1_mast:.2f} Hz with the arm on top, a quarter period of {0.25 / f1_mast * 1e3:.0f} ms): the "
+        f"contact ({contact_ms(light, 'stiff_mast'):.0f} ms with the rig's hammer) is not short against the period, so "
+        "eq 8's impulsive assumption fails there; the structure's spring acts during the contact, and the "
+        "magnitudes are over-predicted "
+        f"(measured / predicted {ratio_span(light, 'flexible', 'stiff_mast', ('zero', 'low', 'high'))} with the "
+        "rig's hammer). The correlations are reported anyway; the ranking, not the magnitude, is what holds there.",
+        "",
+        "Where the contact is impulsive the structure prediction holds: configuration 1 on the space-class "
+        "structure, a passive arm (no gravity, friction or servo, so lambda = 0 exactly), the calibrated contact "
+        "and one 100x stiffer (eq 8's release alone):",
         "",
         *impulsive_limit(args.speed),
         "",
         "The same candidates (every branch x direction, the rig's hammer) with a passive arm, lambda = 0 in the "
-        "planner: eq 8's model of the base's response without the rig's gravity hold, joint friction and servo, "
-        "which keep acting on the arm, and through it on the structure, until the structure's peak a quarter "
-        "period after the impact (0.36 s on the space-class structure):",
+        "planner: the post-contact term then has the joints free after the impact; eq 8's release alone treats "
+        "the arm as locked:",
         "",
         *passive_check(args.speed, directions),
-        "",
-        "Why the flexible base misses with the rig's arm while the passive arm is ranked: eq 8 gives the base's "
-        "velocity right after the impact with the arm's joints free to move (eq 13), but the structure peaks a "
-        "quarter period later, and meanwhile the rig's gravity hold, joint friction and servo slow the arm's "
-        "joint motion and pass its momentum to the base. On the space-class structure with the rig's hammer the "
-        f"measured / predicted peak spans {space_lo:.2f}-{space_hi:.2f} over the candidates: close to 1 along "
-        "some directions and higher along others; that dependence reorders candidates "
-        "whose predictions differ by a few per cent. The best / worst target also needs a point's candidates "
-        "to differ by 2x or more: with a hammer much lighter than m* the impulse is nearly the same for every "
-        "candidate, and the predicted spread of the peak base displacement at one point is at most "
-        f"x{flex_spread:.2f}. The stiff mast's candidates are ranked better than its magnitudes are predicted "
-        "(its measured spread is far wider than predicted: the contact is not impulsive against its period, "
-        "so eq 8's assumption fails there and the agreement is in rank only).",
         *([""] + ["Refused by the rig: " + "; ".join(refusals)] if refusals else []),
         "",
         f"Python {platform.python_version()}, numpy {np.__version__}, campaign {__version__}; "
         f"{datetime.date.today().isoformat()}. Record: `.venv/bin/python benchmarks/plan_rig_check.py "
-        "--head-masses 3 --csv benchmarks/plan_rig_check.csv --readme benchmarks/README.md`.",
+        f"--head-masses {','.join(f'{x:g}' for x in head_masses)} --csv benchmarks/plan_rig_check.csv "
+        "--readme benchmarks/README.md`.",
     ])
     print(body)
     for r in rows:

@@ -14,8 +14,10 @@ every gain class (its Virtual Rotor Inertia lambda) and every allowed impact dir
 * the peak contact force of the rig's contact law between two free bodies of reduced mass
   ``m* m_b / (m* + m_b)`` (:meth:`campaign.rig.contact.Contact.peak_force`);
 * on the flexible base, the base's velocity change (the free base of eq 8 under the
-  impulse), the momentum of the structure's tip body, and the predicted peak displacement
-  of the structure's first bending pair (modal data from :func:`pose_terms`).
+  impulse), the momentum of the structure's tip body, and the predicted peak base
+  displacement: the structure's first bending pair released with eq 8's base velocity
+  change, or (given the arm's servo, friction and gravity) the linearised arm on the
+  structure followed until the structure's peak (:mod:`campaign.post_contact`).
 
 Everything per pose is one Pinocchio pass (:func:`pose_terms`); the rest is NumPy over the
 (pose, gain, direction) axes (:func:`predict`). :class:`ImpactPlanner` wraps the search and
@@ -31,7 +33,7 @@ from typing import Mapping
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError
+from .errors import InputError, SimulationError
 from .exiit import RANGE_RTOL, impulse, lambda_matrix
 from .robot import Robot
 
@@ -64,6 +66,11 @@ class PoseTerms:
         the base per unit modal velocity [m / (sqrt(kg) m/s)].
     frequency : (N, 2) or None; the pair's frequencies with the arm (locked) on top [Hz].
     structure_mass : (6, 6) or None; the structure's tip body alone (beam share + platform).
+    M_full : (N, 6 + nv, 6 + nv) or None; the arm on its free base (CRBA): ``[[M_b, H_bm], [H_bm^T, H_m]]``.
+    gravity_stiffness : (N, 6 + nv, 6 + nv) or None; ``dG/dq`` of the gravity forces on the arm
+        and its free base per unit gravity [per m/s^2] (the post-contact term,
+        :mod:`campaign.post_contact`).
+    structure_stiffness, structure_damping : (6, 6) or None; the structure's ``K_s`` and ``B_s``.
     """
 
     q: np.ndarray
@@ -76,6 +83,10 @@ class PoseTerms:
     modal_disp: np.ndarray | None = None
     frequency: np.ndarray | None = None
     structure_mass: np.ndarray | None = None
+    M_full: np.ndarray | None = None
+    gravity_stiffness: np.ndarray | None = None
+    structure_stiffness: np.ndarray | None = None
+    structure_damping: np.ndarray | None = None
 
     @property
     def flexible(self) -> bool:
@@ -171,9 +182,20 @@ def pose_terms(robot: Robot, Q, *, beam=None) -> PoseTerms:
     modal_velocity = np.swapaxes(phi, 1, 2) @ Mb                # eta_dot = phi^T M_b dx_b
     g = peak_amplitude_factor(float(beam.damping_ratio))
     modal_disp = np.swapaxes(phi[:, :3, :], 1, 2) * (g / omega)[:, :, None]
+    # the gradient of the gravity forces per unit gravity, base and joints (world z up): as the
+    # arm moves, its weight's moment on the structure's tip changes, and as the tip tilts, so do
+    # the gravity torques on the joints
+    gmodel = pin.Model(model)
+    gmodel.gravity.linear = np.array([0.0, 0.0, -1.0])
+    gdata = gmodel.createData()
+    dG = np.empty((N, nb + nv, nb + nv))
+    for i in range(N):
+        dG[i] = pin.computeGeneralizedGravityDerivatives(gmodel, gdata, frobot.q_full(Q[i]))
     return PoseTerms(q=Q, H=H_star, J=J_star, G_base=G_base, base_from_impulse=base_from_impulse,
                      base_from_dq=Mb_inv_Hbm, modal_velocity=modal_velocity, modal_disp=modal_disp,
-                     frequency=omega / (2.0 * math.pi), structure_mass=np.asarray(beam.mass_matrix))
+                     frequency=omega / (2.0 * math.pi), structure_mass=np.asarray(beam.mass_matrix),
+                     M_full=Mfull, gravity_stiffness=dG, structure_stiffness=K,
+                     structure_damping=np.asarray(beam.damping))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,7 +211,11 @@ class Predictions:
     peak_force : peak contact force [N] (the rig's contact law).
     base_velocity : (N, G, D, 6) base twist change [m/s, rad/s] (flexible base), else None.
     base_momentum : linear momentum given to the structure's tip body [N s], else None.
-    structure_peak : predicted peak base displacement of the first bending pair [m], else None.
+    structure_peak : predicted peak base displacement [m], else None: with the arm's
+        post-contact motion (:mod:`campaign.post_contact`) when ``predict`` was given ``arm``,
+        else ``structure_peak_release``.
+    structure_peak_release : the first bending pair released with eq 8's base velocity
+        change (arm locked after the impact), each mode at its first peak [m], else None.
     """
 
     m_eff: np.ndarray
@@ -200,6 +226,7 @@ class Predictions:
     base_velocity: np.ndarray | None = None
     base_momentum: np.ndarray | None = None
     structure_peak: np.ndarray | None = None
+    structure_peak_release: np.ndarray | None = None
 
 
 def check_object(*, mass, speed, restitution) -> tuple[float, float, float]:
@@ -234,7 +261,7 @@ def _unit_rows(directions) -> np.ndarray:
 
 
 def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float, restitution: float,
-            contact) -> Predictions:
+            contact, arm=None, gain_names=None) -> Predictions:
     """Every prediction of the planner over (pose, gain class, direction).
 
     Parameters
@@ -251,6 +278,12 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
         ``e`` of eq 13-14 [1].
     contact : campaign.rig.contact.Contact
         The contact law for the peak force (its restitution should be ``restitution``).
+    arm : campaign.post_contact.ArmAfterImpact, optional
+        The servo gains, joint friction and gravity acting on the arm after the impact; on the
+        flexible base the structure's peak then follows the arm's post-contact momentum
+        transfer (:mod:`campaign.post_contact`). None: eq 8's release alone.
+    gain_names : sequence of str, optional
+        Names of the gain classes in ``lambdas`` (keys of ``arm.gains``); default their indices.
     """
     mass, speed, e = check_object(mass=mass, speed=speed, restitution=restitution)
     n = _unit_rows(directions)
@@ -282,8 +315,24 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
     eta_dot = np.einsum("nmk,ngdk->ngdm", terms.modal_velocity, dvb)      # (N, G, D, 2)
     disp = np.einsum("nmi,ngdm->ngdi", terms.modal_disp, eta_dot)         # both modes at their peak
     momentum = np.linalg.norm(np.einsum("ik,ngdk->ngdi", terms.structure_mass[:3], dvb), axis=-1)
+    release = np.linalg.norm(disp, axis=-1)
+    peak_x = release
+    if arm is not None:
+        from .post_contact import peak_displacement, unit_responses
+
+        names = [str(g) for g in range(lam.shape[0])] if gain_names is None else list(gain_names)
+        if len(names) != lam.shape[0]:
+            raise InputError(f"{len(names)} gain class names for {lam.shape[0]} lambdas")
+        kp, damping, _ = arm.matrices(names, nv)
+        R, _ = unit_responses(terms, X, kp, damping, gravity=float(arm.gravity), samples=int(arm.samples))
+        peak_x = peak_displacement(R, n[None, None] * imp[..., None])
+        if not np.all(np.isfinite(peak_x)):
+            i, g, d = (int(k[0]) for k in np.nonzero(~np.isfinite(peak_x)))
+            raise SimulationError(f"post-contact response is not finite at pose {np.degrees(terms.q[i]).tolist()} "
+                                  f"deg, gain class {names[g]!r}, direction {n[d].tolist()}")
     return Predictions(m_eff=m_eff, impulse=imp, dq=dq, tip_velocity=tip_velocity, peak_force=peak,
-                       base_velocity=dvb, base_momentum=momentum, structure_peak=np.linalg.norm(disp, axis=-1))
+                       base_velocity=dvb, base_momentum=momentum, structure_peak=peak_x,
+                       structure_peak_release=release)
 
 
 def horizontal_directions(count: int, *, start_deg: float = 180.0) -> np.ndarray:
@@ -338,11 +387,14 @@ class ImpactPlanner:
         peak force and (flexible base) structure displacement.
     weights : 3 floats
         ``w`` of the weighted objective (impulse, force, displacement), each >= 0.
+    arm : campaign.post_contact.ArmAfterImpact, optional
+        Servo gains (per gain class), joint friction and gravity after the impact; with a
+        flexible base the structure's peak includes the arm's post-contact momentum transfer.
     """
 
     def __init__(self, robot: Robot, *, lambdas: Mapping[str, object], mass: float, speed: float,
                  restitution: float, contact_stiffness: float, contact_exponent: float, beam=None,
-                 objective: str = "impulse", weights=(1.0, 1.0, 1.0)):
+                 objective: str = "impulse", weights=(1.0, 1.0, 1.0), arm=None):
         self.robot = robot
         self.lambdas = dict(lambdas)
         self.mass = mass
@@ -353,6 +405,7 @@ class ImpactPlanner:
         self.beam = beam
         self.objective = objective
         self.weights = weights
+        self.arm = arm
 
     def _check(self):
         from .rig.contact import Contact
@@ -365,6 +418,8 @@ class ImpactPlanner:
                 lambda_matrix(lam, self.robot.nv)
             except ValueError as exc:
                 raise InputError(f"gain class {name!r}: {exc}") from None
+        if self.arm is not None:
+            self.arm.matrices(list(self.lambdas), self.robot.nv)     # refuses bad gains before any work
         if self.objective not in OBJECTIVES:
             raise InputError(f"objective {self.objective!r} is not one of {list(OBJECTIVES)}")
         if self.objective == "displacement" and self.beam is None:
@@ -393,7 +448,8 @@ class ImpactPlanner:
             raise InputError(f"point ({where}) m is out of the arm's reach")
         terms = pose_terms(self.robot, ik.q, beam=self.beam)
         pred = predict(terms, list(self.lambdas.values()), n, mass=self.mass, speed=self.speed,
-                       restitution=self.restitution, contact=contact)
+                       restitution=self.restitution, contact=contact,
+                       arm=self.arm if self.beam is not None else None, gain_names=list(self.lambdas))
         self.point_ = p
         self.q_ = ik.q
         self.ik_residual_ = ik.residual
@@ -440,20 +496,22 @@ class ImpactPlanner:
             if P.structure_peak is not None:
                 row.update(base_velocity=P.base_velocity[i, g, d].tolist(),
                            base_momentum=float(P.base_momentum[i, g, d]),
-                           structure_peak=float(P.structure_peak[i, g, d]))
+                           structure_peak=float(P.structure_peak[i, g, d]),
+                           structure_peak_release=float(P.structure_peak_release[i, g, d]))
             out.append(row)
         return out
 
 
 def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
                   restitution: float, direction, y: float, x_range=(-1.0, 1.0), z_range=(-1.0, 1.0),
-                  resolution: float = 0.05, beam=None) -> dict:
+                  resolution: float = 0.05, beam=None, arm=None) -> dict:
     """m* (eq 7) and, on a flexible base, the structure's peak displacement over a vertical plane.
 
     The plane ``y = const`` of the arm's base frame is sampled every ``resolution`` metres;
     at each point every IK branch is evaluated, and the best (smallest) and worst branch of
     each quantity are kept per gain class. Unreachable points hold NaN (they are masked in
-    the figures, never stored as numbers).
+    the figures, never stored as numbers). ``arm``: the post-contact term of the structure's
+    peak (:func:`predict`).
 
     Returns
     -------
@@ -495,7 +553,7 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
                                    restitution=restitution, contact=contact).m_eff[:, :, 0]}
     if beam is not None:
         P = predict(pose_terms(robot, Q, beam=beam), lams, n, mass=mass, speed=speed, restitution=restitution,
-                    contact=contact)
+                    contact=contact, arm=arm, gain_names=names)
         quantities["m_eff_flexible"] = P.m_eff[:, :, 0]
         quantities["structure_peak"] = P.structure_peak[:, :, 0]
     for name, vals in quantities.items():
@@ -511,8 +569,9 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
 
 
 def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
-                  restitution: float, count: int = 72, beam=None) -> dict:
-    """m* and the structure's peak displacement against the horizontal impact direction at a pose.
+                  restitution: float, count: int = 72, beam=None, arm=None) -> dict:
+    """m* and the structure's peak displacement against the horizontal impact direction at a pose
+    (``arm``: the post-contact term of the structure's peak, :func:`predict`).
 
     Returns
     -------
@@ -529,7 +588,7 @@ def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, ma
     out = {"azimuth": np.arctan2(n[:, 1], n[:, 0]) % (2 * np.pi), "gain_classes": names, "q": q,
            "m_eff": predict(pose_terms(robot, q[None]), lams, n, **kw).m_eff[0]}
     if beam is not None:
-        P = predict(pose_terms(robot, q[None], beam=beam), lams, n, **kw)
+        P = predict(pose_terms(robot, q[None], beam=beam), lams, n, **kw, arm=arm, gain_names=names)
         out["m_eff_flexible"] = P.m_eff[0]
         out["structure_peak"] = P.structure_peak[0]
     return out

@@ -24,7 +24,8 @@ def load_benchmark():
 def summary(**over):
     row = {"point": "p", "base": "flexible", "structure": "space_class", "object_kg": 0.716, "frequency": 0.7,
            "branches": 4, "candidates": 16, "refused": 0, "pred_range": (0.002, 0.004),
-           "meas_range": (0.001, 0.005), "spearman": 0.95, "best_over_worst": 0.25}
+           "meas_range": (0.001, 0.005), "spearman": 0.95, "best_over_worst": 0.25, "spearman_release": 0.6,
+           "best_over_worst_release": 0.8}
     row.update(over)
     return row
 
@@ -63,3 +64,53 @@ def test_committed_rig_check_covers_both_points_every_base_and_both_objects():
     assert all(int(r["candidates"]) >= 8 for r in src)
     t = rig_check_table(BENCH / "plan_rig_check.csv")
     assert all(-1.0 <= r["spearman"] <= 1.0 and 0.0 < r["best_over_worst"] <= 1.0 for r in t.rows)
+    # the flexible rows also rank by eq 8's release alone (without the post-contact term)
+    for r in t.rows:
+        flexible = r["base"].startswith("flexible")
+        assert (r["spearman_release"] is not None) == flexible
+        assert not flexible or -1.0 <= r["spearman_release"] <= 1.0
+
+
+def test_rank_scores_of_hand_made_candidates():
+    bench = load_benchmark()
+    s = bench.rank_scores([1.0, 2.0, 3.0, 4.0], [0.2, 0.3, 0.5, 0.8])
+    assert s["spearman"] == pytest.approx(1.0) and s["best_over_worst"] == pytest.approx(0.25)
+    s = bench.rank_scores([4.0, 3.0, 2.0, 1.0], [0.2, 0.3, 0.5, 0.8])
+    assert s["spearman"] == pytest.approx(-1.0) and s["best_over_worst"] == pytest.approx(1.0)
+    s = bench.rank_scores([1.0, 2.0], [0.2, 0.3])                   # too few to rank
+    assert all(v != v for v in s.values())
+
+
+def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
+    """Configuration 1's point, two gain sets, the paper's direction and its opposite, fixed base and
+    the space-class structure: every candidate is simulated or refused with a reason, and each
+    simulated one carries the planner's own prediction."""
+    from campaign.commands.plan import build_planner
+    from campaign.plan import horizontal_directions
+
+    bench = load_benchmark()
+    point = bench.contact_points()["config 1 wrist centre"]
+    dirs = horizontal_directions(2)
+    rows = bench.check_point("c1", point, directions=dirs, speed=2.0, gains=("zero", "high"),
+                             bases=(("fixed", None), ("flexible", "space_class")))
+    assert [(r["base"], r["structure"]) for r in rows] == [("fixed", ""), ("flexible", "space_class")]
+    table3 = {"zero_low": [19.82, 4.62, 0.80], "high": [53.18, 8.66, 2.83]}
+    for r in rows:
+        assert r["candidates"] + r["refused"] == r["branches"] * 2 * len(dirs)
+        assert r["candidates"] >= 3 and len(r["refusals"]) <= r["refused"]
+        planner = build_planner(base=r["base"], lambdas=table3, speed=2.0, mass=bench.hammer_mass(),
+                                structure=r["structure"] or None).fit(point, dirs)
+        P = planner.predictions_
+        for c in r["cands"]:
+            g = planner.gain_classes_.index(c["gain"] if c["gain"] in planner.gain_classes_ else
+                                            bench.GAIN_CLASS[c["gain"]])
+            want = P.peak_force if r["base"] == "fixed" else P.structure_peak
+            assert c["predicted"] == pytest.approx(float(want[c["branch"] - 1, g, c["d"]]), rel=1e-12)
+            assert c["measured"] > 0 and 0 < c["contact"] < 0.5
+        s = bench.rank_scores([c["predicted"] for c in r["cands"]], [c["measured"] for c in r["cands"]])
+        assert r["spearman"] == s["spearman"] and -1.0 <= r["spearman"] <= 1.0
+        assert 0.0 < r["best_over_worst"] <= 1.0
+    assert "spearman_release" not in rows[0] and -1.0 <= rows[1]["spearman_release"] <= 1.0
+    csv_rows = bench.csv_rows(rows)
+    assert csv_rows[0]["spearman_release"] == "" and float(csv_rows[1]["spearman_release"]) == pytest.approx(
+        rows[1]["spearman_release"], abs=1e-4)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from .meff import _NEGATIVE_VALUE, parse_vector
 
-__all__ = ["register", "run", "read_lambdas", "rig_defaults", "build_planner"]
+__all__ = ["register", "run", "read_lambdas", "rig_defaults", "build_planner", "gain_sets", "arm_after_impact"]
 
 HELP = "rank the arm's poses, gain classes and impact directions for catching an object at a point"
 
@@ -29,8 +29,9 @@ contact point, finds every pose of the arm's positioning chain that puts the imp
 Pinocchio's kinematics), and predicts for each pose x gain class x impact direction n:
 m* (eq 7 fixed base, eq 8 flexible base, eq 11), the impulse (eq 14), the post-impact joint
 velocities (eq 13), the peak contact force of the rig's contact law, and on the flexible
-base the base momentum and the peak base displacement of the structure's first bending
-pair. The candidates are ranked by --objective (smallest first).
+base the base momentum and the peak base displacement of the structure, released with
+eq 8's velocities and followed while the servo, the joints' friction and gravity pass the
+arm's momentum to the base. The candidates are ranked by --objective (smallest first).
 
 Units: point in metres in the arm's base frame (DH frame 0); n is the direction of the
 force on the arm (the object moves along n), normalised; object mass in kg, speed in m/s;
@@ -47,8 +48,15 @@ contact and structure: the contact law F = k delta^p (1 + d ddelta/v0) with k, p
 config/rig.yaml (contact.stiffness, contact.exponent) and d solved for --restitution; the
 peak force is that of two free bodies of reduced mass m* m_b / (m* + m_b). The flexible
 base is the rig's cantilever (flexible.* of config/rig.yaml): in the impulsive phase a free
-base body (eq 8); its velocity change is projected on the structure's two lowest (bending)
-modes with the arm locked on top, each at its first peak with the structure's damping.
+base body (eq 8). Its peak displacement (x_b) is that of the linearised arm on the structure
+released with eq 8's base and joint velocities and followed over one period of the first
+mode, under the servo's proportional and derivative gains (the paper's Table 1 gains in
+joint units, controller.torque_per_unit of config/rig.yaml), the joints' viscous friction
+and gravity: the structure peaks a quarter period after the impact, while the joints are
+still being slowed. On the flexible base the paper's pooled class zero_low is planned as its
+gain sets zero and low (same lambda, different servo); a class not named in Table 1 has no
+servo after the impact. --json also gives structure_peak_release: the structure's modes
+released with eq 8's base velocity change alone.
 
 output: the best --top candidates (all with --top 0); --json prints every candidate.
 
@@ -140,26 +148,83 @@ def rig_defaults(rig=None) -> dict:
             "contact_stiffness": float(p("contact.stiffness")), "contact_exponent": float(p("contact.exponent"))}
 
 
+def gain_sets(lambdas) -> dict[str, list[float]]:
+    """``lambdas`` with each of the paper's pooled gain classes (``zero_low``) split into its
+    gain sets (``zero``, ``low``), each with the class's lambda: after the impact their servos
+    differ, so the structure's response does too."""
+    from ..paper import load_paper
+
+    pooled = load_paper()["gain_classes"]
+    out: dict[str, list[float]] = {}
+    for name, lam in lambdas.items():
+        members = pooled.get(name, [name])
+        for member in members if len(members) > 1 else [name]:
+            if member == name or member not in lambdas:      # a set named on its own keeps its lambda
+                out[str(member)] = lam
+    return out
+
+
+def arm_after_impact(rig=None, params=None, robot=None):
+    """The rig's arm after the impact (:class:`campaign.post_contact.ArmAfterImpact`): the
+    paper's Table 1 PID gains in joint units (proportional and derivative, controller.
+    torque_per_unit over the encoder resolution) per gain set and per single-set gain class,
+    the joints' viscous friction (drives.yaml times arm.viscous_scale) and gravity."""
+    import numpy as np
+
+    from ..paper import load_paper
+    from ..post_contact import ArmAfterImpact
+    from ..rig.controller import equivalent_gains
+    from ..robot import load_robot
+    from ..scene import make_scene
+
+    p = make_scene(base="fixed", rig=rig, params=params).p
+    robot = load_robot(p("robot")) if robot is None else robot
+    paper = load_paper()
+    gains = {}
+    for name, g in paper["gains"].items():
+        kp, kd, _ = equivalent_gains(float(g["P"]), float(g["D"]), float(g["I"]),
+                                     scale=float(p("controller.torque_per_unit")),
+                                     resolution=robot.encoder_resolution,
+                                     period=1.0 / float(p("controller.servo_rate")))
+        gains[str(name)] = (kp, kd)
+    for cls, members in paper["gain_classes"].items():
+        if len(members) == 1 and cls not in gains:
+            gains[str(cls)] = gains[str(members[0])]
+    return ArmAfterImpact(gains=gains, viscous=np.asarray(robot.viscous) * float(p("arm.viscous_scale")),
+                          gravity=float(p("gravity")))
+
+
 def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=None, objective="impulse",
-                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None):
+                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None, params=None,
+                  post_contact: bool = True):
     """An :class:`campaign.plan.ImpactPlanner` with the rig's contact law and structure
-    (``structure``: a name of the rig file's ``structures:``, by default the file's own)."""
+    (``structure``: a name of the rig file's ``structures:``, by default the file's own;
+    ``params``: dotted rig overrides). On the flexible base with ``post_contact`` the paper's
+    pooled gain classes are split into their gain sets (:func:`gain_sets`) and the structure's
+    peak follows the arm's post-contact motion under the rig's servo, friction and gravity
+    (:func:`arm_after_impact`)."""
     from ..paper import load_paper
     from ..plan import ImpactPlanner
     from ..robot import load_robot
 
     d = rig_defaults(rig)
     beam = None
+    arm = None
+    robot = load_robot(load_paper()["robot"]) if robot is None else robot
     if base == "flexible":
         from ..rig.beam import Beam
         from ..scene import make_scene
-        params = None if structure is None else {"flexible.structure": structure}
-        beam = Beam.from_scene(make_scene(base="flexible", rig=rig, params=params))
-    robot = load_robot(load_paper()["robot"]) if robot is None else robot
+        over = dict(params or {})
+        if structure is not None:
+            over["flexible.structure"] = structure
+        beam = Beam.from_scene(make_scene(base="flexible", rig=rig, params=over or None))
+        if post_contact:
+            lambdas = gain_sets(lambdas)
+            arm = arm_after_impact(rig, params, robot)
     return ImpactPlanner(robot, lambdas=lambdas, mass=d["mass"] if mass is None else mass, speed=speed,
                          restitution=d["restitution"] if restitution is None else restitution,
                          contact_stiffness=d["contact_stiffness"], contact_exponent=d["contact_exponent"],
-                         beam=beam, objective=objective, weights=weights)
+                         beam=beam, objective=objective, weights=weights, arm=arm)
 
 
 def _directions(args):
@@ -219,10 +284,11 @@ def run(args) -> int:
         print(json.dumps({
             "point": point, "base": args.base, "objective": args.objective, "weights": weights,
             "object_mass": planner.mass, "speed": planner.speed, "restitution": planner.restitution,
-            "lambdas": lambdas, "branches_dh_deg": np.degrees(planner.q_).tolist(),
+            "lambdas": planner.lambdas, "branches_dh_deg": np.degrees(planner.q_).tolist(),
             "structure_frequency_hz": None if planner.frequency_ is None else planner.frequency_.tolist(),
             "units": {"m_eff": "kg", "impulse": "N s", "peak_force": "N", "tip_velocity": "m/s", "dq": "rad/s",
                       "base_velocity": "m/s, rad/s", "base_momentum": "N s", "structure_peak": "m",
+                      "structure_peak_release": "m",
                       "q_dh_deg": "deg"},
             "candidates": rows,
         }))
@@ -230,7 +296,7 @@ def run(args) -> int:
     flex = args.base == "flexible"
     print(f"point      = {_fmt(point, '.4g')} m, base {args.base} (eq {'8' if flex else '7'})")
     print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")
-    print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in lambdas.items()))
+    print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in planner.lambdas.items()))
     print(f"branches   = {len(planner.q_)} poses reach the point (DH deg):")
     for i, q in enumerate(planner.q_, start=1):
         print(f"  {i}: {_fmt(np.degrees(q))}")

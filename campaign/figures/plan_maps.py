@@ -125,7 +125,7 @@ def _setup(*, fits=(), named=(), rig=None, base="flexible", speed=2.0):
     planner = build_planner(base=base, lambdas=read_lambdas(fits=fits, named=named), speed=speed, rig=rig)
     contact = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
-              restitution=planner.restitution, beam=planner.beam)
+              restitution=planner.restitution, beam=planner.beam, arm=planner.arm)
     return planner, kw
 
 
