@@ -1,9 +1,10 @@
 """Throughput of the impact planner: (pose, direction, gain class) predictions per second.
 
 Each prediction is everything :func:`campaign.plan.predict` returns for one candidate: m*
-(eq 7 or 8), the impulse (eq 14), the joint velocities (eq 13), the contact's peak force
-and, on the flexible base, the base velocity, momentum and the structure's peak
-displacement. Timed on one core (BLAS threads limited to one, the process pinned to one CPU
+(eq 7 or 8), the impulse (eq 14), the joint velocities (eq 13), the contact's duration and
+peak force (on the fixed base at the arm's apparent mass over the compression,
+:mod:`campaign.compression`) and, on the flexible base, the base velocity, momentum and the
+structure's peak displacement under the contact's pulse (:mod:`campaign.post_contact`). Timed on one core (BLAS threads limited to one, the process pinned to one CPU
 where the OS allows it), median of the repeats after one warm-up call, for:
 
 * ``grid``: random poses inside the joint limits x gain classes x horizontal directions,
@@ -76,7 +77,7 @@ def measure_grid(planner, *, n_poses: int, n_gains: int, n_dirs: int, repeats: i
     def fn():
         return predict(pose_terms(robot, Q, beam=planner.beam), lams, dirs, mass=planner.mass,
                        speed=planner.speed, restitution=planner.restitution, contact=contact,
-                       arm=planner.arm if planner.beam is not None else None, gain_names=names)
+                       arm=planner.arm, gain_names=names)
 
     case = "grid" if n_gains * n_dirs > 1 else "one pose per prediction"
     return row(case, "flexible" if planner.beam is not None else "fixed",
@@ -147,8 +148,10 @@ def main(argv: list[str] | None = None) -> int:
     ok = worst["rate"] >= TARGET
     summary = "\n".join([
         "(pose, direction, gain class) predictions per second of `campaign.plan` (m*, impulse, joint "
-        "velocities, peak contact force; on the flexible base also the base velocity and momentum and the "
-        "structure's peak displacement with the arm's post-contact momentum transfer, `campaign.post_contact`); median of the timed repeats after one warm-up call, one core "
+        "velocities, contact duration and peak contact force, on the fixed base at the arm's apparent mass over "
+        "the compression, `campaign.compression`; on the flexible base also the base velocity and momentum and the "
+        "structure's peak displacement under the contact's pulse with the arm's servo, friction and gravity, "
+        "`campaign.post_contact`); median of the timed repeats after one warm-up call, one core "
         f"(BLAS threads = 1, process {pinning}). `grid`: random poses inside the joint limits x 3 gain classes x "
         "8 horizontal directions, Pinocchio pass per pose included; `one pose per prediction`: the worst case; "
         "`plan`: `ImpactPlanner.fit` at a point with four branches, inverse kinematics included, over 360 "

@@ -11,13 +11,17 @@ every gain class (its Virtual Rotor Inertia lambda) and every allowed impact dir
 * the contact impulse ``I`` (eq 14 with ``v_a = 0``);
 * the arm's post-impact joint velocities ``dq = (H + lambda)^-1 J^T n I`` (eq 5 and 13; on
   the flexible base with the generalised ``J*`` and ``H*`` of eq 8);
-* the peak contact force of the rig's contact law between two free bodies of reduced mass
-  ``m* m_b / (m* + m_b)`` (:meth:`campaign.rig.contact.Contact.peak_force`);
+* the contact's duration and the peak contact force of the rig's contact law between two
+  free bodies of reduced mass ``m* m_b / (m* + m_b)``
+  (:meth:`campaign.rig.contact.Contact.peak_force`); given the arm's servo and friction
+  (``arm``), on the fixed base the peak force takes the arm's apparent mass over the
+  compression instead of m* (:mod:`campaign.compression`: the force peaks before the
+  servo has built up the resistance lambda averages over the whole contact);
 * on the flexible base, the base's velocity change (the free base of eq 8 under the
   impulse), the momentum of the structure's tip body, and the predicted peak base
   displacement: the structure's first bending pair released with eq 8's base velocity
-  change, or (given the arm's servo, friction and gravity) the linearised arm on the
-  structure followed until the structure's peak (:mod:`campaign.post_contact`).
+  change, or (given ``arm``) the linearised arm on the structure driven by the contact's
+  force pulse and followed until the structure's peak (:mod:`campaign.post_contact`).
 
 Everything per pose is one Pinocchio pass (:func:`pose_terms`); the rest is NumPy over the
 (pose, gain, direction) axes (:func:`predict`). :class:`ImpactPlanner` wraps the search and
@@ -216,6 +220,11 @@ class Predictions:
         else ``structure_peak_release``.
     structure_peak_release : the first bending pair released with eq 8's base velocity
         change (arm locked after the impact), each mode at its first peak [m], else None.
+    contact_duration : duration of the contact law's pulse at the reduced mass [s]
+        (:meth:`campaign.rig.contact.Contact.duration`).
+    compression_mass : the arm's apparent mass over the compression [kg] (fixed base, with
+        ``arm`` and its finite contact), which then sets ``peak_force``
+        (:mod:`campaign.compression`), else None.
     """
 
     m_eff: np.ndarray
@@ -227,6 +236,8 @@ class Predictions:
     base_momentum: np.ndarray | None = None
     structure_peak: np.ndarray | None = None
     structure_peak_release: np.ndarray | None = None
+    contact_duration: np.ndarray | None = None
+    compression_mass: np.ndarray | None = None
 
 
 def check_object(*, mass, speed, restitution) -> tuple[float, float, float]:
@@ -279,9 +290,14 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
     contact : campaign.rig.contact.Contact
         The contact law for the peak force (its restitution should be ``restitution``).
     arm : campaign.post_contact.ArmAfterImpact, optional
-        The servo gains, joint friction and gravity acting on the arm after the impact; on the
-        flexible base the structure's peak then follows the arm's post-contact momentum
-        transfer (:mod:`campaign.post_contact`). None: eq 8's release alone.
+        The servo gains, joint friction and gravity acting on the arm during and after the
+        contact. With ``arm.pulse`` the contact is the contact law's pulse: on the fixed base
+        the peak force follows the arm's apparent mass over the compression
+        (:mod:`campaign.compression`), on the flexible base the structure's peak follows the
+        arm and structure driven by the pulse (:func:`campaign.post_contact.pulse_peak_displacement`);
+        without it, the impulse arrives at once (lambda's m* for the force, eq 8's release with
+        the arm's post-contact motion for the structure). None: lambda's m* and eq 8's
+        release alone.
     gain_names : sequence of str, optional
         Names of the gain classes in ``lambdas`` (keys of ``arm.gains``); default their indices.
     """
@@ -306,8 +322,23 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
     tip_velocity = np.where(finite, s * imp, 0.0)                        # n^T J dq = I / m*
     mu = np.where(finite, mass / (1.0 + mass * s), mass)                 # m* m_b / (m* + m_b)
     peak = contact.peak_force(mu, speed)
+    duration = contact.duration(mu, speed)
+    kp = damping = names = None
+    if arm is not None:
+        names = [str(g) for g in range(lam.shape[0])] if gain_names is None else list(gain_names)
+        if len(names) != lam.shape[0]:
+            raise InputError(f"{len(names)} gain class names for {lam.shape[0]} lambdas")
+        kp, damping, _ = arm.matrices(names, nv)
     if not terms.flexible:
-        return Predictions(m_eff=m_eff, impulse=imp, dq=dq, tip_velocity=tip_velocity, peak_force=peak)
+        m_c = None
+        if arm is not None and arm.pulse:
+            # the force peaks a quarter into the contact, before the servo has built up the
+            # resistance lambda averages over the whole contact (campaign.compression)
+            from .compression import compression_mass
+
+            m_c, peak = compression_mass(terms.H, terms.J, n, kp, damping, contact=contact, mass=mass, speed=speed)
+        return Predictions(m_eff=m_eff, impulse=imp, dq=dq, tip_velocity=tip_velocity, peak_force=peak,
+                           contact_duration=duration, compression_mass=m_c)
     # the free base of eq 8 under the impulse: dv_b = M_b^-1 (J_b^T n I - H_bm dq)
     dvb = (np.einsum("nkj,dj->ndk", terms.base_from_impulse, n)[:, None] * imp[..., None]
            - np.einsum("nki,ngdi->ngdk", terms.base_from_dq, dq))
@@ -318,21 +349,29 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
     release = np.linalg.norm(disp, axis=-1)
     peak_x = release
     if arm is not None:
-        from .post_contact import peak_displacement, unit_responses
+        from .post_contact import peak_displacement, pulse_peak_displacement, unit_responses
 
-        names = [str(g) for g in range(lam.shape[0])] if gain_names is None else list(gain_names)
-        if len(names) != lam.shape[0]:
-            raise InputError(f"{len(names)} gain class names for {lam.shape[0]} lambdas")
-        kp, damping, _ = arm.matrices(names, nv)
-        R, _ = unit_responses(terms, X, kp, damping, gravity=float(arm.gravity), samples=int(arm.samples))
-        peak_x = peak_displacement(R, n[None, None] * imp[..., None])
+        p_vec = n[None, None] * imp[..., None]
+        if arm.pulse:
+            from .rig.contact import pulse_shape
+
+            # eq 14's impulse spread over the contact law's pulse, entering as a force on the
+            # free arm (H*^-1 J*^T, no lambda): the servo and friction resist it explicitly
+            _, shape = pulse_shape(contact.damping, float(contact.exponent))
+            X_free = np.linalg.solve(terms.H, np.swapaxes(terms.J, 1, 2))[:, None]
+            X_free = np.broadcast_to(X_free, X.shape)
+            peak_x = pulse_peak_displacement(terms, X_free, kp, damping, p_vec, duration, shape=shape,
+                                             gravity=float(arm.gravity), samples=int(arm.samples))
+        else:
+            R, _ = unit_responses(terms, X, kp, damping, gravity=float(arm.gravity), samples=int(arm.samples))
+            peak_x = peak_displacement(R, p_vec)
         if not np.all(np.isfinite(peak_x)):
             i, g, d = (int(k[0]) for k in np.nonzero(~np.isfinite(peak_x)))
             raise SimulationError(f"post-contact response is not finite at pose {np.degrees(terms.q[i]).tolist()} "
                                   f"deg, gain class {names[g]!r}, direction {n[d].tolist()}")
     return Predictions(m_eff=m_eff, impulse=imp, dq=dq, tip_velocity=tip_velocity, peak_force=peak,
                        base_velocity=dvb, base_momentum=momentum, structure_peak=peak_x,
-                       structure_peak_release=release)
+                       structure_peak_release=release, contact_duration=duration)
 
 
 def horizontal_directions(count: int, *, start_deg: float = 180.0) -> np.ndarray:
@@ -388,8 +427,9 @@ class ImpactPlanner:
     weights : 3 floats
         ``w`` of the weighted objective (impulse, force, displacement), each >= 0.
     arm : campaign.post_contact.ArmAfterImpact, optional
-        Servo gains (per gain class), joint friction and gravity after the impact; with a
-        flexible base the structure's peak includes the arm's post-contact momentum transfer.
+        Servo gains (per gain class), joint friction and gravity during and after the contact
+        (:func:`predict`): the peak force (fixed base) and the structure's peak (flexible base)
+        then follow the arm's resistance to the contact's pulse.
     """
 
     def __init__(self, robot: Robot, *, lambdas: Mapping[str, object], mass: float, speed: float,
@@ -449,7 +489,7 @@ class ImpactPlanner:
         terms = pose_terms(self.robot, ik.q, beam=self.beam)
         pred = predict(terms, list(self.lambdas.values()), n, mass=self.mass, speed=self.speed,
                        restitution=self.restitution, contact=contact,
-                       arm=self.arm if self.beam is not None else None, gain_names=list(self.lambdas))
+                       arm=self.arm, gain_names=list(self.lambdas))
         self.point_ = p
         self.q_ = ik.q
         self.ik_residual_ = ik.residual

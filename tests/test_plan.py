@@ -217,7 +217,7 @@ def test_cli_returns_all_branches_with_their_predictions(capsys, puma):
     branches = np.radians(d["branches_dh_deg"])
     assert len(branches) == position_branches(puma, p).n_branches == 4
     assert any(np.allclose(b, q, atol=1e-7) for b in branches)
-    assert len(d["candidates"]) == 4 * 2 * 4   # branches x the paper's two gain classes x directions
+    assert len(d["candidates"]) == 4 * 3 * 4   # branches x the paper's gain sets (zero, low, high) x directions
     c = d["candidates"][0]
     qb = np.radians(c["q_dh_deg"])
     lam = d["lambdas"][c["gain_class"]]

@@ -24,8 +24,8 @@ def load_benchmark():
 def summary(**over):
     row = {"point": "p", "base": "flexible", "structure": "space_class", "object_kg": 0.716, "frequency": 0.7,
            "branches": 4, "candidates": 16, "refused": 0, "pred_range": (0.002, 0.004),
-           "meas_range": (0.001, 0.005), "spearman": 0.95, "best_over_worst": 0.25, "spearman_release": 0.6,
-           "best_over_worst_release": 0.8}
+           "meas_range": (0.001, 0.005), "spearman": 0.95, "best_over_worst": 0.25, "spearman_at_once": 0.7,
+           "best_over_worst_at_once": 0.3, "spearman_release": 0.6, "best_over_worst_release": 0.8}
     row.update(over)
     return row
 
@@ -43,6 +43,7 @@ def test_benchmark_csv_round_trips_into_the_report_table(tmp_path):
     assert flex["base"] == "flexible (space_class)" and flex["f1"] == pytest.approx(0.7)
     assert fixed["predicted"] == "50-60" and fixed["quantity"] == "peak contact force [N]" and fixed["f1"] is None
     assert fixed["spearman"] == pytest.approx(0.5) and flex["best_over_worst"] == pytest.approx(0.25)
+    assert flex["spearman_at_once"] == pytest.approx(0.7) and fixed["best_over_worst_at_once"] == pytest.approx(0.3)
     assert "| 16 (0) |" in t.to_markdown()
 
 

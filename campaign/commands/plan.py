@@ -199,10 +199,11 @@ def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=No
                   post_contact: bool = True):
     """An :class:`campaign.plan.ImpactPlanner` with the rig's contact law and structure
     (``structure``: a name of the rig file's ``structures:``, by default the file's own;
-    ``params``: dotted rig overrides). On the flexible base with ``post_contact`` the paper's
-    pooled gain classes are split into their gain sets (:func:`gain_sets`) and the structure's
-    peak follows the arm's post-contact motion under the rig's servo, friction and gravity
-    (:func:`arm_after_impact`)."""
+    ``params``: dotted rig overrides). With ``post_contact`` the paper's pooled gain classes
+    are split into their gain sets (:func:`gain_sets`) and the arm's servo, friction and
+    gravity (:func:`arm_after_impact`) act over the contact's pulse and after it: the peak
+    force follows the arm's resistance over the compression (fixed base), the structure's
+    peak the arm's motion under the pulse and after it (flexible base)."""
     from ..paper import load_paper
     from ..plan import ImpactPlanner
     from ..robot import load_robot
@@ -218,9 +219,9 @@ def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=No
         if structure is not None:
             over["flexible.structure"] = structure
         beam = Beam.from_scene(make_scene(base="flexible", rig=rig, params=over or None))
-        if post_contact:
-            lambdas = gain_sets(lambdas)
-            arm = arm_after_impact(rig, params, robot)
+    if post_contact:
+        lambdas = gain_sets(lambdas)
+        arm = arm_after_impact(rig, params, robot)
     return ImpactPlanner(robot, lambdas=lambdas, mass=d["mass"] if mass is None else mass, speed=speed,
                          restitution=d["restitution"] if restitution is None else restitution,
                          contact_stiffness=d["contact_stiffness"], contact_exponent=d["contact_exponent"],

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import InputError
 
 __all__ = ["Contact", "restitution_of_damping", "damping_for_restitution", "contact_duration_estimate",
-           "peak_force_factor"]
+           "peak_force_factor", "pulse_shape"]
 
 
 def _dimensionless_contact(d: float, p: float, *, x0: float, dense_output: bool = False):
@@ -130,6 +130,33 @@ def peak_force_factor(d: float, p: float = 1.0) -> float:
     return float(max(fs[i], -res.fun))
 
 
+@functools.lru_cache(maxsize=64)
+def pulse_shape(d: float, p: float = 1.0, *, samples: int = 257) -> tuple[float, np.ndarray]:
+    """The dimensionless force pulse of the contact ``x'' = -x^p (1 + d x')``, ``x(0) = 0``,
+    ``x'(0) = 1``: its duration ``tau_end`` and the force ``x^p (1 + d x')`` at ``samples``
+    equally spaced times from 0 to ``tau_end`` [1].
+
+    Like the peak (:func:`peak_force_factor`) it does not depend on the stiffness, the masses
+    or the speed: two free bodies of reduced mass ``m`` meeting at ``v0`` feel
+    ``F(t) = k delta*^p f(t v0 / delta*)`` for ``t`` up to ``tau_end delta* / v0``
+    (:meth:`Contact.duration`), with ``delta* = (m v0^2 / k)^(1/(p+1))``. The force starts
+    and ends at zero and integrates to ``1 + e`` (the momentum exchanged, eq 14).
+    """
+    d, p = float(d), float(p)
+    if not (math.isfinite(d) and d >= 0.0 and math.isfinite(p) and p > 0.0):
+        raise InputError(f"contact damping d = {d!r} must be >= 0 and exponent p = {p!r} > 0")
+    if not (isinstance(samples, int) and samples >= 3):
+        raise InputError(f"pulse samples = {samples!r} must be an integer >= 3")
+    sol = _dimensionless_contact(d, p, x0=1e-12, dense_output=True)
+    t_end = float(sol.t[-1])
+    x, xd = sol.sol(np.linspace(0.0, t_end, samples))
+    f = np.maximum(x, 0.0) ** p * (1.0 + d * xd)
+    f[0] = f[-1] = 0.0                              # it starts at x = 0 and ends at x = 0 or zero force
+    f = np.maximum(f, 0.0)
+    f.setflags(write=False)
+    return t_end, f
+
+
 def contact_duration_estimate(k: float, p: float, m: float, v0: float) -> float:
     """Contact duration of an undamped contact of stiffness ``k`` (exponent ``p``) between a
     mass ``m`` and a wall at approach speed ``v0`` [s]; an upper-bound scale for the step."""
@@ -190,6 +217,18 @@ class Contact:
         p = float(self.exponent)
         scale = self.stiffness ** (1.0 / (p + 1.0)) * (m * v0 * v0) ** (p / (p + 1.0))
         out = scale * peak_force_factor(self.damping, p)
+        return out[()] if out.ndim == 0 else out
+
+    def duration(self, m, v0):
+        """Duration [s] of the contact between two free bodies of reduced mass ``m`` [kg]
+        meeting at ``v0`` [m/s]: ``tau_end (m / k)^(1/(p+1)) v0^((1-p)/(1+p))``
+        (:func:`pulse_shape`). Element-wise on arrays."""
+        m = np.asarray(m, dtype=float)
+        v0 = np.asarray(v0, dtype=float)
+        p = float(self.exponent)
+        tau_end, _ = pulse_shape(self.damping, p)
+        dstar = (m * v0 * v0 / self.stiffness) ** (1.0 / (p + 1.0))
+        out = tau_end * dstar / v0
         return out[()] if out.ndim == 0 else out
 
     def energy(self, delta):
