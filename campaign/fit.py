@@ -20,6 +20,7 @@ import warnings
 import numpy as np
 
 from .errors import InputError
+from .estimator import Params
 
 # scipy.optimize (about 0.4 s of imports) is imported by the fit itself, not with the module:
 # Tables 3-4 and the calibration report only read fitted values back (LambdaFit.from_summary).
@@ -83,7 +84,7 @@ def sensitivity_matrix(H, Jn, lam) -> np.ndarray:
     return lam[None, :] * x**2 / s[:, None]
 
 
-class LambdaFit:
+class LambdaFit(Params):
     """Fit the Virtual Rotor Inertia lambda to identified effective masses (eq 11, 15).
 
     Parameters
@@ -158,16 +159,6 @@ class LambdaFit:
     # -- scikit-learn protocol ---------------------------------------------------------
     _PARAMS = ("robot", "direction", "structure", "n_bootstrap", "ci", "random_state", "min_sensitivity",
                "max_relative_ci", "lambda_max", "warn")
-
-    def get_params(self, deep: bool = True) -> dict:
-        return {k: getattr(self, k) for k in self._PARAMS}
-
-    def set_params(self, **params) -> LambdaFit:
-        for k, v in params.items():
-            if k not in self._PARAMS:
-                raise InputError(f"LambdaFit has no parameter {k!r}; parameters: {list(self._PARAMS)}")
-            setattr(self, k, v)
-        return self
 
     def __repr__(self) -> str:
         name = getattr(self.robot, "name", self.robot)

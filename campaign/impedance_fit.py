@@ -45,6 +45,7 @@ import math
 import numpy as np
 
 from .errors import InputError
+from .estimator import Params
 
 __all__ = ["servo_gains", "half_sine_shape", "measured_pulse_shape", "pulse_compliance", "friction_step",
            "apparent_mass", "ImpedanceFit"]
@@ -271,7 +272,7 @@ def apparent_mass(G, Jn, *, kappa_pos, kappa_neg, speed, e, m_b, iterations: int
     return out
 
 
-class ImpedanceFit:
+class ImpedanceFit(Params):
     """Fit the joints' damping and the Coulomb friction scale to identified effective masses.
 
     Parameters
@@ -317,16 +318,6 @@ class ImpedanceFit:
         self.coulomb_neg = coulomb_neg
         self.ci = ci
         self.max_relative_ci = max_relative_ci
-
-    def get_params(self, deep: bool = True) -> dict:
-        return {k: getattr(self, k) for k in self._PARAMS}
-
-    def set_params(self, **params) -> "ImpedanceFit":
-        for k, v in params.items():
-            if k not in self._PARAMS:
-                raise InputError(f"ImpedanceFit has no parameter {k!r}; parameters: {list(self._PARAMS)}")
-            setattr(self, k, v)
-        return self
 
     def __repr__(self) -> str:
         return f"ImpedanceFit(robot={getattr(self.robot, 'name', self.robot)!r}, ci={self.ci!r})"
