@@ -532,7 +532,10 @@ class ImpactPlanner:
                 "impulse": float(P.impulse[i, g, d]), "peak_force": float(P.peak_force[i, g, d]),
                 "tip_velocity": float(P.tip_velocity[i, g, d]), "dq": P.dq[i, g, d].tolist(),
                 "score": float(self.score_[i, g, d]),
+                "contact_duration": float(P.contact_duration[i, g, d]),
             }
+            if P.compression_mass is not None:
+                row["compression_mass"] = float(P.compression_mass[i, g, d])
             if P.structure_peak is not None:
                 row.update(base_velocity=P.base_velocity[i, g, d].tolist(),
                            base_momentum=float(P.base_momentum[i, g, d]),

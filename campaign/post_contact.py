@@ -45,7 +45,10 @@ from scipy.linalg import expm
 
 from .errors import InputError
 
-__all__ = ["ArmAfterImpact", "unit_responses", "pulse_peak_displacement", "peak_displacement"]
+__all__ = ["ArmAfterImpact", "unit_responses", "pulse_peak_displacement", "peak_displacement", "MAX_REFINE"]
+
+#: most fine steps per window step under the contact's pulse
+MAX_REFINE = 1024
 
 
 @dataclasses.dataclass(frozen=True)
@@ -205,7 +208,8 @@ def pulse_peak_displacement(terms, X: np.ndarray, kp: np.ndarray, damping: np.nd
     f = np.asarray(shape, dtype=float)
     T = np.asarray(duration, dtype=float)
     if not np.all(np.isfinite(T) & (T > 0)):
-        raise InputError(f"contact duration must be > 0 s, got {np.min(T)!r}")
+        bad = T[~(np.isfinite(T) & (T > 0))]
+        raise InputError(f"contact duration must be > 0 s, got {float(bad.flat[0]):g}")
     if f.ndim != 1 or f.size < 3 or not np.all(np.isfinite(f) & (f >= 0)) or not f.sum() > 0:
         raise InputError("contact pulse shape must be >= 3 finite values >= 0, not all zero")
     A, Z0 = _system(terms, X, kp, damping, gravity=gravity)
@@ -213,7 +217,9 @@ def pulse_peak_displacement(terms, X: np.ndarray, kp: np.ndarray, damping: np.nd
     n2 = A.shape[-1]
     period = 1.0 / terms.frequency[:, 0]                                 # (N,)
     h = period / samples
-    refine = max(1, int(np.ceil(pulse_steps * np.max(h[:, None, None] / T))))
+    # a pulse shorter than 1/MAX_REFINE of a window step is an impulse for the window's grid:
+    # it then falls on the first fine step whole (below)
+    refine = min(MAX_REFINE, max(1, int(np.ceil(pulse_steps * np.max(h[:, None, None] / T)))))
     hf = h / refine
     # first-order hold: expm([[A, B, 0], [0, 0, I/hf], [0, 0, 0]] hf) = [[Phi, Gamma_1, Gamma_2], ...]
     # with B = Z0 the state's jump per unit impulse, so u is the impulse rate [1/s] times p
@@ -231,9 +237,8 @@ def pulse_peak_displacement(terms, X: np.ndarray, kp: np.ndarray, damping: np.nd
     t = hf[:, None, None, None] * np.arange(fine)                        # (N, 1, 1, fine)
     u = np.interp(np.clip(t / T[..., None], 0.0, 1.0).ravel(), np.linspace(0.0, 1.0, f.size), f).reshape(
         T.shape + (fine,))
+    u[..., 1] = np.where(u[..., 1:].any(axis=-1), u[..., 1], 1.0)        # a pulse between two samples
     area = hf[:, None, None] * (u.sum(axis=-1) - 0.5 * (u[..., 0] + u[..., -1]))
-    if not np.all(area > 0):
-        raise InputError("contact pulse has no force on the grid")                # pragma: no cover
     u /= area[..., None]                                                 # (N, G, D, fine), [1/s]
     Z = np.zeros((N, G, n2, D))
     peak2 = np.zeros((N, G, D))

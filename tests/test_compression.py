@@ -154,3 +154,15 @@ def test_bad_pulse_values_are_refused():
     with pytest.raises(InputError, match="exponent p = -1"):
         pulse_shape(0.3, -1.0)
     assert math.isfinite(pulse_shape(0.0, 1.0)[0])
+
+
+def test_planner_rows_carry_the_contact_and_the_compression(puma):
+    from campaign.commands.plan import build_planner
+
+    pl = build_planner(base="fixed", lambdas={"zero_low": [19.82, 4.62, 0.80]}, speed=2.0, mass=5.03,
+                       objective="force")
+    rows = pl.fit(impact_point(puma, Q[0]), N_DIRS).rows()
+    assert rows and all(0.1 < r["contact_duration"] < 0.3 and r["compression_mass"] > 0 for r in rows)
+    # ranked by the force, which grows with the apparent mass over the compression
+    order = [r["compression_mass"] for r in rows]
+    assert order == sorted(order)

@@ -140,12 +140,13 @@ def test_a_short_pulse_recovers_the_impulse_at_once(puma):
     R, _ = unit_responses(terms, X, kp, damping, gravity=9.81, samples=128)
     at_once = peak_displacement(R, p)
     errors = []
-    for T in (0.2, 0.02, 0.002):
+    for T in (0.2, 0.02, 0.002, 1e-7):                 # the last shorter than the finest grid step
         pulsed = pulse_peak_displacement(terms, X, kp, damping, p, np.full(p.shape[:3], T), shape=shape,
                                          gravity=9.81, samples=128)
         errors.append(np.max(np.abs(pulsed / at_once - 1)))
     # the pulse's centroid delays the peak by about T/4: the difference falls with T
     assert errors[0] > errors[1] > errors[2] and errors[2] < 2e-3 and errors[0] > 0.01
+    assert errors[3] < 2e-3
 
 
 def test_joints_stopped_at_once_give_the_structure_released_with_the_locked_arms_momentum(puma):
@@ -246,3 +247,14 @@ def test_a_response_that_blows_up_is_reported_not_stored(puma):
     with pytest.raises(SimulationError, match="post-contact response is not finite at pose"):
         with np.errstate(all="ignore"):
             run_predict(puma, beam_of(), arm)
+
+
+def test_a_pulse_of_no_duration_is_refused_naming_it(puma):
+    beam = beam_of()
+    terms = pose_terms(puma, Q[None], beam=beam)
+    X = np.linalg.solve(terms.H, np.swapaxes(terms.J, 1, 2))[:, None]
+    p = np.ones((1, 1, 1, 3))
+    _, shape = pulse_shape(Contact(537.0, 0.74, 0.58).damping, 0.74)
+    with pytest.raises(InputError, match="contact duration must be > 0 s, got -0.1"):
+        pulse_peak_displacement(terms, X, np.zeros((1, 3)), np.ones((1, 3)), p, np.full((1, 1, 1), -0.1),
+                                shape=shape, gravity=9.81, samples=64)
