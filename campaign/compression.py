@@ -50,7 +50,7 @@ def _peak_shares(shape: np.ndarray, segments: int) -> tuple[float, np.ndarray]:
 def _tip_response(H, kp, damping, Jn):
     """Modal parts of the tip's velocity response: ``n.v_tip(t) = sum_j a_j * (e^(lambda_j .) * u)(t)``
     for the joint torque ``J^T n u(t)``; returns ``(lambda (N, G, 2nv), a (N, G, D, 2nv))``, or
-    None where the state matrix is (close to) defective."""
+    None if any pose's state matrix is (close to) defective."""
     N, nv = H.shape[0], H.shape[-1]
     G = kp.shape[0]
     Hi = np.linalg.inv(H)
