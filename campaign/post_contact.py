@@ -172,8 +172,8 @@ def pulse_peak_displacement(terms, X: np.ndarray, kp: np.ndarray, damping: np.nd
     arrives as a pulse of finite duration rather than at once [m].
 
     The contact spreads the impulse vector ``p = n I`` over ``T = duration`` with the contact
-    law's shape ``f`` (``shape``: ``f`` at equal steps over the pulse, :func:`campaign.rig.
-    contact.pulse_shape`); each slice ``p f(t) dt / int f`` changes the joints' velocities by
+    law's shape ``f`` (``shape``: ``f`` at equal steps over the pulse,
+    :func:`campaign.rig.contact.pulse_shape`); each slice ``p f(t) dt / int f`` changes the joints' velocities by
     ``X`` times it and the base's as eq 8 does, while the structure's spring, the servo,
     friction and gravity act from the first slice on. With ``X = H*^-1 J*^T`` (the free arm,
     no lambda) that is the pulse as a force ``J^T p f(t) / int f`` on the coupled system. The input is the pulse sampled
