@@ -28,10 +28,10 @@ contact point, finds every pose of the arm's positioning chain that puts the imp
 (the wrist centre) there within the joint limits (all inverse-kinematics branches, with
 Pinocchio's kinematics), and predicts for each pose x gain class x impact direction n:
 m* (eq 7 fixed base, eq 8 flexible base, eq 11), the impulse (eq 14), the post-impact joint
-velocities (eq 13), the peak contact force of the rig's contact law, and on the flexible
-base the base momentum and the peak base displacement of the structure, released with
-eq 8's velocities and followed while the servo, the joints' friction and gravity pass the
-arm's momentum to the base. The candidates are ranked by --objective (smallest first).
+velocities (eq 13), the contact's duration and peak force from the rig's contact law, and
+on the flexible base the base momentum and the peak base displacement of the structure,
+pushed through the arm by the contact's force pulse and followed while the servo, the
+joints' friction and gravity resist it and pass the arm's momentum to the base. The candidates are ranked by --objective (smallest first).
 
 Units: point in metres in the arm's base frame (DH frame 0); n is the direction of the
 force on the arm (the object moves along n), normalised; object mass in kg, speed in m/s;
@@ -45,18 +45,22 @@ fit of the campaign (results/<campaign>/fit/lambda_<class>.json, keys gain_class
 default.
 
 contact and structure: the contact law F = k delta^p (1 + d ddelta/v0) with k, p from
-config/rig.yaml (contact.stiffness, contact.exponent) and d solved for --restitution; the
-peak force is that of two free bodies of reduced mass m* m_b / (m* + m_b). The flexible
-base is the rig's cantilever (flexible.* of config/rig.yaml): in the impulsive phase a free
-base body (eq 8). Its peak displacement (x_b) is that of the linearised arm on the structure
-released with eq 8's base and joint velocities and followed over one period of the first
-mode, under the servo's proportional and derivative gains (the paper's Table 1 gains in
-joint units, controller.torque_per_unit of config/rig.yaml), the joints' viscous friction
-and gravity: the structure peaks a quarter period after the impact, while the joints are
-still being slowed. On the flexible base the paper's pooled class zero_low is planned as its
-gain sets zero and low (same lambda, different servo); a class not named in Table 1 has no
-servo after the impact. --json also gives structure_peak_release: the structure's modes
-released with eq 8's base velocity change alone.
+config/rig.yaml (contact.stiffness, contact.exponent) and d solved for --restitution; its
+pulse (shape and duration) is that of two free bodies of reduced mass m* m_b / (m* + m_b).
+On the fixed base the peak force takes the arm's apparent mass over the compression instead
+of m*: the force peaks about a quarter into the contact, before the servo's proportional and
+derivative gains (the paper's Table 1 gains in joint units, controller.torque_per_unit of
+config/rig.yaml) and the joints' viscous friction have built up the resistance lambda
+averages over the whole contact. The flexible base is the rig's cantilever (flexible.* of
+config/rig.yaml): in the impulsive phase a free base body (eq 8). Its peak displacement
+(x_b) is that of the linearised arm on the structure pushed by eq 14's impulse spread over
+the contact's pulse and followed over one period of the first mode, under the servo, the
+joints' viscous friction and gravity: the contact lasts 70-200 ms and the structure peaks a
+quarter period after it starts, while the joints are still being slowed. The paper's pooled
+class zero_low is planned as its gain sets zero and low (same lambda, different servo); a
+class not named in Table 1 has no servo. --json also gives contact_duration,
+compression_mass (fixed base) and structure_peak_release: the structure's modes released
+with eq 8's base velocity change alone.
 
 output: the best --top candidates (all with --top 0); --json prints every candidate.
 
