@@ -6,6 +6,7 @@ import csv
 import importlib.util
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from campaign.tables import rig_check_table
@@ -115,3 +116,36 @@ def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
     csv_rows = bench.csv_rows(rows)
     assert csv_rows[0]["spearman_release"] == "" and float(csv_rows[1]["spearman_release"]) == pytest.approx(
         rows[1]["spearman_release"], abs=1e-4)
+
+
+def test_sign_check_reports_the_measured_difference_of_opposite_directions():
+    """The sign check's difference and joint excursion are those of the rig's own trials of a +-n pair."""
+    from campaign.plan import horizontal_directions
+    from campaign.robot import load_robot
+    from campaign.robot.ik import position_branches
+
+    bench = load_benchmark()
+    dirs = horizontal_directions(2)
+    settings = (("no gravity", {"gravity": 0.0}),)
+    lines = bench.sign_asymmetry(1.0, dirs, speeds=(), gains=("zero",), settings=settings)
+    assert len(lines) == 3 and lines[2].startswith("| 1 | no gravity | ")
+    diff, excursion = lines[2].strip("| ").split(" | ")[2:4]
+    # independently: each branch's two trials, the peak base displacement and the joints' excursion
+    params = bench.with_structure({"gravity": 0.0}, "space_class")
+    point = bench.contact_points()["config 1 wrist centre"]
+    want_diff, want_exc = [], []
+    for q in position_branches(load_robot("puma560"), point).q:
+        peaks = []
+        for n in dirs:
+            truth, _, why = bench.simulate_truth("flexible", q, "zero", n, 1.0, params)
+            if why is not None:
+                continue
+            x = np.linalg.norm(truth["base_position"].values, axis=1)
+            qt = truth["q"].values[: int(np.argmax(x)) + 1]
+            peaks.append(x.max())
+            want_exc.append(np.abs(qt - qt[0]).max())
+        if len(peaks) == 2:
+            want_diff.append(abs(peaks[0] / peaks[1] - 1))
+    assert want_diff, "no branch struck from both sides"
+    assert diff == f"{100 * max(want_diff):.1f} %"
+    assert excursion == f"{np.degrees(max(want_exc)):.0f} deg"
