@@ -58,7 +58,9 @@ def draw_workspace(m: dict, *, marks: dict[int, np.ndarray] | None = None):
             else:
                 from matplotlib.colors import Normalize
                 norm = Normalize(vmin=lo, vmax=hi)
-            im = ax.pcolormesh(x, z, data, shading="nearest", cmap="viridis", norm=norm)
+            # rasterised in the PDF: thousands of grid cells as vector quads cost seconds to
+            # draw and megabytes to store, for no gain at print resolution
+            im = ax.pcolormesh(x, z, data, shading="nearest", cmap="viridis", norm=norm, rasterized=True)
             for c, p in (marks or {}).items():
                 ax.plot(p[0], p[2], marker="o", ms=5, mfc="white", mec="k", ls="none")
                 ax.annotate(str(c), (p[0], p[2]), xytext=(3, 3), textcoords="offset points", fontsize=7)
