@@ -6,47 +6,13 @@ those inside functions: a lazy import defers the cost, not the dependency.
 
 from __future__ import annotations
 
-import ast
-from pathlib import Path
+from campaign.imports import PACKAGE, closure, graph, modules
 
-PACKAGE = Path(__file__).resolve().parents[1] / "campaign"
 MAX_LINES = 800
 
 
-def _module_name(path: Path) -> str:
-    parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-
-
-def _modules() -> dict[str, Path]:
-    return {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
-
-
-def _imports(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
-    """The campaign modules ``name`` imports (absolute or relative, anywhere in the file)."""
-    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    out = set()
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
-        if isinstance(node, ast.Import):
-            targets = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = package.split(".")
-                base = base[:len(base) - (node.level - 1)]
-                stem = ".".join(base + ([node.module] if node.module else []))
-            else:
-                stem = node.module or ""
-            # `from pkg import sub` imports the module pkg.sub when it is one, else a name of pkg
-            targets = [stem] + [f"{stem}.{alias.name}" for alias in node.names]
-        else:
-            continue
-        out.update(t for t in targets if t in modules and t != name)
-    return out
-
-
 def _graph() -> dict[str, set[str]]:
-    modules = _modules()
-    return {name: _imports(name, path, modules) for name, path in modules.items()}
+    return {name: set(deps) for name, deps in graph().items()}
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -106,5 +72,17 @@ def test_no_import_cycle_among_campaign_modules():
 
 
 def test_no_module_over_800_lines():
-    long = {name: n for name, path in _modules().items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
+    long = {name: n for name, path in modules().items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
     assert long == {}, f"modules over {MAX_LINES} lines: {long}"
+
+
+def test_closure_follows_lazy_imports_and_package_inits():
+    """A stage's digest covers what its entry module runs: the simulation's stroke check
+    imports the planner inside a function, and the planner imports eq 7-14's module."""
+    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "rig" / "simulate.py"])}
+    assert {"rig/simulate.py", "rig/__init__.py", "__init__.py", "plan.py", "exiit.py", "errors.py"} <= files
+    assert "figures/fig5.py" not in files
+
+
+def test_closure_of_a_module_that_imports_nothing_of_the_package_is_itself():
+    assert closure([PACKAGE / "errors.py"]) == [PACKAGE / "__init__.py", PACKAGE / "errors.py"]

@@ -1,8 +1,8 @@
 # Helpers of the campaign workflow: the configuration (validated at start-up), where every
 # file lives, which trials and identification tables each product needs, and the targets.
 #
-# Only the standard library and campaign.runner (itself standard library only at import)
-# are imported here: Snakemake evaluates this file every time it starts, including for a
+# Only the standard library, campaign.runner and campaign.imports (both standard library
+# only at import) are imported here: Snakemake evaluates this file every time it starts, including for a
 # dry run, so the heavy stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
 
 import hashlib
@@ -14,7 +14,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
 
-from campaign import checks, runner
+from campaign import checks, imports, runner
 from campaign.errors import InputError
 
 min_version("9.0")
@@ -94,7 +94,10 @@ def code_digest(*patterns):
     """
     package = Path(runner.__file__).resolve().parent
     digest = hashlib.sha256()
-    for f in source_files(*patterns):
+    # the patterns name a stage's entry modules and data files; every package module they
+    # import (also inside functions) counts too, so no edit to code a stage runs goes unseen
+    files = source_files(*patterns)
+    for f in sorted(set(files) | set(imports.closure(files))):
         data = f.read_bytes()
         digest.update(f"{f.relative_to(package).as_posix()}\0{len(data)}\0".encode())
         digest.update(data)
