@@ -48,8 +48,9 @@ import xarray as xr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from campaign import __version__, archive  # noqa: E402
 from synthetic import synthetic_trial  # noqa: E402
+
+from campaign import __version__, archive  # noqa: E402
 
 HEADING = "## Archive I/O"
 BUDGET_MS = 50.0

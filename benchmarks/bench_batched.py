@@ -24,10 +24,15 @@ import argparse
 import statistics
 import time
 
+from campaign.model.paper import gain_counts
 from campaign.rig import batch
-from campaign.rig.simulate import build, integration_args, record_arrays, simulate_arrays
-from campaign.runner import gain_counts
-from campaign.scene import make_scene
+from campaign.rig.simulate import (
+    build,
+    integration_args,
+    record_arrays,
+    simulate_arrays,
+)
+from campaign.scene.description import make_scene
 
 SPEEDS = (1.0, 1.3, 1.6, 1.9, 2.2, 2.5)
 

@@ -4,7 +4,7 @@ Each campaign runs in a fresh temporary directory with the repository's Snakefil
 cores (``snakemake --cores 2``; the workflow profile ``profiles/default`` applies), figures,
 tables and the archive's manifest included, then ``snakemake --report`` builds the HTML
 report. The wall time of both is measured around the commands; the jobs' own ``TIMING``
-lines (``campaign.runner.job_log``) split the CPU time of the run into
+lines (``campaign.pipeline.joblog.job_log``) split the CPU time of the run into
 
 * simulation (``simulate`` + ``write``: integrating the rig, writing the trial files),
 * identification (``identify``),
@@ -50,7 +50,7 @@ from pathlib import Path
 
 import yaml
 
-from campaign.bench import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS
+from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -102,7 +102,7 @@ def machine_probe(repeats: int = 3) -> dict[str, float]:
     RK4 baseline (0.5 s of fixed-base trial at 0.1 ms steps; about 350 ms there for the
     issue's version, which does less per step than ours), median wall times [s]."""
     from campaign.bench import naive_rk4, write_probe
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
     naive_rk4(scene)   # warm-up (imports, model), as trial_cost does

@@ -2,7 +2,7 @@
 
 Runs the designed campaign (``config/designed.yaml``) with 2 cores into a fresh temporary
 results and archive root, measures the wall time around the command, and sums the jobs' own
-``TIMING`` lines (``campaign.runner.job_log``) into CPU seconds per rule (contention from
+``TIMING`` lines (``campaign.pipeline.joblog.job_log``) into CPU seconds per rule (contention from
 other work on a shared machine stretches wall times, hardly CPU times). Prints a table.
 
 Usage::

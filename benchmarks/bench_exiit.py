@@ -1,9 +1,9 @@
 """Throughput of the batch effective-mass evaluation (eq 11), configurations per second.
 
-Runs :func:`campaign.exiit.effective_mass_batch` on uniformly drawn configurations inside
+Runs :func:`campaign.model.exiit.effective_mass_batch` on uniformly drawn configurations inside
 the joint limits, several repeats per size, on one core (BLAS threads limited to one and,
 where the OS allows it, the process pinned to one CPU), and prints a table of the median.
-The scalar :func:`campaign.exiit.effective_mass` is timed too, for comparison.
+The scalar :func:`campaign.model.exiit.effective_mass` is timed too, for comparison.
 
 Usage::
 
@@ -26,15 +26,15 @@ import datetime  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
-from campaign import __version__, exiit  # noqa: E402
+from campaign import __version__
 from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call  # noqa: E402
-from campaign.robot import load_robot  # noqa: E402
+from campaign.model import exiit  # noqa: E402
+from campaign.model.robot import load_robot  # noqa: E402
 
 HEADING = "## Ex-IIT batch evaluation"
 TARGET = 100_000.0  # configurations per second, one core
@@ -52,7 +52,7 @@ def measure(robot, n_configs: int, repeats: int, *, seed: int, scalar: bool = Fa
 
     Parameters
     ----------
-    robot : campaign.robot.Robot
+    robot : campaign.model.robot.Robot
     n_configs : int
         Configurations per call.
     repeats : int
@@ -60,7 +60,7 @@ def measure(robot, n_configs: int, repeats: int, *, seed: int, scalar: bool = Fa
     seed : int
         Seed of the configurations.
     scalar : bool
-        Time a Python loop over :func:`campaign.exiit.effective_mass` instead of the batch.
+        Time a Python loop over :func:`campaign.model.exiit.effective_mass` instead of the batch.
     """
     rng = np.random.default_rng(seed)
     Q = rng.uniform(robot.q_lower, robot.q_upper, size=(n_configs, robot.nv))
@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     best = rows[len(sizes) - 1]
     verdict = "meets" if best["rate"] >= TARGET else "MISSES"
     summary = "\n".join([
-        "Throughput of `campaign.exiit.effective_mass_batch` (eq 11, fixed base, n = -x, lambda = 0) "
+        "Throughput of `campaign.model.exiit.effective_mass_batch` (eq 11, fixed base, n = -x, lambda = 0) "
         "on configurations drawn uniformly inside the joint limits; median of the timed repeats after "
         "one warm-up call, one core (BLAS threads = 1, process " + pinning + "). "
         "The scalar loop over `effective_mass` is shown for comparison.",

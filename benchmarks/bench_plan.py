@@ -1,17 +1,17 @@
 """Throughput of the impact planner: (pose, direction, gain class) predictions per second.
 
-Each prediction is everything :func:`campaign.plan.predict` returns for one candidate: m*
+Each prediction is everything :func:`campaign.plan.planner.predict` returns for one candidate: m*
 (eq 7 or 8), the impulse (eq 14), the joint velocities (eq 13), the contact's duration and
 peak force (on the fixed base at the arm's apparent mass over the compression,
-:mod:`campaign.compression`) and, on the flexible base, the base velocity, momentum and the
-structure's peak displacement under the contact's pulse (:mod:`campaign.post_contact`). Timed on one core (BLAS threads limited to one, the process pinned to one CPU
+:mod:`campaign.plan.compression`) and, on the flexible base, the base velocity, momentum and the
+structure's peak displacement under the contact's pulse (:mod:`campaign.plan.post_contact`). Timed on one core (BLAS threads limited to one, the process pinned to one CPU
 where the OS allows it), median of the repeats after one warm-up call, for:
 
 * ``grid``: random poses inside the joint limits x gain classes x horizontal directions,
-  the Pinocchio pass per pose (:func:`campaign.plan.pose_terms`) included;
+  the Pinocchio pass per pose (:func:`campaign.plan.planner.pose_terms`) included;
 * ``one pose per prediction``: 1 gain class x 1 direction per pose, the worst case, where
   the per-pose Pinocchio pass is the whole cost;
-* ``plan``: a whole :meth:`campaign.plan.ImpactPlanner.fit` at one point (inverse
+* ``plan``: a whole :meth:`campaign.plan.planner.ImpactPlanner.fit` at one point (inverse
   kinematics of every branch included) over 360 horizontal directions.
 
 Usage::
@@ -35,7 +35,6 @@ import datetime  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -43,10 +42,10 @@ import pinocchio as pin  # noqa: E402
 
 from campaign import __version__  # noqa: E402
 from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call, write_section  # noqa: E402
-from campaign.commands.plan import build_planner  # noqa: E402
-from campaign.plan import horizontal_directions, pose_terms, predict  # noqa: E402
+from campaign.model.robot.ik import impact_point  # noqa: E402
+from campaign.plan.factory import build_planner  # noqa: E402
+from campaign.plan.planner import horizontal_directions, pose_terms, predict  # noqa: E402
 from campaign.rig.contact import Contact  # noqa: E402
-from campaign.robot.ik import impact_point  # noqa: E402
 
 HEADING = "## Impact planner throughput"
 TARGET = 10_000.0  # (pose, direction, gain) predictions per second on one core
@@ -96,9 +95,9 @@ def measure_plan(planner, *, n_dirs: int, repeats: int) -> dict:
 
 
 def measure_map(planner, *, resolution: float, repeats: int) -> dict:
-    """A whole workspace map (:func:`campaign.plan.workspace_map`): IK of every grid point and the
+    """A whole workspace map (:func:`campaign.plan.planner.workspace_map`): IK of every grid point and the
     predictions of every branch x gain class, the paper's n."""
-    from campaign.plan import workspace_map
+    from campaign.plan.planner import workspace_map
 
     contact = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
@@ -147,11 +146,11 @@ def main(argv: list[str] | None = None) -> int:
     worst = min(grid, key=lambda r: r["rate"])
     ok = worst["rate"] >= TARGET
     summary = "\n".join([
-        "(pose, direction, gain class) predictions per second of `campaign.plan` (m*, impulse, joint "
+        "(pose, direction, gain class) predictions per second of `campaign.plan.planner` (m*, impulse, joint "
         "velocities, contact duration and peak contact force, on the fixed base at the arm's apparent mass over "
-        "the compression, `campaign.compression`; on the flexible base also the base velocity and momentum and the "
+        "the compression, `campaign.plan.compression`; on the flexible base also the base velocity and momentum and the "
         "structure's peak displacement under the contact's pulse with the arm's servo, friction and gravity, "
-        "`campaign.post_contact`); median of the timed repeats after one warm-up call, one core "
+        "`campaign.plan.post_contact`); median of the timed repeats after one warm-up call, one core "
         f"(BLAS threads = 1, process {pinning}). `grid`: random poses inside the joint limits x 3 gain classes x "
         "8 horizontal directions, Pinocchio pass per pose included; `one pose per prediction`: the worst case; "
         "`plan`: `ImpactPlanner.fit` at a point with four branches, inverse kinematics included, over 360 "

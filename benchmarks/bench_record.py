@@ -19,7 +19,7 @@ import importlib
 import statistics
 import time
 
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 sim = importlib.import_module("campaign.rig.simulate")   # the module (campaign.rig exports the function)
 

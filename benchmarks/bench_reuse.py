@@ -6,7 +6,7 @@ The command the README documents, run as a new user runs it: the default configu
 product the archive's cells can make is made: identification, the lambda fits, Tables
 2-4, Figures 4-9 and the calibration report; the archive is verified. Measured around the
 command: the wall time and the CPU time of Snakemake and all its jobs, split with the
-jobs' ``TIMING`` lines (``campaign.runner.job_log``); the machine's load average beside
+jobs' ``TIMING`` lines (``campaign.pipeline.joblog.job_log``); the machine's load average beside
 it, since other work on the machine stretches the wall time, not the CPU time.
 
 Usage::

@@ -33,11 +33,11 @@ import numpy as np
 import pinocchio as pin
 
 from campaign.bench.common import _md, machine_line, write_section
-from campaign.robot import load_robot
+from campaign.model.paper import gain_counts
+from campaign.model.robot import load_robot
 from campaign.rig.integrate import integrate_trial
 from campaign.rig.simulate import build, integration_args, record_arrays
-from campaign.runner import gain_counts
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 HERE = Path(__file__).resolve().parent
 WORK = HERE.parent / ".benchmarks" / "compiled_floor"

@@ -25,7 +25,7 @@ HEADING = "## VES-II emulation error"
 
 def run(config: int, gain: str, speed: float):
     from campaign.rig import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     out = {}
     for mode in ("loop", "ideal"):
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     title = (f"Base motion, configuration {args.config}, {args.gain} gains, {args.speed} m/s: "
              f"loop vs ideal peak {100 * rel:+.1f} %")
     plot(traces, args.png, title)
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     p = make_scene(base="flexible").p
     body = "\n".join([
         f"Configuration {args.config}, {args.gain} gains, {args.speed} m/s; VES loop at its defaults "

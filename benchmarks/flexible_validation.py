@@ -3,7 +3,7 @@
 The rig is calibrated on fixed-base observations only; Table 4 (flexible-base m*) and
 Figure 9 (Low-vs-High reduction of the peak base amplitude) are held out. This diagnostic
 simulates flexible-base trials, identifies them (``campaign.identify.identify_trial``) and
-compares the identified m* with eq 8 (``campaign.tables.flexible_prediction``, the base's
+compares the identified m* with eq 8 (``campaign.report.tables.flexible_prediction``, the base's
 M from the trial's emulated base body) and with the simulator truth (``m_b (v_b - v'_b) /
 (v'_a - v_a)`` from the truth group's exact edge velocities). Three parts:
 
@@ -71,9 +71,9 @@ def modes(scene) -> np.ndarray:
     pair, torsion, axial."""
     import pinocchio as pin
 
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
+    from campaign.model.robot import load_robot
     from campaign.rig.beam import Beam
-    from campaign.robot import load_robot
 
     robot = load_robot(scene.p("robot"))
     beam = Beam.from_scene(scene)
@@ -87,7 +87,7 @@ def run_trial(*, base: str, config: int, gain: str, speed: float, params: dict |
     """Simulate and identify one trial; truth and identified m*, contact, base motion."""
     from campaign.identify import identify_trial
     from campaign.rig import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     scene = make_scene(base=base, config=config, gain=gain, speed=speed, params=dict(STRUCTURE, **(params or {})))
     tree = simulate(scene)
@@ -129,12 +129,12 @@ def run_trial(*, base: str, config: int, gain: str, speed: float, params: dict |
 # Ex-IIT helpers
 # ----------------------------------------------------------------------------------------
 def eq7(robot, record, lam) -> float:
-    from campaign import exiit
+    from campaign.model import exiit
     return float(exiit.effective_mass(robot, np.asarray(record["q_cmd"], float), record["impact_direction"], lam))
 
 
 def eq8(robot, record, lam) -> float:
-    from campaign.tables import flexible_prediction
+    from campaign.report.tables import flexible_prediction
     return float(flexible_prediction(record, lam, robot))
 
 
@@ -147,9 +147,8 @@ def eq8_with_structure(robot, trial: dict, lam) -> float:
     the spring holds the base and it tends to the fixed-base eq 7."""
     import scipy.linalg as sla
 
-    from campaign import exiit
-    from campaign.robot.floating import attach_to_floating_base
-    from campaign.tables import base_body_of
+    from campaign.model import exiit
+    from campaign.model.robot.floating import attach_to_floating_base, base_body_of
 
     rec = trial["record"]
     frobot = attach_to_floating_base(robot, base_body_of(rec))
@@ -180,9 +179,9 @@ def eq8_with_structure(robot, trial: dict, lam) -> float:
 
 def impulsive_base_velocity(robot, record, lam, m_b: float) -> float:
     """Eq 8's base velocity along n right after an impulsive contact (per unit hammer
-    momentum) on a trial's emulated base: :func:`campaign.calibrate.impulsive_base_speed`."""
-    from campaign.calibrate import impulsive_base_speed
-    from campaign.tables import base_body_of
+    momentum) on a trial's emulated base: :func:`campaign.pipeline.calibration_report.impulsive_base_speed`."""
+    from campaign.model.robot.floating import base_body_of
+    from campaign.pipeline.calibration_report import impulsive_base_speed
 
     return impulsive_base_speed(robot, record["q_cmd"], base_body_of(record), lam, m_b, record["impact_direction"])
 
@@ -192,8 +191,8 @@ def impulsive_base_velocity(robot, record, lam, m_b: float) -> float:
 # ----------------------------------------------------------------------------------------
 def part_a(log, *, quick: bool = False) -> list[dict]:
     """Passive arm (lambda = 0): m* against eq 8 and eq 7 as the contact shortens."""
-    from campaign.robot import load_robot
-    from campaign.scene import load_rig
+    from campaign.model.robot import load_robot
+    from campaign.scene.description import load_rig
 
     robot = load_robot()
     k0 = float(load_rig()[0]["contact.stiffness"])
@@ -223,11 +222,11 @@ def part_a(log, *, quick: bool = False) -> list[dict]:
 
 def part_b(log, *, quick: bool = False) -> dict:
     """Calibrated rig: lambda from the rig's fixed-base trials; Table 4 cells vs the beam's EI."""
-    from campaign.fit import IdentifiabilityWarning
-    from campaign.paper import load_paper
-    from campaign.robot import load_robot
-    from campaign.scene import load_rig
-    from campaign.tables import fit_gain_classes
+    from campaign.joints.lambda_fit import IdentifiabilityWarning
+    from campaign.model.paper import load_paper
+    from campaign.model.robot import load_robot
+    from campaign.report.tables import fit_gain_classes
+    from campaign.scene.description import load_rig
 
     robot = load_robot()
     paper = load_paper()
@@ -274,8 +273,8 @@ def part_b(log, *, quick: bool = False) -> dict:
 
 def part_c(b: dict) -> dict:
     """Figure 9: Low-vs-High reduction of the peak base displacement and what sets it."""
-    from campaign.paper import load_paper
-    from campaign.robot import load_robot
+    from campaign.model.paper import load_paper
+    from campaign.model.robot import load_robot
 
     robot = load_robot()
     paper = load_paper()
@@ -311,7 +310,7 @@ def part_c(b: dict) -> dict:
     # eq 8's impulsive reduction with the paper's lambda over other emulated bases (the base
     # is an assumption of the rig): platform and beam mass scaled
     from campaign.rig.beam import Beam
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     out["bases"] = []
     for pm, bm in BASE_VARIANTS:
         scene = make_scene(base="flexible", params=dict(STRUCTURE, **{"flexible.platform_mass": pm,
@@ -346,10 +345,10 @@ def servo_frequencies() -> dict:
     """High-gain servo natural frequency sqrt(Kp / H_jj) per joint [Hz], configurations 1-2."""
     import pinocchio as pin
 
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
+    from campaign.model.robot import load_robot
     from campaign.rig.controller import equivalent_gains
-    from campaign.robot import load_robot
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     robot = load_robot()
     paper = load_paper()
@@ -383,9 +382,12 @@ def _f(x: float, d: int = 2) -> str:
 
 
 def format_report(a: list[dict], b: dict, c: dict, servo: dict, seconds: float) -> str:
-    from campaign.bench import _md
-    from campaign.calibrate import FIGURE9_REDUCTION_BAND, TABLE4_TOLERANCE
-    from campaign.paper import load_paper
+    from campaign.bench.common import _md
+    from campaign.model.paper import load_paper
+    from campaign.pipeline.calibration_report import (
+        FIGURE9_REDUCTION_BAND,
+        TABLE4_TOLERANCE,
+    )
 
     paper = load_paper()
     rows_b = b["rows"]
@@ -401,7 +403,7 @@ def format_report(a: list[dict], b: dict, c: dict, servo: dict, seconds: float) 
     ashort = [r for r in a if r["scale"] == max(x["scale"] for x in a)]
     lo_t, hi_t = FIGURE9_REDUCTION_BAND
     pl = c["paper_lambda"]
-    from campaign.scene import load_rig
+    from campaign.scene.description import load_rig
     rig = load_rig()[0]
     lo_f, hi_f = paper["impact_force_range_N"]
     lo_v, hi_v = paper["impact_speed_range_m_s"]
@@ -410,7 +412,7 @@ def format_report(a: list[dict], b: dict, c: dict, servo: dict, seconds: float) 
          "Table 4 and why its Low-vs-High reduction misses Figure 9. Script: `benchmarks/flexible_validation.py` "
          "(its docstring describes the parts). m* *truth*: `m_b (v_b - v'_b) / (v'_a - v_a)` from the simulator's "
          "exact edge velocities; *identified*: `campaign.identify` on the measured channels; *eq 8*: "
-         "`campaign.tables.flexible_prediction` with the trial's emulated base; *eq 8 + K, B*: the same linear "
+         "`campaign.report.tables.flexible_prediction` with the trial's emulated base; *eq 8 + K, B*: the same linear "
          "model with the structure's tip stiffness K and damping B kept, driven by the trial's measured contact "
          "force (`eq8_with_structure`); T_c the contact duration; f_1 the structure's first mode with the arm on "
          "top (T_1 = 1/f_1).", "",
@@ -536,7 +538,7 @@ def format_report(a: list[dict], b: dict, c: dict, servo: dict, seconds: float) 
           f"Campaign structure, VES loop, {FIG9_SPEED:g} m/s (the campaign's Figure 9 trials). *passed*: the share of "
           "the contact impulse P the arm has pushed into the platform (F/T force along n, integrated) by the contact "
           "end and by the base's peak. *eq 8 impulsive*: reduction of the base velocity right after an impulsive "
-          "contact, `(M + lambda)^-1 J^T n P` with P from eq 14 (`campaign.calibrate.impulsive_base_speed`), for the "
+          "contact, `(M + lambda)^-1 J^T n P` with P from eq 14 (`campaign.pipeline.calibration_report.impulsive_base_speed`), for the "
           "rig's identified lambda, the paper's Table 3 lambda, and free (lambda = 0) against locked joints.", ""]
     rows = []
     for cfg, v in c["configs"].items():

@@ -47,9 +47,9 @@ import numpy as np
 
 from campaign.bench import truth_m_impulse
 from campaign.identify import IdentifyOptions, identify_trial
+from campaign.model.robot import load_robot
 from campaign.rig.simulate import simulate
-from campaign.robot import load_robot
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 GAINS = ("zero", "low", "high")
 SPEEDS = (1.0, 1.5, 2.0, 2.5)

@@ -8,7 +8,7 @@ Two tables from a finished ``snakemake designed`` (``results/designed``):
    beside the constant lambda the designed trials give; joints that never slip during the
    contact are marked "held".
 2. **Ablation (measured channels only).** Held-out m* errors of the joint impedance model
-   (:mod:`campaign.impedance_fit`) fitted on the designed trials with parts of it removed:
+   (:mod:`campaign.joints.impedance`) fitted on the designed trials with parts of it removed:
    Coulomb friction, the servo's gains, the measured pulse shape (a half-sine instead).
 
 Usage::
@@ -28,7 +28,7 @@ CLASSES = {"zero_low": ("zero", "low"), "high": ("high",)}
 
 
 def _rows(folder, role, gains):
-    from campaign.runner import read_identification
+    from campaign.identify.table import read_identification
 
     return [r for g in gains for r in read_identification([Path(folder) / "identification" / f"{role}_{g}.csv"])
             if not r["excluded"]]
@@ -37,9 +37,9 @@ def _rows(folder, role, gains):
 def diagnosis(folder) -> None:
     import h5py
 
-    from campaign.designed import _fit, _paper_deg
-    from campaign.fit import design_arrays
-    from campaign.robot import load_robot
+    from campaign.design.designed_campaign import _fit, _paper_deg
+    from campaign.joints.lambda_fit import design_arrays
+    from campaign.model.robot import load_robot
 
     robot = load_robot("puma560")
     stick = 1e-4      # rad/s: the rig's stick velocity (config/rig.yaml, arm.stick_velocity)
@@ -71,11 +71,16 @@ def diagnosis(folder) -> None:
 def ablation(folder) -> None:
     from scipy.optimize import least_squares
 
-    from campaign.designed import _impedance_arrays
-    from campaign.fit import design_arrays
-    from campaign.impedance_fit import (ImpedanceFit, apparent_mass, half_sine_shape, measured_pulse_shape,
-                                        pulse_compliance)
-    from campaign.robot import load_robot
+    from campaign.design.designed_campaign import _impedance_arrays
+    from campaign.joints.impedance import (
+        ImpedanceFit,
+        apparent_mass,
+        half_sine_shape,
+        measured_pulse_shape,
+        pulse_compliance,
+    )
+    from campaign.joints.lambda_fit import design_arrays
+    from campaign.model.robot import load_robot
 
     robot = load_robot("puma560")
     gains_all = tuple(g for gs in CLASSES.values() for g in gs)

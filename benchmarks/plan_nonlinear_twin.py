@@ -1,6 +1,6 @@
 """The planner's linearisation against the arm's full nonlinear dynamics, on the rig's worst cell.
 
-The planner's structure term (``campaign.post_contact``) is linear about the struck pose, so
+The planner's structure term (``campaign.plan.post_contact``) is linear about the struck pose, so
 its peaks are even in the impact direction n, while on the rig candidates that differ only by
 the sign of n measure apart. This script integrates a nonlinear twin of exactly the planner's
 system: the same arm on the same free base (Pinocchio's free-flyer model, ABA), the structure's
@@ -38,8 +38,8 @@ def twin_peak(planner, i: int, g: int, d: int, *, dt: float = 2e-4) -> float:
     nonlinear dynamics (classical RK4 on the configuration manifold, step ``dt`` [s])."""
     import pinocchio as pin
 
+    from campaign.model.robot.floating import attach_to_floating_base
     from campaign.rig.contact import Contact, pulse_shape
-    from campaign.robot.floating import attach_to_floating_base
 
     P = planner.predictions_
     frobot = attach_to_floating_base(planner.robot, planner.beam.base_body())
@@ -83,7 +83,7 @@ def twin_peak(planner, i: int, g: int, d: int, *, dt: float = 2e-4) -> float:
         v = v + dt / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4)
         peak = max(peak, float(np.linalg.norm(q[:3] - q0[:3])))
     if not np.isfinite(peak):
-        from campaign.errors import SimulationError
+        from campaign.core.errors import SimulationError
         raise SimulationError(f"nonlinear twin diverged at pose {i}, gain class {g}, direction {d}")
     return peak
 
@@ -114,9 +114,9 @@ def compare(speed: float, head_mass: float, *, n_dirs: int = 4, dt: float = 2e-4
     apart) the twin has larger on the same side, and the twin over the planner."""
     import plan_rig_check as prc
 
-    from campaign.commands.plan import build_planner
-    from campaign.paper import load_paper
-    from campaign.plan import horizontal_directions
+    from campaign.model.paper import load_paper
+    from campaign.plan.factory import build_planner
+    from campaign.plan.planner import horizontal_directions
 
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     name = "config 1 wrist centre"
@@ -176,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     body = "\n".join([
         f"Configuration 1's point, the space-class structure, m_b = {m_b:.3g} kg at {args.speed:g} m/s, every "
         "branch x gain set x 4 horizontal directions (the rig check's cell where the planner's Spearman is "
-        "lowest): the rig, the planner (linear about the struck pose, `campaign.post_contact`) and a nonlinear "
+        "lowest): the rig, the planner (linear about the struck pose, `campaign.plan.post_contact`) and a nonlinear "
         "twin of the planner's system (the same arm on the same free base with Pinocchio's full nonlinear "
         "dynamics, the same structure, servo PD, viscous friction, gravity and contact pulse; no Coulomb "
         "friction, as in the planner). `largest +-n difference`: between two candidates that differ only by "

@@ -4,10 +4,10 @@ For each contact point, every candidate of the planner (every IK branch x gain s
 direction) is simulated on the VES-II rig (``campaign.rig.simulate.simulate_arrays``) at one
 impact speed, and the rig's peak contact force (fixed base, simulator truth ``f_contact``)
 and peak base displacement (flexible base, truth ``base_position``, translation) are set
-beside the planner's predictions (``campaign.plan``: the peak force of the contact law at
-the reduced mass of the arm's apparent mass over the compression, ``campaign.compression``;
+beside the planner's predictions (``campaign.plan.planner``: the peak force of the contact law at
+the reduced mass of the arm's apparent mass over the compression, ``campaign.plan.compression``;
 on the flexible base the structure's response to the contact's pulse with the arm's motion
-under it and after it, ``campaign.post_contact``), and beside the same with the impulse at
+under it and after it, ``campaign.plan.post_contact``), and beside the same with the impulse at
 once (the peak force at the reduced mass of eq 7's m* with lambda; eq 8's release with the
 arm's post-contact motion) and eq 8's release alone.
 Gain sets zero, low and high carry the paper's Table 3 lambda of their class (zero_low,
@@ -20,7 +20,7 @@ candidates that differ only by the sign of n measure apart, with and without the
 Coulomb friction and gravity and at lower speeds, which the planner's terms (linear about the
 struck pose) predict equal.
 
-Directions: the paper's n only, unless :func:`campaign.scene.make_scene` takes a
+Directions: the paper's n only, unless :func:`campaign.scene.description.make_scene` takes a
 ``direction`` (the rig striking along any horizontal direction); then ``--directions``
 horizontal ones. Candidates the rig refuses (the pendulum cannot strike the pose, the hammer
 would not rebound) are counted and left out.
@@ -61,9 +61,9 @@ GAIN_CLASS = {"zero": "zero_low", "low": "zero_low", "high": "high"}
 
 
 def contact_points():
-    from campaign.paper import configuration_q
-    from campaign.robot import load_robot
-    from campaign.robot.ik import impact_point
+    from campaign.model.paper import configuration_q
+    from campaign.model.robot import load_robot
+    from campaign.model.robot.ik import impact_point
 
     robot = load_robot("puma560")
     out = {}
@@ -74,7 +74,7 @@ def contact_points():
 
 
 def rig_takes_directions() -> bool:
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     return "direction" in inspect.signature(make_scene).parameters
 
 
@@ -88,10 +88,10 @@ def with_structure(params, structure):
 
 def simulate_truth(base: str, q_dh, gain: str, n, speed: float, params=None):
     """(simulator truth, scene, None) of one rig trial, or (None, None, refusal reason)."""
-    from campaign.errors import InputError
-    from campaign.paper import impact_direction, load_paper
+    from campaign.core.errors import InputError
+    from campaign.model.paper import impact_direction, load_paper
     from campaign.rig.simulate import simulate_arrays
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     q_paper = np.degrees(q_dh) - np.asarray(load_paper()["offset_deg"], dtype=float)
     kw = dict(base=base, config=None, gain=gain, speed=speed, q_paper_deg=[float(x) for x in q_paper],
@@ -124,7 +124,7 @@ def measure(base: str, q_dh, gain: str, n, speed: float, params=None, *, duratio
 def hammer_mass(params=None) -> float:
     """Effective mass m_b of the rig's hammer [kg] with the parameter overrides."""
     from campaign.rig.pendulum import Pendulum
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     p = make_scene(params=params).p
     return Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
@@ -135,8 +135,8 @@ def check_point(name: str, point, *, directions, speed: float, params=None, base
                 gains=tuple(GAIN_CLASS)) -> list[dict]:
     """Simulate every branch x gain set (``gains``) x direction at ``point`` on each of ``bases``
     and score the planner's predictions against the rig's measurements (one row per base)."""
-    from campaign.commands.plan import build_planner
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
+    from campaign.plan.factory import build_planner
 
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     rows = []
@@ -234,13 +234,13 @@ def impulsive_limit(speed: float) -> list[str]:
     """Configuration 1, passive arm (no gravity, friction or servo: lambda = 0), contact 1x and
     100x stiffer than calibrated, ideal coupling and the VES-II loop: the rig's peak base
     displacement against the prediction, as the contact becomes impulsive."""
-    from campaign.paper import configuration_q
-    from campaign.plan import pose_terms, predict
+    from campaign.model.paper import configuration_q
+    from campaign.model.robot import load_robot
+    from campaign.plan.planner import pose_terms, predict
     from campaign.rig.beam import Beam
     from campaign.rig.contact import Contact
     from campaign.rig.simulate import simulate_arrays
-    from campaign.robot import load_robot
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     robot = load_robot("puma560")
     lines = ["| contact stiffness | coupling | contact [ms] | predicted [mm] | measured [mm] | predicted / measured |",
@@ -275,7 +275,7 @@ def passive_check(speed: float, directions) -> list[str]:
     the rig's peak base displacement against the prediction over every branch x direction, with
     the arm's joints free after the impact (the post-contact term without servo, friction or
     gravity) and with eq 8's release alone (the arm locked after the impact)."""
-    from campaign.commands.plan import build_planner
+    from campaign.plan.factory import build_planner
 
     lines = ["| point | structure | candidates | predicted / measured | Spearman | best / worst measured | "
              "eq 8 release alone: predicted / measured | Spearman | best / worst |",
@@ -308,8 +308,8 @@ def coulomb_check(speed: float, directions) -> tuple[str, str]:
     """Measured / predicted of the zero gain set's candidates along +-y at the side point (space-class
     structure, the rig's hammer) with the rig's Coulomb friction and without it (the planner's
     linear arm has none): the two spans."""
-    from campaign.commands.plan import build_planner
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
+    from campaign.plan.factory import build_planner
 
     zero_low = [float(v) for v in load_paper()["table3"]["zero_low"]]
     spans = []
@@ -354,8 +354,8 @@ def sign_asymmetry(speed: float, directions, params=None, *, speeds=(0.5, 1.0), 
     and gain set: the largest relative difference between the measured peaks of a +-n pair (same
     branch), and the arm's largest joint excursion from the struck pose up to the structure's peak
     (a table's rows)."""
-    from campaign.robot import load_robot
-    from campaign.robot.ik import position_branches
+    from campaign.model.robot import load_robot
+    from campaign.model.robot.ik import position_branches
 
     point = contact_points()["config 1 wrist centre"]
     qs = position_branches(load_robot("puma560"), point).q
@@ -420,9 +420,9 @@ def verdicts(rows: list[dict]) -> list[str]:
 def smallest_free_meff(directions) -> float:
     """The smallest free effective mass (eq 11, lambda = 0) over every branch x direction of the
     contact points [kg]: the rig strikes only objects lighter than it."""
-    from campaign.exiit import effective_mass
-    from campaign.robot import load_robot
-    from campaign.robot.ik import position_branches
+    from campaign.model.exiit import effective_mass
+    from campaign.model.robot import load_robot
+    from campaign.model.robot.ik import position_branches
 
     robot = load_robot("puma560")
     return min(effective_mass(robot, q, n) for p in contact_points().values()
@@ -440,12 +440,12 @@ def contact_peak_fraction() -> float:
 
 
 def make_scene_p(params=None):
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     return make_scene(params=params).p
 
 
 def make_head(params=None) -> float:
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     return float(make_scene(params=params).p("pendulum.head_mass"))
 
 
@@ -512,8 +512,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from campaign import __version__
-    from campaign.paper import impact_direction
-    from campaign.plan import horizontal_directions
+    from campaign.model.paper import impact_direction
+    from campaign.plan.planner import horizontal_directions
 
     any_direction = rig_takes_directions()
     directions = horizontal_directions(args.directions) if any_direction else impact_direction()[None]
@@ -584,11 +584,11 @@ def main(argv: list[str] | None = None) -> int:
         "`best / worst measured`: the measured value of the planner's best candidate over the largest measured "
         "value; `contact`: the median contact duration. The contact is a pulse of finite duration: on the fixed "
         "base the peak force is the contact law's at the reduced mass of the arm's apparent mass over the "
-        "compression (`campaign.compression`: the joints under the servo's PD and viscous friction, pushed by "
+        "compression (`campaign.plan.compression`: the joints under the servo's PD and viscous friction, pushed by "
         "the contact law's pulse up to its peak); on the flexible base the prediction is the structure's "
         "response to eq 14's impulse spread over the contact law's pulse, a force on the linearised arm on "
         "the structure under the servo's PD, viscous friction and gravity, followed over one first-mode period "
-        "(`campaign.post_contact`). `impulse at once`: the same candidates ranked with the impulse arriving "
+        "(`campaign.plan.post_contact`). `impulse at once`: the same candidates ranked with the impulse arriving "
         "at once (the peak force at the reduced mass of eq 7's m* with Table 3's lambda; eq 8's release with "
         "the arm's post-contact motion); the last two columns rank by eq 8's release alone (the structure's "
         "modes released with eq 8's base velocity change).",

@@ -7,11 +7,11 @@ inside the Shuttle RMS's published unloaded 0.35-0.71 Hz). This benchmark runs b
 A. Table 4 under both structures. lambda is identified per gain class from the rig's own
    fixed-base trials (configurations 1-3, 1.5 and 2.5 m/s), as Tables 3-4 do; each Table 4
    cell is simulated at the same speeds and identified from its measured channels
-   (``campaign.identify``); eq 8 (``campaign.tables.flexible_prediction``, the trial's
+   (``campaign.identify``); eq 8 (``campaign.report.tables.flexible_prediction``, the trial's
    emulated base) uses that lambda. Beside: the paper's experiment and eq 8 columns.
 B. Figure 9's Low-vs-High reduction of the peak base displacement (2.5 m/s), per structure,
    with eq 8's own prediction of it (base velocity right after an impulsive contact,
-   ``campaign.calibrate.impulsive_base_speed``, identified lambda); then, on the space-class
+   ``campaign.pipeline.calibration_report.impulsive_base_speed``, identified lambda); then, on the space-class
    structure, what in the paper's set-up could give 20-30 %: a heavier hammer, other impact
    speeds, and other ways of reading the peak.
 C. Validity map of eq 8: identified m* / eq 8 against the contact duration over the
@@ -36,7 +36,6 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime
-import math
 import os
 import platform
 import sys
@@ -77,10 +76,10 @@ def structure(name: str, **more) -> dict:
 # lambda from the rig's fixed base
 # ----------------------------------------------------------------------------------------
 def identified_lambda(log) -> dict:
-    from campaign.fit import IdentifiabilityWarning
-    from campaign.paper import load_paper
-    from campaign.robot import load_robot
-    from campaign.tables import fit_gain_classes
+    from campaign.joints.lambda_fit import IdentifiabilityWarning
+    from campaign.model.paper import load_paper
+    from campaign.model.robot import load_robot
+    from campaign.report.tables import fit_gain_classes
 
     paper = load_paper()
     fixed = [fv.run_trial(base="fixed", config=c, gain=g, speed=v)
@@ -107,8 +106,8 @@ def _run(structure_name: str, config: int, gain: str, speed: float, **params) ->
 # A, B: Table 4 and Figure 9 under both structures
 # ----------------------------------------------------------------------------------------
 def table4(lam: dict, log) -> dict:
-    from campaign.paper import load_paper
-    from campaign.robot import load_robot
+    from campaign.model.paper import load_paper
+    from campaign.model.robot import load_robot
 
     robot = load_robot()
     paper = load_paper()
@@ -147,7 +146,7 @@ def _peak_readings(trial: dict) -> dict:
 
 
 def figure9(lam: dict, a: dict, log) -> dict:
-    from campaign.robot import load_robot
+    from campaign.model.robot import load_robot
 
     robot = load_robot()
     iv = SPEEDS.index(FIG9_SPEED)
@@ -168,7 +167,7 @@ def figure9(lam: dict, a: dict, log) -> dict:
             log(f"B {s} config {c}: reduction {100 * out['structures'][(s, c)]['reduction']:.1f} %, eq 8 "
                 f"{100 * out['structures'][(s, c)]['eq8']:.1f} %")
     # what in the set-up could give 20-30 %: hammer mass, speed, peak reading (space class)
-    from campaign.scene import load_rig
+    from campaign.scene.description import load_rig
     head0 = float(load_rig()[0]["pendulum.head_mass"])
     for head in HEAD_SCALES:
         for speed in FIG9_SPEEDS:
@@ -207,12 +206,12 @@ def base_fit() -> dict:
     Low included, unweighted) and the space-class base's own residuals."""
     from scipy.optimize import least_squares
 
-    from campaign.exiit import effective_mass_from_G, exiit_floating
-    from campaign.paper import configuration_q, impact_direction, load_paper
+    from campaign.model.exiit import effective_mass_from_G, exiit_floating
+    from campaign.model.paper import configuration_q, impact_direction, load_paper
+    from campaign.model.robot import load_robot
+    from campaign.model.robot.floating import BaseBody, attach_to_floating_base
     from campaign.rig.beam import Beam
-    from campaign.robot import load_robot
-    from campaign.robot.floating import BaseBody, attach_to_floating_base
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     paper = load_paper()
     robot = load_robot()
@@ -256,9 +255,9 @@ def base_fit() -> dict:
 # C: validity map
 # ----------------------------------------------------------------------------------------
 def validity_map(lam: dict, log) -> list[dict]:
-    from campaign.errors import InputError
-    from campaign.robot import load_robot
-    from campaign.scene import load_rig
+    from campaign.core.errors import InputError
+    from campaign.model.robot import load_robot
+    from campaign.scene.description import load_rig
 
     robot = load_robot()
     ei0 = float(load_rig()[0]["flexible.beam_EI"])
@@ -290,7 +289,7 @@ def validity_map(lam: dict, log) -> list[dict]:
 
 def holds_below(rows, key: str = "identified") -> float:
     """Largest T_c/T_1 below which every point's ``key`` / eq 8 is within TOLERANCE."""
-    from campaign.figures.validity import holds_below as _holds
+    from campaign.report.figures.validity import holds_below as _holds
 
     return _holds(rows, key=key, tolerance=TOLERANCE)
 
@@ -325,8 +324,8 @@ def write_structures_csv(a: dict, b: dict, path) -> None:
 
 
 def draw_map(rows, png) -> None:
-    from campaign.figures import style
-    from campaign.figures.validity import draw_validity
+    from campaign.report.figures import style
+    from campaign.report.figures.validity import draw_validity
 
     style.save(draw_validity(rows, tolerance=TOLERANCE), png)
 
@@ -336,7 +335,7 @@ def draw_map(rows, png) -> None:
 # ----------------------------------------------------------------------------------------
 def trial_cost(log, repeats: int = 3) -> dict:
     from campaign.rig import simulate_arrays
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     out = {}
     for c, g in CELLS:
@@ -395,8 +394,8 @@ def _pct(x: float) -> str:
 
 
 def format_report(lam, a, b, vmap, cost, fit, seconds) -> str:
-    from campaign.bench import _md
-    from campaign.paper import load_paper
+    from campaign.bench.common import _md
+    from campaign.model.paper import load_paper
 
     paper = load_paper()
     lo_p, hi_p = (float(x) for x in paper["figure9_low_vs_high_reduction"])
@@ -423,12 +422,12 @@ def format_report(lam, a, b, vmap, cost, fit, seconds) -> str:
          f"{', '.join(f'{v:g}' for v in SPEEDS)} m/s): "
          + "; ".join(f"{cls} {np.round(f.lambda_, 3).tolist()} kg m^2" for cls, f in lam["fits"].items()) + ".", ""]
     L += ["### Findings", ""]
-    L += [f"1. **Table 4, space class against the paper's experiment:** "
+    L += ["1. **Table 4, space class against the paper's experiment:** "
           + ", ".join(f"{r['config']}-{r['gain']} {_pct(r['ident'] / r['paper'] - 1)}" for r in sp)
           + f" ({sum(ok15)} of 4 within 15 %; ordering configuration 2 above 1 and High above Low "
           + ("kept" if order else "not kept") + "). Stiff mast: "
           + ", ".join(f"{r['config']}-{r['gain']} {_pct(r['ident'] / r['paper'] - 1)}" for r in st) + ".",
-          f"2. **Eq 8 against the identified m*:** space class "
+          "2. **Eq 8 against the identified m*:** space class "
           + ", ".join(f"{r['config']}-{r['gain']} {_pct(r['ident'] / r['m8'] - 1)}" for r in sp)
           + f" ({sum(ok5)} of 4 within 5 %) at T_c/T_1 = {min(r['ratio'] for r in sp):.3f}-"
           f"{max(r['ratio'] for r in sp):.3f}; stiff mast "
@@ -564,7 +563,7 @@ def _passive_at(vmap, s: str, ei: float) -> tuple[float, float]:
 def _records() -> str:
     """Each structure's recording after the touch (trial_periods first-mode periods)."""
     from campaign.rig import build
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     out = []
     for s in STRUCTURES:

@@ -36,6 +36,7 @@ import sys
 from pathlib import Path
 
 from campaign import bench
+from campaign.bench.stress import stress_summary
 
 HEADING = "## Stress suite"
 
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.only:
         cases = [c for c in cases if args.only in c.axis or args.only in c.label]
     results = bench.run_stress(cases, log=log)
-    s = bench.stress_summary(results)
+    s = stress_summary(results)
     total = sum(r.seconds for r in results)
     parts = [INTRO, bench.format_stress(results),
              f"{s['run']} cases in {total:.0f} s: **{s['passed']} passed** ({s['excluded']} excluded by "

@@ -35,6 +35,11 @@ import sys
 from pathlib import Path
 
 from campaign import bench
+from campaign.bench.work_precision import (
+    assign_fronts,
+    format_wp_references,
+    wp_verdict,
+)
 
 WP_HEADING = "## Work-precision"
 COST_HEADING = "## Per-trial cost"
@@ -78,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.json:
             import json
 
-            from campaign.commands.bench import _jsonable
+            from campaign.cli.bench import _jsonable
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.write_text(json.dumps(_jsonable(partial), indent=1))
 
@@ -138,20 +143,20 @@ def load_results(paths) -> dict:
     res["scenes"].sort(key=lambda sc: order.index(sc["label"]) if sc["label"] in order else 99)
     res["rows"].sort(key=lambda r: order.index(r["scene"]) if r["scene"] in order else 99)
     for sc in res["scenes"]:
-        bench.assign_fronts([r for r in res["rows"] if r["scene"] == sc["label"]])
+        assign_fronts([r for r in res["rows"] if r["scene"] == sc["label"]])
     return res
 
 
 def render(res, args) -> str:
     png = bench.plot_work_precision(res, args.png) if args.png else None
-    verdict = "\n".join(bench.wp_verdict(res))
+    verdict = "\n".join(wp_verdict(res))
     skipped = ("\n\nNot run: " + "; ".join(f"{a} ({b})" for a, b in res["skipped"])) if res["skipped"] else ""
     plot = ""
     if png:
         rel = png.name if args.readme and png.resolve().parent == args.readme.resolve().parent else png
         plot = f"\n\n![work-precision]({rel})"
     wp_body = "\n\n".join([
-        WP_INTRO, bench.format_wp_table(res), bench.format_wp_references(res),
+        WP_INTRO, bench.format_wp_table(res), format_wp_references(res),
         "Verdict per scene (default setting):\n\n" + verdict + skipped + (f"\n\n{args.note}" if args.note else "") + plot,
         bench.machine_line() + f" Repeats per setting: {res['repeats']} (flexible: 3; naive: half). Rerun: "
         "`.venv/bin/python benchmarks/work_precision.py --readme benchmarks/README.md --png "

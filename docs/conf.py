@@ -101,7 +101,7 @@ def _skip_member(app, what, name, obj, skip, options):
     package's re-export of a function that
     has the name of the submodule defining it (``campaign.rig.simulate``, function and
     module, would be one target twice; the function stays on its module's page)."""
-    from campaign._lazy import LazyModule
+    from campaign.core.lazy import LazyModule
 
     if isinstance(obj, LazyModule):
         return True

@@ -7,8 +7,8 @@ import pinocchio as pin
 import pytest
 from hypothesis import settings
 
-from campaign.robot import load_robot
-from campaign.robot.floating import BaseBody
+from campaign.model.robot import load_robot
+from campaign.model.robot.floating import BaseBody
 
 # Pinocchio's first calls are slower than the rest; a per-example deadline would flake.
 settings.register_profile("campaign", deadline=None, max_examples=60)

@@ -1,4 +1,4 @@
-"""Synthetic trials that follow ``campaign/schema.py``, for tests that must not wait for the rig.
+"""Synthetic trials that follow ``campaign/scene/schema.py``, for tests that must not wait for the rig.
 
 :func:`synthetic_trial` builds the ``xarray.DataTree`` the rig returns (groups ``measured``
 and ``truth``, one float64 time coordinate per clock, ``units``/``long_name`` on every
@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import xarray as xr
 
-from campaign.scene import Scene, make_scene
-from campaign.schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
+from campaign.scene.description import Scene, make_scene
+from campaign.scene.schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
 
 __all__ = ["synthetic_trial", "synthetic_scene", "JOINTS"]
 
@@ -24,7 +24,7 @@ JOINTS = ("j1", "j2", "j3")
 
 def synthetic_scene(*, base: str = "fixed", config: int = 1, gain: str = "zero", speed: float = 1.5,
                     repeat: int = 0, seed: int | None = None) -> Scene:
-    """A real, validated :class:`~campaign.scene.Scene` of the given cell (rig file defaults)."""
+    """A real, validated :class:`~campaign.scene.description.Scene` of the given cell (rig file defaults)."""
     return make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat, seed=seed)
 
 
@@ -67,7 +67,7 @@ def synthetic_trial(*, base: str = "fixed", config: int = 1, gain: str = "zero",
     Parameters
     ----------
     base, config, gain, speed, repeat, seed
-        The campaign cell (see :func:`campaign.scene.make_scene`); ignored when ``scene`` is given.
+        The campaign cell (see :func:`campaign.scene.description.make_scene`); ignored when ``scene`` is given.
     duration : float
         Recording length [s]; each clock gets ``duration * rate`` samples at its scene rate.
     joints : tuple of str

@@ -51,16 +51,15 @@ import json
 import numpy as np
 import pinocchio as pin
 import xarray as xr
-
-from campaign.schema import SCHEMA_VERSION
 from scipy.integrate import solve_ivp
 from scipy.signal import cont2discrete, lfilter
 
 from campaign.bench import truth_m_impulse as _truth_m_impulse
-from campaign.exiit import impact_jacobian, inertia, lambda_matrix, unit_direction
-from campaign.paper import configuration_q
-from campaign.robot import load_robot
-from campaign.robot.floating import BaseBody, attach_to_floating_base
+from campaign.model.exiit import impact_jacobian, inertia, lambda_matrix, unit_direction
+from campaign.model.paper import configuration_q
+from campaign.model.robot import load_robot
+from campaign.model.robot.floating import BaseBody, attach_to_floating_base
+from campaign.scene.schema import SCHEMA_VERSION
 
 __all__ = ["DECAYS", "Spec", "SyntheticTrial", "cached_trial", "make_trial", "truth_m_e", "truth_m_impulse",
            "write_trial"]
@@ -208,7 +207,7 @@ def _robot(name: str):
 
 @functools.lru_cache(maxsize=32)
 def _scene(base: str, config: int, gain: str):
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     return make_scene(base=base, config=config, gain=gain)
 

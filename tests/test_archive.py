@@ -21,17 +21,27 @@ import h5py
 import numpy as np
 import pytest
 import xarray as xr
+from synthetic import synthetic_trial
 
+import campaign.archive.read
 from campaign import archive
 from campaign.archive import (
-    finalize_campaign, list_trials, open_campaign, open_trial, open_trial_tree, prepare_trial, to_cell_dataset,
-    trial_path, verify, write_trial,
+    finalize_campaign,
+    list_trials,
+    open_campaign,
+    open_trial,
+    open_trial_tree,
+    prepare_trial,
+    to_cell_dataset,
+    trial_path,
+    verify,
+    write_trial,
 )
-from campaign.cli import main as cli_main
-from campaign.errors import InputError, TrialFileError
-from campaign.schema import CLOCKS, MEASURED, SCHEMA_VERSION, TRUTH, variables
-
-from synthetic import synthetic_trial
+from campaign.archive.decode import _plain
+from campaign.archive.read import _inspect_isolated_many
+from campaign.cli.main import main as cli_main
+from campaign.core.errors import InputError, TrialFileError
+from campaign.scene.schema import CLOCKS, MEASURED, SCHEMA_VERSION, TRUTH, variables
 
 DURATION = 0.3  # s: short recordings keep every write/read in the tens of ms
 ENCODING_KEYS = ("dtype", "zlib", "complevel", "shuffle", "fletcher32", "chunksizes")
@@ -72,7 +82,7 @@ def campaign(campaign_master, tmp_path):
 
 
 def _scene(tree):
-    from campaign.scene import Scene
+    from campaign.scene.description import Scene
     return Scene.from_json(tree.attrs["scene_json"])
 
 
@@ -127,7 +137,7 @@ def decoded_alike_files(tmp_path_factory):
     """Real rig trials of both bases (a flexible simulation takes about 1 s) and a trial file
     xarray writes itself."""
     from campaign.rig import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     folder = tmp_path_factory.mktemp("decoded")
     files = {base: write_trial(simulate(scene), folder / f"{base}.nc") for base, scene in (
@@ -161,7 +171,7 @@ def test_fast_reader_decodes_exactly_like_xarray(decoded_alike_files, kind):
     the result is what xarray's h5netcdf engine returns for the same file."""
     path = decoded_alike_files[kind]
     with xr.open_dataset(path, engine="h5netcdf") as root:
-        global_attrs = {k: archive._plain(v) for k, v in root.attrs.items() if k != "content_sha256"}
+        global_attrs = {k: _plain(v) for k, v in root.attrs.items() if k != "content_sha256"}
     for group in archive.GROUPS:
         with xr.open_dataset(path, engine="h5netcdf", group=group) as expected:
             expected.load()
@@ -332,7 +342,7 @@ def test_plain_arrays_are_stored_as_the_same_file_as_their_tree(tmp_path, base):
     be the one the DataTree of the same trial gives, byte for byte."""
     from campaign.rig import simulate_arrays
     from campaign.rig.simulate import to_tree
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     trial = simulate_arrays(make_scene(base=base, config=1, gain="low", speed=1.5))
     from_arrays = write_trial(trial, tmp_path / "arrays.nc")
@@ -596,7 +606,7 @@ def test_verify_reports_unlisted_and_leftover_temp_files(campaign):
 def test_verify_survives_a_file_that_crashes_the_hdf5_library(campaign, monkeypatch):
     """Some corruptions make HDF5 segfault instead of raising: verify checks each file in a child."""
     target = _first_trial(campaign)
-    real = archive._inspect
+    real = archive.read._inspect
 
     def crashing(path, **kwargs):
         if Path(path) == target:
@@ -619,7 +629,7 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
     assert len(files) >= 3
     crash, broken = files[0], files[-1]
     _drop_channel(broken)
-    real = archive._inspect
+    real = archive.read._inspect
     checkers = tmp_path / "checker-pids"
 
     def crashing(path, **kwargs):
@@ -631,7 +641,7 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
         return real(path, **kwargs)
 
     monkeypatch.setattr(archive.read, "_inspect", crashing)
-    found = archive._inspect_isolated_many(files)
+    found = _inspect_isolated_many(files)
     assert len(found) == len(files)
     assert "crashed the HDF5 library (signal 11)" in found[0][0]
     assert any("f_piezo" in p for p in found[-1])
@@ -642,7 +652,7 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
     monkeypatch.setattr(archive.read, "_inspect", real)
     calls = []
     monkeypatch.setattr(os, "fork", lambda real_fork=os.fork: calls.append(1) or real_fork())
-    archive._inspect_isolated_many(files[1:-1])
+    _inspect_isolated_many(files[1:-1])
     assert calls == [1]                  # ... and intact files cost one child in all
 
 

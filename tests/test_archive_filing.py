@@ -12,10 +12,11 @@ from pathlib import Path
 
 import pytest
 
-from campaign import runner
 from campaign.archive import finalize_campaign, verify, write_manifest
-from campaign.cli import main
-from campaign.errors import TrialFileError
+from campaign.cli.main import main
+from campaign.core.errors import TrialFileError
+from campaign.identify.table import identify_trials
+from campaign.pipeline.paths import index_cells
 
 REPO = Path(__file__).resolve().parents[1]
 HIGH = "fixed/config1/high/v1.500/r00.nc"
@@ -93,7 +94,7 @@ def test_identification_refuses_a_misfiled_trial(archive, tmp_path):
     """Reuse identifies the files its cells list: a Low trial under High stops the job, not the fit."""
     _swap(archive, HIGH, LOW)
     with pytest.raises(TrialFileError) as info:
-        runner.identify_trials([str(archive / HIGH)], tmp_path / "high.csv")
+        identify_trials([str(archive / HIGH)], tmp_path / "high.csv")
     assert str(archive / HIGH) in str(info.value) and str(archive / LOW) in str(info.value)
     assert not (tmp_path / "high.csv").exists()
 
@@ -103,4 +104,4 @@ def test_reuse_refuses_an_index_whose_row_contradicts_its_path(archive):
     text = index.read_text().replace(f"{HIGH},fixed,1,high,", f"{HIGH},fixed,1,low,", 1)
     index.write_text(text)
     with pytest.raises(ValueError, match=f"path {HIGH} contradicts its row"):
-        runner.index_cells(archive)
+        index_cells(archive)

@@ -17,9 +17,15 @@ from pathlib import Path
 import pytest
 import yaml
 
-from campaign import checks, runner
-from campaign.cli import main
-from campaign.errors import InputError
+from campaign.cli.main import main
+from campaign.core.errors import InputError
+from campaign.core.files import check_output_dir, check_output_file
+from campaign.identify.options import check_identify_options
+from campaign.identify.table import identify_trials
+from campaign.pipeline.config import check_schema, parse_typed_strings
+from campaign.pipeline.fit import fit_lambda
+from campaign.pipeline.simulate import run_cells
+from campaign.scene.checks import check_speeds, pendulum_reach
 
 REPO = Path(__file__).resolve().parents[1]
 REFERENCE = REPO / "archive" / "reference"
@@ -109,9 +115,9 @@ def test_closed_pipe_ends_quietly(tmp_path):
 
 
 def _api_cases(tmp: Path):
-    from campaign.calibrate import load_calibration
     from campaign.identify import IdentifyOptions
-    from campaign.scene import load_rig, make_scene
+    from campaign.pipeline.calibration import load_calibration
+    from campaign.scene.description import load_rig, make_scene
 
     return [
         (lambda: make_scene(speed=1.5, params={"contact.stifness": 1.0}), "contact.stifness"),
@@ -120,17 +126,17 @@ def _api_cases(tmp: Path):
         (lambda: load_rig(tmp / "broken.yaml"), "broken.yaml"),
         (lambda: load_calibration(tmp / "list.yaml"), "list.yaml"),
         (lambda: IdentifyOptions(arm_velocity="radar"), "radar"),
-        (lambda: checks.check_identify_options({"edge_modl": "line"}), "edge_modl"),
-        (lambda: checks.check_speeds([1.0001, 1.0002]), "1.0002"),
-        (lambda: checks.check_speeds([1.0, 9.0], reach=4.5), "9.0"),
-        (lambda: checks.check_output_file(tmp / "folder"), "folder"),
-        (lambda: checks.check_output_dir(tmp / "a_file"), "a_file"),
-        (lambda: runner.identify_trials([str(TRIAL)], tmp / "out.csv", options={"k_sigmaa": 3}), "k_sigmaa"),
-        (lambda: runner.fit_lambda([], tmp / "fit.json", gain_class="high", gains=["high"], options={"bogus": 1}),
+        (lambda: check_identify_options({"edge_modl": "line"}), "edge_modl"),
+        (lambda: check_speeds([1.0001, 1.0002]), "1.0002"),
+        (lambda: check_speeds([1.0, 9.0], reach=4.5), "9.0"),
+        (lambda: check_output_file(tmp / "folder"), "folder"),
+        (lambda: check_output_dir(tmp / "a_file"), "a_file"),
+        (lambda: identify_trials([str(TRIAL)], tmp / "out.csv", options={"k_sigmaa": 3}), "k_sigmaa"),
+        (lambda: fit_lambda([], tmp / "fit.json", gain_class="high", gains=["high"], options={"bogus": 1}),
          "bogus"),
-        (lambda: runner.run_cells([("fixed", 1, "zero")], archive_dir=tmp / "a", speeds=[1.0, 9.0], repeats=1),
+        (lambda: run_cells([("fixed", 1, "zero")], archive_dir=tmp / "a", speeds=[1.0, 9.0], repeats=1),
          "speed 9.0 m/s is beyond"),
-        (lambda: runner.run_cells([("fixed", 1, "zero")], archive_dir=tmp / "a", speeds=[2.0], repeats=1,
+        (lambda: run_cells([("fixed", 1, "zero")], archive_dir=tmp / "a", speeds=[2.0], repeats=1,
                                   params={"pendulum.radiu": 0.5}), "'pendulum.radiu'"),
     ]
 
@@ -209,23 +215,23 @@ def test_the_table_has_thirty_rows():
 def test_config_values_typed_on_the_command_line_parse():
     """``--config simulate=false 'speeds=[1.0,2.5]'`` arrive as strings; the schema's types read them."""
     schema = yaml.safe_load((REPO / "workflow" / "schemas" / "config.schema.yaml").read_text())
-    cfg = checks.parse_typed_strings({"simulate": "false", "speeds": ["1.0", "2.5"], "campaign": "123",
+    cfg = parse_typed_strings({"simulate": "false", "speeds": ["1.0", "2.5"], "campaign": "123",
                                       "bases": {"fixed": {"configurations": ["1"], "gains": ["zero"]}}}, schema)
     assert cfg == {"simulate": False, "speeds": [1.0, 2.5], "campaign": "123",
                    "bases": {"fixed": {"configurations": [1], "gains": ["zero"]}}}
     with pytest.raises(InputError, match="configuration key simulate: 'maybe'"):
         ci = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
-        checks.check_schema(checks.parse_typed_strings({**ci, "simulate": "maybe"}, schema), schema)
+        check_schema(parse_typed_strings({**ci, "simulate": "maybe"}, schema), schema)
 
 
 def test_the_start_up_reach_agrees_with_the_pendulum():
-    """The workflow checks speeds with campaign.scene.hammer_reach (no rig import); the
+    """The workflow checks speeds with campaign.scene.description.hammer_reach (no rig import); the
     simulated pendulum refuses exactly the speeds beyond it."""
     from campaign.rig.pendulum import Pendulum
-    from campaign.scene import load_rig
+    from campaign.scene.description import load_rig
 
     values, _ = load_rig()
-    reach = checks.pendulum_reach(values)
+    reach = pendulum_reach(values)
     pend = Pendulum(values["pendulum.head_mass"], values["pendulum.rod_mass"], values["pendulum.radius"],
                     values["gravity"], values["pendulum.max_release_deg"])
     assert 1.0 < reach < 10.0 and pend.max_speed == reach

@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 import yaml
 
-from campaign.errors import InputError, SimulationError
+from campaign.core.errors import InputError, SimulationError
+from campaign.model.paper import gain_counts
 from campaign.rig import simulate_arrays
 from campaign.rig.batch import integrate_batch, simulate_batch
 from campaign.rig.simulate import build, integration_args
-from campaign.runner import gain_counts
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -144,11 +144,13 @@ def test_the_batch_refuses_a_bad_scene_before_simulating_any():
 def test_a_failing_trial_of_a_job_is_named_and_the_others_are_written(tmp_path, monkeypatch):
     import importlib
 
-    from campaign import archive, runner
+    from campaign import archive
+    from campaign.core.vocabulary import trial_relpath
+    from campaign.pipeline.simulate import run_cells
 
-    simulate_module = importlib.import_module("campaign.rig.simulate")   # the module, not the function
+    batch_module = importlib.import_module("campaign.rig.batch")
 
-    real_build = simulate_module.build
+    real_build = batch_module.build
 
     def build_destabilised(scene, **kwargs):
         rig = real_build(scene, **kwargs)
@@ -156,14 +158,14 @@ def test_a_failing_trial_of_a_job_is_named_and_the_others_are_written(tmp_path, 
             rig.plant.viscous = -1e2 * np.abs(rig.plant.viscous)
         return rig
 
-    monkeypatch.setattr(simulate_module, "build", build_destabilised)
+    monkeypatch.setattr(batch_module, "build", build_destabilised)
     with pytest.raises(SimulationError, match=r"1 of 2 trials failed.*fixed/config1/high/v2\.500/r00: the integration "
                                               r"blew up"):
-        runner.run_cells([("fixed", 1, "high")], archive_dir=tmp_path, speeds=[1.5, 2.5], repeats=1,
+        run_cells([("fixed", 1, "high")], archive_dir=tmp_path, speeds=[1.5, 2.5], repeats=1,
                          campaign_seed=1996)
-    monkeypatch.setattr(simulate_module, "build", real_build)
-    good = tmp_path / runner.trial_relpath("fixed", 1, "high", 1.5, 0)
-    assert not (tmp_path / runner.trial_relpath("fixed", 1, "high", 2.5, 0)).exists()
+    monkeypatch.setattr(batch_module, "build", real_build)
+    good = tmp_path / trial_relpath("fixed", 1, "high", 1.5, 0)
+    assert not (tmp_path / trial_relpath("fixed", 1, "high", 2.5, 0)).exists()
     one = simulate_arrays(make_scene(config=1, gain="high", speed=1.5, gains_counts=gain_counts("high"),
                                      campaign_seed=1996))
     for group in ("measured", "truth"):
@@ -174,7 +176,7 @@ def test_a_failing_trial_of_a_job_is_named_and_the_others_are_written(tmp_path, 
 
 def test_campaign_sweep_writes_each_trial_as_campaign_trial_would_and_refuses_bad_input(tmp_path, capsys):
     from campaign import archive
-    from campaign.cli import main
+    from campaign.cli.main import main
 
     assert main(["sweep", "--configs", "2", "--gains", "low", "--speeds", "1.5,2.5", "--campaign-seed", "7",
                  "--out", str(tmp_path), "--quiet"]) == 0

@@ -8,14 +8,14 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from campaign.errors import InputError
+from campaign.core.errors import InputError
 from campaign.rig.beam import (
     Beam,
     cantilever_flexibility,
     exact_first_frequency,
     rayleigh_first_frequency,
 )
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 EI, L, M_BEAM = 2.5e8, 20.0, 200.0
 
@@ -153,8 +153,8 @@ def _arm_on_top(beam, config):
     """Composite inertia of the locked arm in a paper configuration, at the beam tip."""
     import pinocchio as pin
 
-    from campaign.paper import configuration_q
-    from campaign.robot import load_robot
+    from campaign.model.paper import configuration_q
+    from campaign.model.robot import load_robot
 
     robot = load_robot()
     data = robot.model.createData()
@@ -178,7 +178,7 @@ def test_named_structures_first_modes_with_the_arm_on_top(config):
 
 
 def test_stiff_mast_is_the_flexible_leaves_of_the_rig_file():
-    from campaign.scene import load_rig, load_structures
+    from campaign.scene.description import load_rig, load_structures
 
     values, _ = load_rig()
     scene = make_scene(base="flexible", params={"flexible.structure": "stiff_mast"})

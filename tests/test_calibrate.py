@@ -12,23 +12,26 @@ import numpy as np
 import pytest
 import yaml
 
-from campaign.calibrate import (
-    DIAGNOSIS,
-    FIGURE9_REDUCTION_BAND,
-    TABLE4_ORDER,
-    TABLE4_TOLERANCE,
+from campaign.core.errors import InputError
+from campaign.core.yamlfile import config_dir
+from campaign.model.paper import load_paper
+from campaign.pipeline.calibration import (
     CalibrationResult,
-    assess_held_out,
     force_band,
     hinge_log,
-    impulsive_base_speed,
     load_calibration,
     residual_terms,
     residuals,
     write_back,
 )
-from campaign.errors import InputError
-from campaign.paper import config_dir, load_paper
+from campaign.pipeline.calibration_report import (
+    DIAGNOSIS,
+    FIGURE9_REDUCTION_BAND,
+    TABLE4_ORDER,
+    TABLE4_TOLERANCE,
+    assess_held_out,
+    impulsive_base_speed,
+)
 
 
 @pytest.fixture(scope="module")
@@ -238,11 +241,11 @@ def test_a_figure9_reduction_is_met_inside_the_band_only():
 
 
 def test_eq8_impulsive_base_speed_grows_with_lambda_and_carries_eq_14s_factor():
-    from campaign import exiit
+    from campaign.model import exiit
+    from campaign.model.robot import load_robot
+    from campaign.model.robot.floating import attach_to_floating_base
     from campaign.rig.beam import Beam
-    from campaign.robot import load_robot
-    from campaign.robot.floating import attach_to_floating_base
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     robot = load_robot()
     paper = load_paper()
@@ -262,7 +265,7 @@ def test_campaign_report_marks_the_held_out_rows(tmp_path):
     import csv
     from pathlib import Path
 
-    from campaign.calibrate import campaign_report
+    from campaign.pipeline.calibration_report import campaign_report
 
     root = Path(__file__).resolve().parents[1]
     trials = {f"{c}-{g}": root / "archive" / "reference" / "flexible" / f"config{c}" / g / "v2.500" / "r00.nc"
@@ -297,7 +300,7 @@ def test_campaign_report_marks_the_held_out_rows(tmp_path):
 
 
 def test_calibrate_command_markdown_marks_the_held_out_rows():
-    from campaign.commands.calibrate import _markdown
+    from campaign.cli.calibrate import _markdown
 
     paper = load_paper()
     p4 = paper["table4"]

@@ -20,9 +20,9 @@ import pytest
 from compliance_checker import runner
 
 from campaign.archive import write_trial
-from campaign.errors import InputError
+from campaign.core.errors import InputError
 from campaign.rig import simulate
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 EPOCH = "1700000000"
 

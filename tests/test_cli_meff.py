@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from campaign import exiit
-from campaign.cli import main
-from campaign.paper import configuration_q
-from campaign.robot.floating import attach_to_floating_base
-from campaign.scene import load_rig
+from campaign.cli.main import main
+from campaign.model import exiit
+from campaign.model.paper import configuration_q
+from campaign.model.robot.floating import attach_to_floating_base
+from campaign.scene.description import load_rig
 
 # The paper's published Table 2 [kg].
 PAPER_TABLE2 = {
@@ -65,7 +65,7 @@ def test_a_negative_value_works_without_an_equals_sign(capsys):
 def test_flexible_base_uses_the_rigs_emulated_base(capsys, puma):
     # platform + the beam's tip share: the body the flexible rig integrates
     from campaign.rig.beam import Beam
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     base = Beam.from_scene(make_scene(base="flexible")).base_body()
     params, _ = load_rig()
     assert base.mass > params["flexible.platform_mass"]

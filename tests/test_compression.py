@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from campaign.compression import compression_mass
-from campaign.errors import InputError
-from campaign.exiit import effective_mass
-from campaign.plan import pose_terms, predict
-from campaign.post_contact import ArmAfterImpact
+from campaign.core.errors import InputError
+from campaign.model.exiit import effective_mass
+from campaign.model.robot import load_robot
+from campaign.model.robot.ik import impact_point
+from campaign.plan.compression import compression_mass
+from campaign.plan.planner import pose_terms, predict
+from campaign.plan.post_contact import ArmAfterImpact
 from campaign.rig.contact import Contact, peak_force_factor, pulse_shape
-from campaign.robot import load_robot
-from campaign.robot.ik import impact_point
 
 Q = np.radians([[-121.9, -27.4, 0.0], [30.0, 60.0, -60.0]])
 N_DIRS = np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, -0.8, 0.0]])
@@ -121,10 +121,10 @@ def test_fixed_base_peak_force_follows_the_compression_with_the_arm_model(puma):
 def test_closer_to_the_rig_than_lambdas_peak_force(puma):
     """One fixed-base rig trial with the 5 kg head (high gains, side point, -x blow): the force
     from the compression is within 3 %, lambda's over-predicts by more."""
-    from campaign.commands.plan import build_planner
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
+    from campaign.plan.factory import build_planner
     from campaign.rig.simulate import simulate_arrays
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     params = {"pendulum.head_mass": 5.0}
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
@@ -157,7 +157,7 @@ def test_bad_pulse_values_are_refused():
 
 
 def test_planner_rows_carry_the_contact_and_the_compression(puma):
-    from campaign.commands.plan import build_planner
+    from campaign.plan.factory import build_planner
 
     pl = build_planner(base="fixed", lambdas={"zero_low": [19.82, 4.62, 0.80]}, speed=2.0, mass=5.03,
                        objective="force")

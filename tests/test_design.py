@@ -12,11 +12,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from campaign.errors import InputError
-from campaign.exiit import effective_mass
-from campaign.paper import impact_direction, load_paper, paper_q
-from campaign.robot import load_robot
-from campaign.scene import (Scene, check_direction, direction_azimuth, direction_from_azimuth, make_scene)
+from campaign.core.errors import InputError
+from campaign.core.vocabulary import direction_azimuth
+from campaign.model.exiit import effective_mass
+from campaign.model.paper import impact_direction, load_paper, paper_q
+from campaign.model.robot import load_robot
+from campaign.scene.description import (
+    Scene,
+    check_direction,
+    direction_from_azimuth,
+    make_scene,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -27,7 +33,7 @@ def robot():
 
 
 def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "campaign.cli", *args], cwd=cwd, capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "campaign.cli.main", *args], cwd=cwd, capture_output=True, text=True,
                           timeout=300)
 
 
@@ -148,7 +154,7 @@ def test_trial_cli_refuses_with_one_line_exit_2_and_no_file(tmp_path, args, word
 
 # -- fits with one direction per trial ----------------------------------------------------
 def test_lambda_fit_recovers_lambda_from_trials_struck_along_several_directions(robot):
-    from campaign.fit import LambdaFit
+    from campaign.joints.lambda_fit import LambdaFit
 
     lam = np.array([2.0, 3.0, 0.8])
     rng = np.random.default_rng(3)
@@ -164,7 +170,7 @@ def test_lambda_fit_recovers_lambda_from_trials_struck_along_several_directions(
 
 # -- the design ---------------------------------------------------------------------------
 def test_error_model_fit_recovers_its_coefficients_from_seeded_errors():
-    from campaign.design import ErrorModel
+    from campaign.design.designer import ErrorModel
 
     # both terms matter over this range: b x runs from 0.5 a to 8 a
     rng = np.random.default_rng(0)
@@ -180,7 +186,7 @@ def test_error_model_fit_recovers_its_coefficients_from_seeded_errors():
 
 
 def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot):
-    from campaign.design import ErrorModel, ExperimentDesign
+    from campaign.design.designer import ErrorModel, ExperimentDesign
 
     lam = np.array([19.82, 4.62, 0.80])
     em = ErrorModel(a=0.01, b=1e-4)
@@ -203,7 +209,13 @@ def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot)
 
 
 def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):
-    from campaign.design import ErrorModel, ExperimentDesign, feasible, grid_candidates, paper_design
+    from campaign.design.designer import (
+        ErrorModel,
+        ExperimentDesign,
+        feasible,
+        grid_candidates,
+        paper_design,
+    )
 
     Q, D = grid_candidates(q1=(0.0,), q2=(90.0, 135.0, 180.0), q3=(0.0, 90.0, 135.0), azimuths=(0.0, 60.0, 120.0))
     ok, reasons = feasible(robot, Q, D, speed=2.5)
@@ -216,7 +228,7 @@ def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):
     assert np.all(est.relative_ci_ < np.array(paper["relative_ci"]))
     assert est.condition_number_ < paper["condition_number"] / 10
     # the exchange stops at a local optimum: no single swap of a chosen pose is better
-    from campaign.design import _arrays, _criterion, _rows
+    from campaign.design.designer import _arrays, _criterion, _rows
     S, m = _rows(*_arrays(robot, Q[ok], D[ok]), np.array([19.82, 4.62, 0.80]))
     Fi = est._information(S, m)
     best = est.criterion_value_
@@ -245,8 +257,8 @@ def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
 
 # -- lambda + Coulomb impulse -------------------------------------------------------------
 def test_apparent_mass_without_friction_is_eq_11_and_the_fit_recovers_its_parameters(robot):
-    from campaign.coulomb_fit import CoulombLambdaFit, apparent_mass
-    from campaign.fit import design_arrays
+    from campaign.joints.coulomb import CoulombLambdaFit, apparent_mass
+    from campaign.joints.lambda_fit import design_arrays
 
     lam, kappa = np.array([1.0, 2.0, 0.8]), np.array([0.1, 0.05, 0.02])
     qp = np.array([[0, 150, 90], [45, 120, 135], [-45, 180, 0], [0, 90, 90], [30, 160, 60], [-30, 130, 100]], float)

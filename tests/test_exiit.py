@@ -13,10 +13,10 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from campaign import exiit
-from campaign.paper import configuration_q, impact_direction, load_paper
-from campaign.robot.floating import BaseBody, attach_to_floating_base
-from campaign.scene import load_rig
+from campaign.model import exiit
+from campaign.model.paper import configuration_q, impact_direction, load_paper
+from campaign.model.robot.floating import BaseBody, attach_to_floating_base
+from campaign.scene.description import load_rig
 
 # The paper's published values (Yoshida, Mavroidis & Dubowsky, Tables 2 and 3).
 PAPER_M1 = {1: 6.99, 2: 19.66, 3: 4.96}      # kg, eq 11 with lambda = 0
@@ -53,7 +53,7 @@ def planar_odd(planar, odd_base):
 
 def puma_q():
     """Joint angles inside the PUMA's limits (DH, rad), drawn per joint."""
-    from campaign.robot import load_robot
+    from campaign.model.robot import load_robot
 
     r = load_robot("puma560")
     return st.tuples(*(st.floats(float(lo), float(hi)) for lo, hi in zip(r.q_lower, r.q_upper))).map(np.array)

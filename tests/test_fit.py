@@ -1,4 +1,4 @@
-"""Lambda fit (campaign.fit.LambdaFit): recovery, confidence intervals, identifiability."""
+"""Lambda fit (campaign.joints.lambda_fit.LambdaFit): recovery, confidence intervals, identifiability."""
 
 from __future__ import annotations
 
@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 from synthetic_impact import cached_trial, truth_m_e, truth_m_impulse
 
-from campaign.errors import InputError
-from campaign.exiit import effective_mass_batch
-from campaign.fit import (
+from campaign.core.errors import InputError
+from campaign.identify import IdentifyOptions, identify_trial
+from campaign.joints.lambda_fit import (
     IdentifiabilityWarning,
     LambdaFit,
     design_arrays,
     sensitivity_matrix,
 )
-from campaign.identify import IdentifyOptions, identify_trial
-from campaign.paper import configuration_q, impact_direction, load_paper
+from campaign.model.exiit import effective_mass_batch
+from campaign.model.paper import configuration_q, impact_direction, load_paper
 
 LAM = np.array(load_paper()["table3"]["zero_low"])  # paper Table 3 [kg m^2]
 
@@ -218,7 +218,9 @@ def test_joint_model_is_not_biased_by_the_lambda_its_nominal_model_lacks(puma, m
     armature give the same relative error in v'_a - v_a within 0.1 % (a tenth of the 1 %
     target): the generalised impulses are fitted per joint, so an inertia the model lacks
     does not enter the tip velocity over the 1 kHz window."""
-    from campaign.identify import trial as idm   # the driver looks the fit up in its own module
+    from campaign.identify import (
+        trial as idm,  # the driver looks the fit up in its own module
+    )
 
     calls = []
     orig = idm._joint_dynamics_fit

@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from campaign import exiit, schema
-from campaign.cli import main
-from campaign.errors import InputError
+from campaign.cli.main import main
+from campaign.core.errors import InputError
+from campaign.model import exiit
+from campaign.model.robot import load_robot
+from campaign.model.robot.floating import attach_to_floating_base
 from campaign.rig import build, simulate
 from campaign.rig.beam import Beam
 from campaign.rig.integrate import integrate_trial
-from campaign.robot import load_robot
-from campaign.robot.floating import attach_to_floating_base
-from campaign.scene import make_scene
-
+from campaign.scene import schema
+from campaign.scene.description import make_scene
 
 
 def _integrate(rig):
@@ -30,7 +30,7 @@ def _loaded_first_mode(scene):
     """First bending frequency [Hz] of the scene's structure with the arm locked on top."""
     import pinocchio as pin
 
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
 
     robot = load_robot()
     q0 = np.radians(np.asarray(scene.q_paper_deg) + np.asarray(load_paper()["offset_deg"]))

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from campaign.htmlpage import markdown_page, markdown_to_html
-from campaign.tables import Table
+from campaign.report.html import markdown_page, markdown_to_html
+from campaign.report.tables import Table
 
 
 def test_a_table_renders_cell_by_cell():

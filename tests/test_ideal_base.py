@@ -9,13 +9,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from campaign.errors import InputError
-from campaign.paper import configuration_q
+from campaign.core.errors import InputError
+from campaign.model.paper import configuration_q
+from campaign.model.robot import load_robot
+from campaign.model.robot.floating import attach_to_floating_base
 from campaign.rig.beam import Beam
 from campaign.rig.ideal_base import IdealBase, static_arm_wrench
-from campaign.robot import load_robot
-from campaign.robot.floating import attach_to_floating_base
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 G = np.array([0.0, 0.0, -9.81])
 

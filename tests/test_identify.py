@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from synthetic_impact import cached_trial, make_trial, truth_m_e, write_trial
 
-from campaign.cli import main
-from campaign.errors import InputError, TrialFileError
+from campaign.cli.main import main
+from campaign.core.errors import InputError, TrialFileError
 from campaign.identify import (
     IdentifyOptions,
     detect_contact,
@@ -213,8 +213,8 @@ def test_synthetic_generator_is_consistent_with_eq_11(puma):
     """The generator itself: without resistance and with the contact at the pendulum's
     bottom, the truth-velocity m* equals eq 11 with its lambda within the pendulum's
     gravity and the arm's configuration change during the contact (~1 %)."""
-    from campaign.exiit import effective_mass
-    from campaign.paper import configuration_q
+    from campaign.model.exiit import effective_mass
+    from campaign.model.paper import configuration_q
     tr = make_trial(config=2, speed=2.0, decay="none", lam=LAM, seed=3)
     m11 = effective_mass(puma, configuration_q(2), lam=LAM)
     assert tr.truth["m_eff_eq11"] == pytest.approx(m11, rel=1e-9)
@@ -228,7 +228,7 @@ def high_gain_trials():
     """Rig trials at High gains with the paper's 50 Hz encoders: the case the encoder
     model cannot resolve (the servo reverses the tip between two samples)."""
     from campaign.rig.simulate import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     out = []
     for config in (1, 2, 3):
         for speed in (1.0, 2.5):
@@ -265,7 +265,8 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
     import pinocchio as pin
     import xarray as xr
 
-    from campaign.identify import Contact, IdentifyOptions, _ft_tip_velocity
+    from campaign.identify import Contact, IdentifyOptions
+    from campaign.identify.ft_momentum import _ft_tip_velocity
 
     model = puma.model.copy()
     model.gravity.linear = np.array([0.0, 0.0, -9.81])
@@ -337,7 +338,7 @@ def test_ft_falls_back_to_the_encoders_with_a_reason(puma, high_gain_trials):
 
 def _rig_trial_1khz(config, gain, speed, repeat):
     from campaign.rig.simulate import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     tree = simulate(make_scene(base="fixed", config=config, gain=gain, speed=speed, repeat=repeat,
                                params={"sensors.joint_encoder_rate": 1000.0}))
     return tree["measured"].to_dataset(), tree["truth"].to_dataset(), dict(tree.attrs)
@@ -388,7 +389,7 @@ def test_combined_arm_velocity_runs_on_a_rig_trial(puma):
 
 def test_cross_gives_numpy_cross_bit_for_bit():
     """The F/T momentum balance's cross product must not move an identified number."""
-    from campaign.identify import _cross
+    from campaign.identify.ft_momentum import _cross
 
     rng = np.random.default_rng(7)
     for _ in range(200):

@@ -13,8 +13,9 @@ from __future__ import annotations
 import pytest
 from synthetic_impact import cached_trial, truth_m_e, truth_m_impulse
 
-from campaign.errors import InputError
-from campaign.identify import M_EFF_ESTIMATORS, IdentifyOptions, identify_trial
+from campaign.core.errors import InputError
+from campaign.identify import IdentifyOptions, identify_trial
+from campaign.identify.options import M_EFF_ESTIMATORS
 
 IMPULSE = IdentifyOptions(m_eff_estimator="impulse")
 
@@ -42,7 +43,7 @@ def rig_trials_50hz():
     """Two fixed-base rig trials at the paper's 50 Hz joint encoders (the F/T method by
     default; the tip-space ``lti`` model with ``arm_velocity="encoders"``)."""
     from campaign.rig.simulate import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     out = []
     for config, gain, speed in ((1, "zero", 2.0), (3, "low", 1.5)):
         tree = simulate(make_scene(base="fixed", config=config, gain=gain, speed=speed, repeat=0,

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from campaign.errors import InputError
-from campaign.identify import IdentifyOptions, identify_trial
 from synthetic_impact import truth_m_e, truth_m_impulse
+
+from campaign.core.errors import InputError
+from campaign.identify import IdentifyOptions, identify_trial
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +20,7 @@ def slow_high_gain_1khz():
     of the sweep (the tip gains ~15 mm/s, 1 % is 0.15 mm/s), where the tip-space model
     missed 1 % (+1.53 / -1.02 %)."""
     from campaign.rig.simulate import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
     out = []
     for repeat in (0, 1):
         tree = simulate(make_scene(base="fixed", config=2, gain="high", speed=1.0, repeat=repeat,
@@ -62,7 +62,9 @@ def test_joint_model_is_unbiased_with_noise_free_encoders(puma, slow_high_gain_1
     """The model itself, without the encoders' noise and quantisation (the true joint
     angles sampled at 1 kHz): v'_a - v_a within 0.5 % (the 1 % budget is model + noise),
     and the viscous scale it finds is a physical one (positive, below its bound)."""
-    from campaign.identify import trial as idm   # the driver looks the fit up in its own module
+    from campaign.identify import (
+        trial as idm,  # the driver looks the fit up in its own module
+    )
     captured = {}
     orig = idm._joint_dynamics_fit
 

@@ -7,12 +7,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from campaign.errors import InputError
-from campaign.exiit import effective_mass_batch
-from campaign.fit import design_arrays
-from campaign.impedance_fit import (ImpedanceFit, apparent_mass, friction_step, half_sine_shape,
-                                    measured_pulse_shape, pulse_compliance, servo_gains)
-from campaign.paper import paper_q
+from campaign.core.errors import InputError
+from campaign.joints.impedance import (
+    ImpedanceFit,
+    apparent_mass,
+    friction_step,
+    half_sine_shape,
+    measured_pulse_shape,
+    pulse_compliance,
+    servo_gains,
+)
+from campaign.joints.lambda_fit import design_arrays
+from campaign.model.exiit import effective_mass_batch
+from campaign.model.paper import paper_q
 
 POSES_DEG = [(0, 225, 90), (30, 200, 60), (-45, 180, 0), (60, 150, 120), (10, 120, 150), (-20, 210, 30)]
 DIRS = [(-1, 0, 0), (-0.5, -0.8660254, 0), (0.8660254, 0.5, 0), (0, -1, 0), (-0.7071068, 0.7071068, 0),
@@ -101,7 +108,7 @@ def test_a_joint_friction_cannot_move_is_a_locked_joint_of_eq_11(puma, arm, join
 
 def test_the_fit_recovers_damping_and_friction_from_synthetic_masses_of_two_gain_sets(puma):
     rng = np.random.default_rng(11)
-    from campaign.design import random_candidates
+    from campaign.design.designer import random_candidates
 
     Qdeg, D = random_candidates(14, robot=puma, seed=5)
     Q = np.array([paper_q(q) for q in Qdeg])
@@ -147,10 +154,10 @@ def test_custom_pose_trials_are_filed_under_their_poses_and_give_their_measured_
     import h5py
 
     from campaign.archive import finalize_campaign, trial_path, verify, write_trial
-    from campaign.cellpath import misfiled
+    from campaign.core.vocabulary import misfiled
+    from campaign.identify.table import identify_trials, read_identification
     from campaign.rig import simulate_arrays
-    from campaign.runner import identify_trials, read_identification
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     paths = []
     for n in ((-0.8660254, -0.5, 0.0), (0.8660254, 0.5, 0.0)):       # one pose, two directions

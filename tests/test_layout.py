@@ -1,21 +1,54 @@
-"""The package's layout: no import cycle among campaign's modules, no module over 800 lines.
+"""The package's layout: imports flow one way through the declared layers, no circle, small
+modules and functions, and no private name re-exported by a package.
 
 Read with the standard library's ``ast`` (nothing is imported). Every import counts, also
-those inside functions: a lazy import defers the cost, not the dependency.
+one inside a function: a lazy import defers the cost, not the dependency. Each rule is a
+function over a package folder, so the tests below also plant a violation of each in a
+small package of their own and check that the rule finds it.
 """
 
 from __future__ import annotations
 
-from campaign.imports import PACKAGE, closure, graph, modules
+import ast
+import textwrap
+from pathlib import Path
 
-MAX_LINES = 800
+import pytest
+
+from campaign import LAYERS
+from campaign.pipeline.digests import PACKAGE, closure, graph, modules
+
+MAX_MODULE_LINES = 600
+MAX_FUNCTION_LINES = 100
 
 
-def _graph() -> dict[str, set[str]]:
-    return {name: set(deps) for name, deps in graph().items()}
+# ---------------------------------------------------------------------------------------
+# the rules
+# ---------------------------------------------------------------------------------------
+def layer_of(module: str, root_name: str, layers) -> int | None:
+    """Index of the layer a module belongs to (the root package itself is the lowest)."""
+    parts = module.split(".")
+    if parts == [root_name]:
+        return 0
+    return layers.index(parts[1]) if parts[1] in layers else None
 
 
-def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+def upward_imports(root: Path, layers) -> list[str]:
+    """Imports of a module from a layer above its own, and modules outside every layer."""
+    found = []
+    for module, deps in sorted(graph(root=root).items()):
+        mine = layer_of(module, root.name, layers)
+        if mine is None:
+            found.append(f"{module} belongs to no layer")
+            continue
+        for dep in sorted(deps):
+            theirs = layer_of(dep, root.name, layers)
+            if theirs is None or theirs > mine:
+                found.append(f"{module} ({layers[mine] if module != root.name else root.name}) imports {dep}")
+    return found
+
+
+def cycles(g: dict[str, set[str]]) -> list[list[str]]:
     """Strongly connected components with more than one module (Tarjan), each sorted."""
     index: dict[str, int] = {}
     low: dict[str, int] = {}
@@ -27,7 +60,7 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
         index[v] = low[v] = len(index)
         stack.append(v)
         on_stack.add(v)
-        for w in graph[v]:
+        for w in g.get(v, ()):
             if w not in index:
                 visit(w)
                 low[v] = min(low[v], low[w])
@@ -44,45 +77,167 @@ def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
             if len(component) > 1:
                 found.append(sorted(component))
 
-    for v in sorted(graph):
+    for v in sorted(g):
         if v not in index:
             visit(v)
     return found
 
 
-def test_the_graph_sees_the_package_and_its_imports():
-    """The checker reads what it should: the split packages, relative imports at every
-    level, and an import inside a function (runner imports identify lazily)."""
-    graph = _graph()
-    assert {"campaign.identify", "campaign.identify.trial", "campaign.archive", "campaign.bench",
-            "campaign.rig.integrate"} <= set(graph)
-    assert "campaign.identify.options" in graph["campaign.identify.trial"]
-    assert "campaign.identify" in graph["campaign.runner"]
-    assert "campaign.errors" in graph["campaign.identify.trial"]
+def long_modules(root: Path, limit: int = MAX_MODULE_LINES) -> dict[str, int]:
+    return {name: n for name, path in modules(root=root).items() if (n := len(path.read_text().splitlines())) > limit}
 
 
-def test_cycle_finder_finds_a_circle_through_three_modules():
-    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
-    assert _cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+def long_functions(root: Path, limit: int = MAX_FUNCTION_LINES) -> dict[str, int]:
+    out = {}
+    for name, path in modules(root=root).items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > limit:
+                    out[f"{name}.{node.name} (line {node.lineno})"] = n
+    return out
+
+
+def private_reexports(root: Path) -> list[str]:
+    """Names a package's ``__init__`` takes from its members that are private, or that it
+    neither uses nor exports in ``__all__``."""
+    found = []
+    for name, path in modules(root=root).items():
+        if path.name != "__init__.py":
+            continue
+        tree = ast.parse(path.read_text())
+        used = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+        exported = set()
+        for node in tree.body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "__all__" for t in node.targets):
+                exported = set(ast.literal_eval(node.value))
+        for node in tree.body:
+            if isinstance(node, ast.ImportFrom) and node.level:    # a re-export of a package member
+                for alias in node.names:
+                    bound = alias.asname or alias.name
+                    if bound.startswith("_") and not bound.startswith("__"):
+                        found.append(f"{name} re-exports the private name {bound}")
+                    elif bound not in exported and bound not in used:
+                        found.append(f"{name} imports {bound} without exporting it in __all__")
+    return found
+
+
+# ---------------------------------------------------------------------------------------
+# the campaign package
+# ---------------------------------------------------------------------------------------
+def test_every_package_of_campaign_is_a_declared_layer():
+    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
+    assert packages == set(LAYERS)
+
+
+def test_imports_flow_one_way_through_the_layers():
+    assert upward_imports(PACKAGE, LAYERS) == []
 
 
 def test_no_import_cycle_among_campaign_modules():
-    cycles = _cycles(_graph())
-    assert cycles == [], "modules that import each other in a circle: " + "; ".join(" <-> ".join(c) for c in cycles)
+    found = cycles({k: set(v) for k, v in graph().items()})
+    assert found == [], "modules that import each other in a circle: " + "; ".join(" <-> ".join(c) for c in found)
 
 
-def test_no_module_over_800_lines():
-    long = {name: n for name, path in modules().items() if (n := len(path.read_text().splitlines())) > MAX_LINES}
-    assert long == {}, f"modules over {MAX_LINES} lines: {long}"
+def test_no_module_over_600_lines():
+    assert long_modules(PACKAGE) == {}
 
 
-def test_closure_follows_lazy_imports_and_package_inits():
-    """A stage's digest covers what its entry module runs: the simulation's stroke check
-    imports the planner inside a function, and the planner imports eq 7-14's module."""
-    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "rig" / "simulate.py"])}
-    assert {"rig/simulate.py", "rig/__init__.py", "__init__.py", "plan.py", "exiit.py", "errors.py"} <= files
-    assert "figures/fig5.py" not in files
+def test_no_function_over_100_lines():
+    assert long_functions(PACKAGE) == {}
+
+
+def test_no_package_re_exports_a_private_name():
+    assert private_reexports(PACKAGE) == []
+
+
+def test_the_graph_sees_relative_imports_at_every_level_and_imports_inside_functions():
+    g = graph()
+    assert {"campaign.identify", "campaign.identify.trial", "campaign.archive", "campaign.rig.integrate"} <= set(g)
+    assert "campaign.identify.options" in g["campaign.identify.trial"]
+    assert "campaign.core.errors" in g["campaign.identify.trial"]
+    # the workflow's configuration check imports the scene inside a function (start-up cost)
+    assert "campaign.scene.description" in g["campaign.pipeline.config"]
+
+
+def test_closure_follows_imports_and_package_inits():
+    """A stage's digest covers what its entry module runs: the simulation job checks the stroke
+    with the planner, which uses eq 7-14's module."""
+    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "pipeline" / "simulate.py"])}
+    assert {"pipeline/simulate.py", "pipeline/__init__.py", "__init__.py", "rig/simulate.py", "rig/__init__.py",
+            "plan/stroke.py", "plan/planner.py", "model/exiit.py", "core/errors.py"} <= files
+    assert "report/figures/fig5.py" not in files
 
 
 def test_closure_of_a_module_that_imports_nothing_of_the_package_is_itself():
-    assert closure([PACKAGE / "errors.py"]) == [PACKAGE / "__init__.py", PACKAGE / "errors.py"]
+    assert closure([PACKAGE / "core" / "errors.py"]) == [PACKAGE / "__init__.py", PACKAGE / "core" / "__init__.py",
+                                                        PACKAGE / "core" / "errors.py"]
+
+
+# ---------------------------------------------------------------------------------------
+# each rule finds a planted violation
+# ---------------------------------------------------------------------------------------
+def _package(tmp_path: Path, files: dict[str, str]) -> Path:
+    root = tmp_path / "pkg"
+    for rel, text in {"__init__.py": "", "low/__init__.py": "", "high/__init__.py": "", **files}.items():
+        path = root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(textwrap.dedent(text))
+    return root
+
+
+def test_an_import_up_the_layers_is_found(tmp_path):
+    root = _package(tmp_path, {"low/a.py": "def f():\n    from ..high import b\n", "high/b.py": "from ..low import a\n"})
+    assert upward_imports(root, ("low", "high")) == ["pkg.low.a (low) imports pkg.high", "pkg.low.a (low) imports pkg.high.b"]
+    assert upward_imports(root, ("high", "low")) == ["pkg.high.b (high) imports pkg.low", "pkg.high.b (high) imports pkg.low.a"]
+
+
+def test_a_module_outside_the_layers_is_found(tmp_path):
+    root = _package(tmp_path, {"loose.py": ""})
+    assert upward_imports(root, ("low", "high")) == ["pkg.loose belongs to no layer"]
+
+
+def test_a_circle_is_found(tmp_path):
+    root = _package(tmp_path, {"low/a.py": "from . import b\n", "low/b.py": "from . import c\n",
+                               "low/c.py": "from . import a\n", "low/d.py": "from . import a\n"})
+    assert cycles({k: set(v) for k, v in graph(root=root).items()}) == [["pkg.low.a", "pkg.low.b", "pkg.low.c"]]
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": set()}) == []
+
+
+def test_a_long_module_is_found(tmp_path):
+    root = _package(tmp_path, {"low/long.py": "x = 1\n" * (MAX_MODULE_LINES + 1), "low/short.py": "x = 1\n" * 600})
+    assert long_modules(root) == {"pkg.low.long": MAX_MODULE_LINES + 1}
+
+
+def test_a_long_function_is_found(tmp_path):
+    body = "    x = 1\n" * MAX_FUNCTION_LINES
+    root = _package(tmp_path, {"low/f.py": f"def long():\n{body}\n\ndef short():\n{body[:-10]}\n"})
+    assert long_functions(root) == {"pkg.low.f.long (line 1)": MAX_FUNCTION_LINES + 1}
+
+
+def test_a_private_re_export_is_found(tmp_path):
+    root = _package(tmp_path, {"low/__init__.py": "from .a import _hidden, shown, extra, used\n__all__ = ['shown']\n"
+                                                  "y = used\n",
+                               "low/a.py": "_hidden = shown = extra = used = 1\n"})
+    assert private_reexports(root) == ["pkg.low re-exports the private name _hidden",
+                                       "pkg.low imports extra without exporting it in __all__"]
+
+
+@pytest.mark.parametrize("module", ["campaign.core.vocabulary", "campaign.core.yamlfile", "campaign.pipeline.paths",
+                                    "campaign.pipeline.config", "campaign.pipeline.digests"])
+def test_what_the_workflow_imports_at_start_up_stays_light(module):
+    """The Snakefile's helpers import these on every start (a dry run included): at their top
+    they import only the standard library, PyYAML and each other."""
+    tree = ast.parse(modules()[module].read_text())
+    heavy = []
+    for node in tree.body:
+        if isinstance(node, ast.Import):
+            heavy += [a.name for a in node.names if a.name.split(".")[0] in ("numpy", "pinocchio", "scipy", "xarray")]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module.split(".")[0] in ("numpy", "pinocchio", "scipy", "xarray", "h5py", "matplotlib"):
+                heavy.append(node.module)
+        elif isinstance(node, ast.ImportFrom) and node.level:
+            target = (node.module or "").split(".")[0]
+            if target not in ("", "errors", "vocabulary", "yamlfile", "core"):
+                heavy.append("." * node.level + (node.module or ""))
+    assert heavy == []

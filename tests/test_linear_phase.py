@@ -8,13 +8,13 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from campaign.errors import InputError
+from campaign.core.errors import InputError
 from campaign.rig import build, simulate_arrays
 from campaign.rig.controller import PID
 from campaign.rig.integrate import integrate_trial
 from campaign.rig.linear_phase import FrozenArm, neglected_wrench
 from campaign.rig.simulate import integration_args
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 
 def _scene(linear, **more):

@@ -10,15 +10,21 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from campaign import exiit
-from campaign.cli import main
-from campaign.paper import configuration_q
-from campaign.plan import (ImpactPlanner, cone_directions, horizontal_directions, peak_amplitude_factor,
-                           pose_terms, predict)
+from campaign.cli.main import main
+from campaign.model import exiit
+from campaign.model.paper import configuration_q
+from campaign.model.robot.floating import attach_to_floating_base
+from campaign.model.robot.ik import impact_point, position_branches
+from campaign.plan.planner import (
+    ImpactPlanner,
+    cone_directions,
+    horizontal_directions,
+    peak_amplitude_factor,
+    pose_terms,
+    predict,
+)
 from campaign.rig.beam import Beam
-from campaign.rig.contact import Contact, damping_for_restitution, peak_force_factor
-from campaign.robot.floating import attach_to_floating_base
-from campaign.robot.ik import impact_point, position_branches
+from campaign.rig.contact import Contact, peak_force_factor
 
 LAMBDAS = [[0.0, 0.0, 0.0], [19.82, 4.62, 0.80], [53.18, 8.66, 2.83]]
 M_B, V_B, E = 0.7, 2.0, 0.55
@@ -247,7 +253,7 @@ def test_structure_peak_matches_the_rig_in_the_impulsive_limit(puma):
     structure integrated as one system: the regime eq 8 assumes. The rig's peak base
     displacement must match the prediction."""
     from campaign.rig.simulate import simulate_arrays
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     params = {"gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0, "ves.mode": "ideal"}
     sc0 = make_scene(base="flexible", config=1, gain="zero", speed=2.0, params=params)

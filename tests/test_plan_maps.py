@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from campaign import exiit
-from campaign.cli import main
-from campaign.figures import plan_maps
-from campaign.paper import configuration_q
-from campaign.plan import direction_map, workspace_map
+from campaign.cli.main import main
+from campaign.model import exiit
+from campaign.model.paper import configuration_q
+from campaign.model.robot.ik import impact_point, position_branches
+from campaign.plan.planner import direction_map, workspace_map
+from campaign.report.figures import plan_maps
 from campaign.rig.beam import Beam
 from campaign.rig.contact import Contact
-from campaign.robot.ik import impact_point, position_branches
 
 LAMBDAS = {"zero_low": [19.82, 4.62, 0.80], "high": [53.18, 8.66, 2.83]}
 KW = dict(lambdas=LAMBDAS, contact=Contact(537.3, 0.737, 0.58), mass=0.7, speed=2.0, restitution=0.58)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from campaign.tables import rig_check_table
+from campaign.report.tables import rig_check_table
 
 REPO = Path(__file__).resolve().parents[1]
 BENCH = REPO / "benchmarks"
@@ -87,8 +87,8 @@ def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
     """Configuration 1's point, two gain sets, the paper's direction and its opposite, fixed base and
     the space-class structure: every candidate is simulated or refused with a reason, and each
     simulated one carries the planner's own prediction."""
-    from campaign.commands.plan import build_planner
-    from campaign.plan import horizontal_directions
+    from campaign.plan.factory import build_planner
+    from campaign.plan.planner import horizontal_directions
 
     bench = load_benchmark()
     point = bench.contact_points()["config 1 wrist centre"]
@@ -120,9 +120,9 @@ def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
 
 def test_sign_check_reports_the_measured_difference_of_opposite_directions():
     """The sign check's difference and joint excursion are those of the rig's own trials of a +-n pair."""
-    from campaign.plan import horizontal_directions
-    from campaign.robot import load_robot
-    from campaign.robot.ik import position_branches
+    from campaign.model.robot import load_robot
+    from campaign.model.robot.ik import position_branches
+    from campaign.plan.planner import horizontal_directions
 
     bench = load_benchmark()
     dirs = horizontal_directions(2)

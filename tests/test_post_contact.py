@@ -9,16 +9,20 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from campaign.errors import InputError
-from campaign.plan import pose_terms, predict
-from campaign.post_contact import (ArmAfterImpact, peak_displacement, pulse_peak_displacement,
-                                   unit_responses)
+from campaign.core.errors import InputError
+from campaign.model.robot import load_robot
+from campaign.model.robot.floating import attach_to_floating_base
+from campaign.model.robot.ik import impact_point
+from campaign.plan.planner import pose_terms, predict
+from campaign.plan.post_contact import (
+    ArmAfterImpact,
+    peak_displacement,
+    pulse_peak_displacement,
+    unit_responses,
+)
 from campaign.rig.beam import Beam
 from campaign.rig.contact import Contact, pulse_shape
-from campaign.robot import load_robot
-from campaign.robot.floating import attach_to_floating_base
-from campaign.robot.ik import impact_point
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene, rig_values
 
 Q = np.radians([-121.9, -27.4, 0.0])      # the rig check's side point, branch 2
 LAMBDA = [19.82, 4.62, 0.80]
@@ -191,13 +195,13 @@ def test_bad_arm_values_are_refused_naming_the_value(puma, arm, match):
 
 
 def test_planner_on_the_flexible_base_splits_pooled_classes_and_uses_each_sets_servo(puma):
-    from campaign.commands.plan import arm_after_impact, build_planner
+    from campaign.plan.factory import arm_after_impact, build_planner
 
     planner = build_planner(base="flexible", lambdas={"zero_low": LAMBDA, "high": [53.18, 8.66, 2.83]}, speed=2.0,
                             objective="displacement", structure="space_class")
     planner.fit(impact_point(puma, Q), N_DIRS[:2])
     assert planner.gain_classes_ == ["zero", "low", "high"]
-    arm = arm_after_impact()
+    arm = arm_after_impact(rig_values(), load_robot("puma560"))
     kp_low, kd_low = arm.gains["low"]
     kp_high, _ = arm.gains["high"]
     assert np.all(arm.gains["zero"][0] == 0) and np.all(kp_low > 0) and np.all(kp_high > 50 * kp_low)
@@ -219,8 +223,8 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
     """One candidate simulated on the rig (space-class structure, zero gains, a +y blow at the
     side point): the post-contact prediction with the impulse at once (eq 13's release with
     lambda, which carries the joints' friction) is within 6 % and closer than eq 8's release."""
-    from campaign.commands.plan import build_planner
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
+    from campaign.plan.factory import build_planner
     from campaign.rig.simulate import simulate_arrays
 
     n = np.array([0.0, 1.0, 0.0])
@@ -241,7 +245,7 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
 
 
 def test_a_response_that_blows_up_is_reported_not_stored(puma):
-    from campaign.errors import SimulationError
+    from campaign.core.errors import SimulationError
 
     arm = ArmAfterImpact(gains={}, viscous=np.zeros(3), gravity=1e300)     # an absurd gravity stiffness
     with pytest.raises(SimulationError, match="post-contact response is not finite at pose"):

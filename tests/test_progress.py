@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 import sys
 
-from campaign import progress
+from campaign.core import progress
 
 
 class _Terminal(io.StringIO):
@@ -43,7 +43,7 @@ def test_the_environment_overrides_the_terminal(monkeypatch):
 def test_identify_shows_progress_only_when_asked(monkeypatch, capsys, tmp_path):
     from pathlib import Path
 
-    from campaign.cli import main
+    from campaign.cli.main import main
 
     trial = Path(__file__).resolve().parents[1] / "archive/reference/fixed/config1/zero/v1.500/r00.nc"
     monkeypatch.setenv("CAMPAIGN_PROGRESS", "1")

@@ -1,7 +1,7 @@
 """The README's console examples, run and compared with the output they show.
 
 Every ```console block of README.md is a sequence of ``$ campaign ...`` commands, each
-followed by the output it shows. Each command runs through :func:`campaign.cli.main` in a
+followed by the output it shows. Each command runs through :func:`campaign.cli.main.main` in a
 scratch folder that holds the committed ``archive/reference`` (read only), and its stdout
 and stderr must match the shown lines one for one, as text, so every number agrees to the
 digits shown. ``...`` inside a line matches any text (timings); a line that is only
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from campaign.cli import main
+from campaign.cli.main import main
 
 REPO = Path(__file__).resolve().parents[1]
 

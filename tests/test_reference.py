@@ -20,7 +20,7 @@ import xarray as xr
 from campaign import archive
 from campaign.identify import identify_file
 from campaign.rig import simulate
-from campaign.scene import Scene
+from campaign.scene.description import Scene
 
 ROOT = Path(__file__).resolve().parents[1] / "archive"
 REFERENCE = ROOT / "reference"
@@ -83,7 +83,7 @@ def test_identification_on_the_reference_reproduces_its_stored_results():
 
 def test_the_reference_reproduces_the_papers_fixed_base_effective_masses_within_10_percent():
     # what the calibration promised, read from the stored identification (no simulation)
-    from campaign.paper import load_paper
+    from campaign.model.paper import load_paper
     t2 = load_paper()["table2"]
     df = pd.read_csv(STORED)
     fixed = df[(df.base == "fixed") & (df.excluded == 0)]

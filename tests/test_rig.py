@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from campaign import exiit, schema
-from campaign.cli import main
-from campaign.errors import InputError, SimulationError
-from campaign.paper import load_paper
+from campaign.cli.main import main
+from campaign.core.errors import InputError, SimulationError
+from campaign.model import exiit
+from campaign.model.paper import load_paper
+from campaign.model.robot import load_robot
 from campaign.rig import build, simulate
 from campaign.rig.contact import damping_for_restitution, restitution_of_damping
-from campaign.robot import load_robot
-from campaign.scene import make_scene
-
+from campaign.scene import schema
+from campaign.scene.description import make_scene
 
 
 def _edges(tree):
@@ -289,6 +289,7 @@ def test_fast_truth_and_wrench_helpers_equal_per_sample_evaluation(mode):
     # arbitrary states (no integration): the batched helpers against one evaluation per sample,
     # plain Pinocchio for the fixed base, the plants' own per-sample methods on a flexible base
     import pinocchio as pin
+
     from campaign.rig.sensors import mount_wrenches, truth_terms
     kw = {"base": "fixed"} if mode == "fixed" else {"base": "flexible", "params": {"ves.mode": mode}}
     plant = build(make_scene(config=2, gain="high", speed=2.0, **kw)).plant
@@ -350,9 +351,9 @@ def test_fast_truth_and_wrench_helpers_equal_per_sample_evaluation(mode):
 def test_cached_rig_robot_and_paper_files_pick_up_an_edit(tmp_path, monkeypatch):
     import shutil
 
-    from campaign.paper import config_dir
-    from campaign.robot import ROBOTS_DIR
-    from campaign.scene import load_rig
+    from campaign.core.yamlfile import config_dir
+    from campaign.model.robot import ROBOTS_DIR
+    from campaign.scene.description import load_rig
     # rig file: same size, rewritten at once (its mtime may not even change)
     rig = tmp_path / "rig.yaml"
     shutil.copy(config_dir() / "rig.yaml", rig)

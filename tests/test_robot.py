@@ -14,8 +14,9 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from campaign.paper import configuration_q, load_paper, paper_q, yaml_load
-from campaign.robot import ROBOTS_DIR, load_robot
+from campaign.core.yamlfile import yaml_load
+from campaign.model.paper import configuration_q, load_paper, paper_q
+from campaign.model.robot import ROBOTS_DIR, load_robot
 
 # Standard DH table of the PUMA 560 (alpha [rad], a [m], d [m]), joints 1-6.
 PUMA_DH = [

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from campaign.figures import validity
-from campaign.tables import structures_table
+from campaign.report.figures import validity
+from campaign.report.tables import structures_table
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -92,7 +92,7 @@ def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
     closed-form switch (off for the stiff mast) and the platform's stroke, and the pendulum's
     placement checks are new), so its trials are today's."""
     from campaign.archive import open_trial_arrays
-    from campaign.scene import Scene, make_scene
+    from campaign.scene.description import Scene, make_scene
 
     ref = Path(__file__).resolve().parents[1] / "archive" / "reference" / "flexible" / "config1" / "low"
     trial = sorted(ref.glob("v2.500/r00.nc"))[0]
@@ -109,9 +109,14 @@ def test_stiff_mast_scene_is_the_reference_archives_flexible_scene():
 def test_structure_is_read_from_the_stored_scene():
     """A trial stored before structures were named is the structure whose values it holds;
     a named one with a changed value says so."""
-    from campaign import runner
     from campaign.archive import open_trial_arrays
-    from campaign.scene import Scene, make_scene, structure_of, trial_structures
+    from campaign.pipeline.paths import index_cells
+    from campaign.scene.description import (
+        Scene,
+        make_scene,
+        structure_of,
+        trial_structures,
+    )
 
     root = Path(__file__).resolve().parents[1] / "archive" / "reference"
     trial = sorted((root / "flexible" / "config1" / "low").glob("v2.500/r00.nc"))[0]
@@ -124,5 +129,5 @@ def test_structure_is_read_from_the_stored_scene():
     assert structure_of(soft.param_dict) == "space_class with flexible.beam_EI changed"
     odd = dict(stored.param_dict, **{"flexible.beam_length": 33.0})
     assert structure_of(odd) == "unnamed"
-    flexible = [p for cell, paths in runner.index_cells(root).items() if cell[0] == "flexible" for p in paths]
+    flexible = [p for cell, paths in index_cells(root).items() if cell[0] == "flexible" for p in paths]
     assert flexible and trial_structures(flexible) == ["stiff_mast"]

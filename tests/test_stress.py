@@ -12,8 +12,12 @@ import math
 import numpy as np
 import pytest
 
-from campaign import bench, exiit
-from campaign.robot import load_robot
+from campaign import bench
+from campaign.bench.closed_form import _q_dh, singular_pose
+from campaign.bench.common import XARRAY_WRITE_AT_TARGETS
+from campaign.bench.stress import ENERGY_RTOL
+from campaign.model import exiit
+from campaign.model.robot import load_robot
 
 CASES = bench.stress_cases(reduced=True)
 
@@ -55,13 +59,13 @@ def test_corner_passes_its_invariants_or_is_refused_naming_the_cause(case, tmp_p
 def test_invariants_catch_a_nan_filled_trial_and_an_energy_gain():
     from campaign.identify import identify_trial
     from campaign.rig import simulate
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     scene = make_scene(config=1, scene="ideal", speed=1.5)
     tree = simulate(scene)
     ident = identify_trial(tree["measured"].to_dataset(), meta=dict(tree.attrs))
     viol, info = bench.check_invariants(scene, tree, ident)
-    assert viol == [] and info["energy_rise"] <= bench.ENERGY_RTOL
+    assert viol == [] and info["energy_rise"] <= ENERGY_RTOL
     bad = tree.copy(deep=True)
     f = bad["measured"].to_dataset()
     f["f_piezo"].values[10] = np.nan
@@ -77,12 +81,12 @@ def test_invariants_catch_a_nan_filled_trial_and_an_energy_gain():
 # -- closed forms ---------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def singular():
-    return bench.singular_pose()
+    return singular_pose()
 
 
 def test_exiit_is_inf_at_the_stretched_singularity_and_grows_finite_towards_it(puma, singular):
     q1, q2, q3 = singular
-    Q = np.array([bench._q_dh((q1, q2, q3 + d)) for d in (1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 0.0)])
+    Q = np.array([_q_dh((q1, q2, q3 + d)) for d in (1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-6, 0.0)])
     for lam in (None, [53.18, 8.66, 2.83]):
         batch = exiit.effective_mass_batch(puma, Q, lam=lam)
         scalar = np.array([exiit.effective_mass(puma, q, lam=lam) for q in Q])
@@ -111,9 +115,9 @@ def test_closed_form_stress_reports_no_problem_and_the_paper_designs_conditionin
 
 
 def test_lambda_fit_on_a_single_pose_flags_every_component():
-    from campaign import fit as fitmod
+    from campaign.joints import lambda_fit as fitmod
     robot = load_robot()
-    q = bench._q_dh((0.0, 172.0, 40.0))
+    q = _q_dh((0.0, 172.0, 40.0))
     Q = np.repeat(q[None, :], 5, axis=0)
     m = exiit.effective_mass(robot, q, lam=[53.18, 8.66, 2.83]) * np.exp(np.random.default_rng(0).normal(0, .02, 5))
     est = fitmod.LambdaFit(robot, n_bootstrap=30, random_state=1, warn=False).fit(Q, m)
@@ -126,7 +130,7 @@ def test_cost_verdict_scales_by_the_write_reference_of_the_same_run():
     targets were set on (this run's xarray write probe against issue 3's ~35 ms), or missed;
     the note says how fast the machine ran and does not scale by the naive RK4."""
     def cost(sim_fixed, probe):
-        factor = probe / bench.XARRAY_WRITE_AT_TARGETS
+        factor = probe / XARRAY_WRITE_AT_TARGETS
         return {"sim": {"fixed": sim_fixed}, "sim_n": {"fixed": 3}, "sim_range": {"fixed": (sim_fixed, sim_fixed)},
                 "sim_scaled": {"fixed": sim_fixed / factor}, "probe_xarray": (probe, probe, probe),
                 "probe_h5py": (0.003, 0.002, 0.004),
@@ -135,7 +139,7 @@ def test_cost_verdict_scales_by_the_write_reference_of_the_same_run():
                 "baseline": {"naive_integration": 0.7, "naive_trial": 0.8, "ours_same_scene": sim_fixed,
                              "uniform_0p1ms": 0.2}}
     row = lambda text: next(line for line in text.splitlines() if line.startswith("| fixed | 3 |"))
-    ref = bench.XARRAY_WRITE_AT_TARGETS
+    ref = XARRAY_WRITE_AT_TARGETS
     assert "| met;" in row(bench.format_cost(cost(0.020, ref)))
     # a machine twice as slow: 40 ms here is 20 ms there
     assert "met scaled by the write reference" in row(bench.format_cost(cost(0.040, 2 * ref)))

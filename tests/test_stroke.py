@@ -5,11 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from campaign.cli import main
-from campaign.errors import InputError
+from campaign.cli.main import main
+from campaign.core.errors import InputError
+from campaign.plan.stroke import (
+    STROKE_MARGIN,
+    check_scene_stroke,
+    predicted_platform_peak,
+)
 from campaign.rig import build, simulate_arrays
-from campaign.rig.simulate import STROKE_MARGIN, predicted_platform_peak
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 
 def _scene(stroke=None, **more):
@@ -38,18 +42,26 @@ def test_prediction_bounds_the_simulated_peak_from_above(default_trial):
     assert 0.5 < peak / pred <= 1.0           # within the margin the refusal before work keeps
 
 
-def test_refused_before_any_work_beyond_the_margin(default_trial, monkeypatch):
+def test_refused_before_any_work_beyond_the_margin(default_trial):
     pred, _ = default_trial
-    import importlib
-    sim = importlib.import_module("campaign.rig.simulate")   # (campaign.rig.simulate is also a function)
-
-    def no_integration(*args, **kwargs):
-        raise AssertionError("integrated a trial the prediction refuses")
-
-    monkeypatch.setattr(sim, "integrate_trial", no_integration)
     stroke = 0.9 * pred / STROKE_MARGIN
     with pytest.raises(InputError, match=r"would move about .* ves.stroke = .* \(structure space_class\)"):
-        sim.simulate_arrays(_scene(stroke))
+        check_scene_stroke(_scene(stroke))
+    check_scene_stroke(_scene(1.1 * pred / STROKE_MARGIN))    # within the margin: no refusal
+
+
+def test_sweep_refuses_before_any_trial_is_simulated(default_trial, tmp_path, monkeypatch):
+    pred, _ = default_trial
+    from campaign.pipeline import simulate as jobs
+
+    def no_simulation(*args, **kwargs):
+        raise AssertionError("simulated a sweep the prediction refuses")
+
+    monkeypatch.setattr(jobs, "simulate_batch", no_simulation)
+    with pytest.raises(InputError, match=r"would move about"):
+        jobs.run_cells([("flexible", 2, "low")], archive_dir=tmp_path, speeds=[2.5], repeats=1,
+                       params={"flexible.structure": "space_class", "ves.stroke": 0.9 * pred / STROKE_MARGIN})
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_between_the_margin_and_the_peak_the_check_after_integration_refuses(default_trial):

@@ -1,4 +1,4 @@
-"""Tables 2-4 (campaign.tables) and the fit-lambda / tables commands."""
+"""Tables 2-4 (campaign.report.tables) and the fit-lambda / tables commands."""
 
 from __future__ import annotations
 
@@ -9,13 +9,19 @@ import numpy as np
 import pytest
 from synthetic_impact import cached_trial, write_trial
 
-from campaign.cli import main
-from campaign.errors import InputError
-from campaign.exiit import effective_mass, effective_mass_batch
+from campaign.cli.main import main
+from campaign.core.errors import InputError
 from campaign.identify import TrialIdentification
-from campaign.paper import configuration_q, load_paper
-from campaign.robot.floating import BaseBody, attach_to_floating_base
-from campaign.tables import fit_gain_classes, table2, table3, table4, write_tables
+from campaign.model.exiit import effective_mass, effective_mass_batch
+from campaign.model.paper import configuration_q, load_paper
+from campaign.model.robot.floating import BaseBody, attach_to_floating_base
+from campaign.report.tables import (
+    fit_gain_classes,
+    table2,
+    table3,
+    table4,
+    write_tables,
+)
 
 PAPER = load_paper()
 NAN = float("nan")
@@ -113,7 +119,7 @@ def test_tables_from_the_fits_json_equal_those_from_the_fitted_estimators(record
     """Tables 3-4 read the lambda fits back from their JSON (no pickles): same tables."""
     import json
 
-    from campaign.runner import load_fits
+    from campaign.joints.lambda_fit import load_fits
 
     paths = {}
     for cls, f in fits.items():

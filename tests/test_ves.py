@@ -9,8 +9,10 @@ import pinocchio as pin
 import pytest
 from scipy.integrate import solve_ivp
 
-from campaign.errors import InputError
-from campaign.paper import configuration_q
+from campaign.core.errors import InputError
+from campaign.model.paper import configuration_q
+from campaign.model.robot import load_robot
+from campaign.model.robot.floating import attach_to_floating_base
 from campaign.rig.beam import Beam
 from campaign.rig.ves import (
     RECORD_WIDTH,
@@ -21,9 +23,7 @@ from campaign.rig.ves import (
     platform_motion,
     zoh,
 )
-from campaign.robot import load_robot
-from campaign.robot.floating import attach_to_floating_base
-from campaign.scene import make_scene
+from campaign.scene.description import make_scene
 
 RATE = 1000.0
 #: these checks of the emulator's arithmetic are sized to the stiff mast's ~4.4 Hz first mode

@@ -25,7 +25,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from campaign import runner
+from campaign.core.vocabulary import trial_relpath
+from campaign.identify.table import read_identification
+from campaign.model.paper import gain_counts
+from campaign.pipeline.paths import cell_trials
 
 pytestmark = pytest.mark.slow
 
@@ -109,7 +112,7 @@ def test_reduced_campaign_makes_every_product(ci_run):
 
 
 def test_identification_is_physical(ci_run):
-    rows = runner.read_identification(sorted((ci_run / "results" / "ci" / "identify").rglob("*.csv")))
+    rows = read_identification(sorted((ci_run / "results" / "ci" / "identify").rglob("*.csv")))
     assert len(rows) == 18 + 8  # ci.yaml: fixed 3 configs x 3 gains x 2 speeds; flexible 2 x 2 x 2
     used = [r for r in rows if not r["excluded"]]
     assert len(used) >= 0.9 * len(rows), [r["reason"] for r in rows if r["excluded"]]
@@ -338,24 +341,24 @@ def test_killed_run_completes_on_rerun(tmp_path):
 # the pieces the workflow relies on
 # ------------------------------------------------------------------------------------------
 def test_trial_paths_agree_with_the_scene():
-    from campaign.scene import make_scene
+    from campaign.scene.description import make_scene
 
     for base, config, gain, speed, repeat in [("fixed", 1, "zero", 2.5, 0), ("flexible", 2, "high", 1.3, 11),
                                               ("fixed", 3, "low", 1.0 + 1e-12, 3)]:
         scene = make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat)
-        assert runner.trial_relpath(base, config, gain, speed, repeat) == f"{scene.cell}.nc"
-    assert runner.cell_trials("a", "fixed", 1, "zero", [1.0, 2.5], 2) == [
+        assert trial_relpath(base, config, gain, speed, repeat) == f"{scene.cell}.nc"
+    assert cell_trials("a", "fixed", 1, "zero", [1.0, 2.5], 2) == [
         "a/fixed/config1/zero/v1.000/r00.nc", "a/fixed/config1/zero/v1.000/r01.nc",
         "a/fixed/config1/zero/v2.500/r00.nc", "a/fixed/config1/zero/v2.500/r01.nc"]
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda: runner.trial_relpath("floating", 1, "zero", 1.0, 0), "unknown base 'floating'"),
-    (lambda: runner.trial_relpath("fixed", 1, "medium", 1.0, 0), "unknown gain set 'medium'"),
-    (lambda: runner.trial_relpath("fixed", 1, "zero", -1.0, 0), "impact speed"),
-    (lambda: runner.cell_trials("a", "fixed", 1, "zero", [1.0], 0), "repeats must be an integer >= 1, got 0"),
-    (lambda: runner.gain_counts("high", {"high": {"Q": 1}}), "gain_counts.high.Q"),
-    (lambda: runner.gain_counts("high", {"high": {"P": -5}}), "gain_counts.high.P = -5.0"),
+    (lambda: trial_relpath("floating", 1, "zero", 1.0, 0), "unknown base 'floating'"),
+    (lambda: trial_relpath("fixed", 1, "medium", 1.0, 0), "unknown gain set 'medium'"),
+    (lambda: trial_relpath("fixed", 1, "zero", -1.0, 0), "impact speed"),
+    (lambda: cell_trials("a", "fixed", 1, "zero", [1.0], 0), "repeats must be an integer >= 1, got 0"),
+    (lambda: gain_counts("high", {"high": {"Q": 1}}), "gain_counts.high.Q"),
+    (lambda: gain_counts("high", {"high": {"P": -5}}), "gain_counts.high.P = -5.0"),
 ])
 def test_runner_names_bad_values(call, message):
     with pytest.raises(ValueError, match=re.escape(message)):
@@ -363,9 +366,9 @@ def test_runner_names_bad_values(call, message):
 
 
 def test_gain_counts_override_one_term():
-    assert runner.gain_counts("high") == (500000.0, 4000.0, 1500.0)
-    assert runner.gain_counts("high", {"high": {"P": 400000}}) == (400000.0, 4000.0, 1500.0)
-    assert runner.gain_counts("low", {"high": {"P": 400000}}) == (5000.0, 40.0, 0.0)
+    assert gain_counts("high") == (500000.0, 4000.0, 1500.0)
+    assert gain_counts("high", {"high": {"P": 400000}}) == (400000.0, 4000.0, 1500.0)
+    assert gain_counts("low", {"high": {"P": 400000}}) == (5000.0, 40.0, 0.0)
 
 
 def test_conda_env_pins_match_the_lock():
@@ -397,9 +400,9 @@ def _pdf_objects(path: Path) -> dict[int, tuple[bytes, bytes]]:
 
 
 def test_lean_pdf_fonts_change_only_the_embedded_font_files(tmp_path):
-    """The figures' PDFs embed fonts without GSUB/GPOS/GDEF/kern (campaign.figures.style):
+    """The figures' PDFs embed fonts without GSUB/GPOS/GDEF/kern (campaign.report.figures.style):
     every page object is the same as with matplotlib's own subsetting, the font files only shrink."""
-    from campaign.figures import fig4, style
+    from campaign.report.figures import fig4, style
 
     fig = fig4.draw()
     lean = style.save(fig, tmp_path / "lean.png", tmp_path / "lean.pdf")[1]
@@ -424,7 +427,7 @@ def test_figures_are_laid_out_once_for_png_and_pdf(tmp_path):
     puts them, not where the PDF renderer's own layout would (they differ by ~1 mm here)."""
     import numpy as np
 
-    from campaign.figures import fig8, style
+    from campaign.report.figures import fig8, style
 
     def positions(fig):
         return np.array([ax.get_position().bounds for ax in fig.axes])

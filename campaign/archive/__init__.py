@@ -14,16 +14,31 @@ format* (``docs/archive.rst``).
 
 from __future__ import annotations
 
-from ..schema import ChannelArray, GroupArrays, TrialArrays
+from ..scene.schema import ChannelArray, GroupArrays, TrialArrays
+from .decode import open_trial, open_trial_arrays, open_trial_tree
 from .fileformat import (
-    GROUPS, MANIFEST, INDEX, README, TRIAL_SUFFIX, CELL_KEYS, INDEX_COLUMNS, FILTER_KEYS, REFERENCES,
-    provenance, prepare_trial, _now, _plan, _digest,
+    CELL_KEYS,
+    FILTER_KEYS,
+    GROUPS,
+    INDEX,
+    INDEX_COLUMNS,
+    MANIFEST,
+    README,
+    REFERENCES,
+    TRIAL_SUFFIX,
+    prepare_trial,
+    provenance,
 )
-from .write import write_trial, trial_path, _write_h5, _create_dataset
-from .read import _inspect, _inspect_isolated_many
-from .decode import open_trial, open_trial_arrays, open_trial_tree, _plain
 from .folder import TrialRecord, list_trials, open_campaign, to_cell_dataset
-from .manifest import Problem, write_manifest, write_index, write_readme, finalize_campaign, verify
+from .manifest import (
+    Problem,
+    finalize_campaign,
+    verify,
+    write_index,
+    write_manifest,
+    write_readme,
+)
+from .write import trial_path, write_trial
 
 __all__ = [
     "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",

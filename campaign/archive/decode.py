@@ -11,13 +11,13 @@ from typing import Any, Mapping
 import h5py
 import numpy as np
 
-from .._lazy import LazyModule
-from ..errors import InputError, TrialFileError
-from ..schema import ChannelArray, GroupArrays
+from ..core.errors import InputError, TrialFileError
+from ..core.lazy import LazyModule
+from ..scene.schema import ChannelArray, GroupArrays
 from .fileformat import GROUPS
-from .read import _NC_HIDDEN, _StoredGroup, _StoredVar, _checked_read
+from .read import _NC_HIDDEN, _checked_read, _StoredGroup, _StoredVar
 
-#: xarray, imported on first use (:mod:`campaign._lazy`): jobs that only check or index
+#: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
 xr: Any = LazyModule("xarray")
 
@@ -203,7 +203,7 @@ def open_trial_arrays(path: str | os.PathLike, *, group: str = "measured") -> Gr
 
     Returns
     -------
-    campaign.schema.GroupArrays
+    campaign.scene.schema.GroupArrays
         The group's variables with the values, dtypes and dims :func:`open_trial` gives
         (labels as Python strings), each variable's attributes as stored, and the file's
         global attributes followed by the group's own. The file is checked as by

@@ -10,7 +10,8 @@ import json
 import os
 import re
 import subprocess
-from importlib.metadata import PackageNotFoundError, version as _dist_version
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as _dist_version
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -18,12 +19,19 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from .._lazy import LazyModule
-from ..errors import InputError
-from ..scene import Scene
-from ..schema import CLOCKS, COORDS, SCHEMA_VERSION, GroupArrays, TrialArrays, variables
+from ..core.errors import InputError
+from ..core.lazy import LazyModule
+from ..scene.description import Scene
+from ..scene.schema import (
+    CLOCKS,
+    COORDS,
+    SCHEMA_VERSION,
+    GroupArrays,
+    TrialArrays,
+    variables,
+)
 
-#: xarray, imported on first use (:mod:`campaign._lazy`): jobs that only check or index
+#: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
 xr: Any = LazyModule("xarray")
 
@@ -223,11 +231,11 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
     missing = [n for n in expected if n not in names]
     if missing:
         raise InputError(f"trial group /{group} ({base} base) is missing {', '.join(missing)} "
-                         f"(schema {SCHEMA_VERSION}, campaign/schema.py)")
+                         f"(schema {SCHEMA_VERSION}, campaign/scene/schema.py)")
     unknown = sorted(names - set(expected))
     if unknown:
         raise InputError(f"trial group /{group} ({base} base) has variables not in schema {SCHEMA_VERSION}: "
-                         f"{', '.join(unknown)}; add them to campaign/schema.py with a version bump")
+                         f"{', '.join(unknown)}; add them to campaign/scene/schema.py with a version bump")
     out = []
     for name, spec in expected.items():
         var = ds.variables[name]
@@ -406,7 +414,7 @@ def prepare_trial(tree: xr.DataTree) -> xr.DataTree:
     ----------
     tree : xarray.DataTree
         The rig's trial: children ``measured`` and ``truth`` following
-        :mod:`campaign.schema`, root attributes ``scene_json``, ``scene_sha256``, ``seed``,
+        :mod:`campaign.scene.schema`, root attributes ``scene_json``, ``scene_sha256``, ``seed``,
         ``base``, ``config``, ``gain``, ``speed``, ``repeat``, ``robot``.
 
     Returns

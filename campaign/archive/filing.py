@@ -5,7 +5,7 @@ Every trial file says in its root attributes which cell it holds (``base``, ``co
 group carries a digest of its content. A file moved or copied to another cell's place
 keeps all of them, and re-hashing the manifest does not hide it; this module finds:
 
-* a file whose attributes place it elsewhere (:func:`campaign.cellpath.misfiled`),
+* a file whose attributes place it elsewhere (:func:`campaign.core.vocabulary.misfiled`),
 * root attributes that contradict the file's own ``scene_json``,
 * two files holding the same cell, or the same measured content,
 * an ``index.csv`` row that contradicts the file it lists.
@@ -23,7 +23,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import h5py
 
-from ..cellpath import misfiled, pose_folder
+from ..core.vocabulary import misfiled, pose_folder
 
 __all__ = ["CELL_FIELDS", "filing_problems", "group_digests"]
 

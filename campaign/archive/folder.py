@@ -12,16 +12,25 @@ from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 import h5py
 import numpy as np
 
-from .._lazy import LazyModule
-from ..errors import InputError, TrialFileError
-from ..progress import progress
-from ..scene import BASES, GAINS
-from ..schema import MEASURED, SCHEMA_VERSION, TRUTH, variables
+from ..core.errors import InputError, TrialFileError
+from ..core.lazy import LazyModule
+from ..core.progress import progress
+from ..core.vocabulary import bases, gain_sets
+from ..model.paper import impact_direction
+from ..scene.schema import MEASURED, SCHEMA_VERSION, TRUTH
 from .decode import _plain, open_trial
-from .fileformat import CELL_KEYS, FILTER_KEYS, GROUPS, INDEX_COLUMNS, MANIFEST, TRIAL_SUFFIX, _STRUCTURAL
+from .fileformat import (
+    _STRUCTURAL,
+    CELL_KEYS,
+    FILTER_KEYS,
+    GROUPS,
+    INDEX_COLUMNS,
+    MANIFEST,
+    TRIAL_SUFFIX,
+)
 from .read import _inspect
 
-#: xarray, imported on first use (:mod:`campaign._lazy`): jobs that only check or index
+#: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
 xr: Any = LazyModule("xarray")
 
@@ -73,7 +82,6 @@ class TrialRecord:
         scene names none."""
         n = json.loads(self.scene_json).get("direction")
         if n is None:
-            from ..paper import impact_direction
             n = impact_direction()
         return " ".join(f"{float(x):.9g}" for x in n)
 
@@ -94,7 +102,7 @@ def _campaign(campaign_dir: str | os.PathLike) -> Path:
 
 def _trial_files(campaign: Path) -> Iterator[Path]:
     """Trial files at the Scene.cell layout, sorted."""
-    for base in BASES:
+    for base in bases():
         yield from sorted((campaign / base).glob(f"*/*/*/*{TRIAL_SUFFIX}"))
 
 
@@ -275,7 +283,7 @@ _CELL_ATTRS = {
 
 
 def _coord_order(key: str, values: set) -> list:
-    known = {"base": BASES, "gain": GAINS}.get(key)
+    known = {"base": bases(), "gain": gain_sets()}.get(key)
     if known:
         return [v for v in known if v in values] + sorted(v for v in values if v not in known)
     return sorted(values)

@@ -12,11 +12,19 @@ import re
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
-from ..errors import InputError, TrialFileError
-from ..scene import BASES
-from ..schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
-from .fileformat import INDEX, INDEX_COLUMNS, MANIFEST, README, TRIAL_SUFFIX, _LABEL_LONG_NAMES, _TEMP_RE
-from ..progress import progress
+from ..core.errors import InputError, TrialFileError
+from ..core.progress import progress
+from ..core.vocabulary import bases
+from ..scene.schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
+from .fileformat import (
+    _LABEL_LONG_NAMES,
+    _TEMP_RE,
+    INDEX,
+    INDEX_COLUMNS,
+    MANIFEST,
+    README,
+    TRIAL_SUFFIX,
+)
 from .filing import filing_problems
 from .folder import TrialRecord, _campaign, _record, _rel, _trial_files, list_trials
 from .read import _inspect_isolated_many
@@ -107,7 +115,7 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
         for dim, clock in CLOCKS.items():
             if clock.rate_key in params:
                 rates[dim].add(float(params[clock.rate_key]))
-    counts = {b: sum(r.base == b for r in records) for b in BASES}
+    counts = {b: sum(r.base == b for r in records) for b in bases()}
     clock_rows = [(f"`{dim}`", c.long_name, f"`{c.rate_key}`",
                    ", ".join(f"{r:g}" for r in sorted(rates[dim])) or "-") for dim, c in CLOCKS.items()]
 
@@ -121,10 +129,10 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
     parts = [
         f"# Campaign archive `{name}`",
         "",
-        f"Generated from `campaign/schema.py` (schema {SCHEMA_VERSION}) by `campaign archive finalize`; "
+        f"Generated from `campaign/scene/schema.py` (schema {SCHEMA_VERSION}) by `campaign archive finalize`; "
         "do not edit, regenerate it.",
         "",
-        f"{len(records)} trials: " + ", ".join(f"{counts[b]} {b}-base" for b in BASES) + ".",
+        f"{len(records)} trials: " + ", ".join(f"{counts[b]} {b}-base" for b in bases()) + ".",
         "",
         "## Files",
         "",
@@ -179,7 +187,7 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
 def write_readme(campaign_dir: str | os.PathLike, *, records: Sequence[TrialRecord] | None = None) -> Path:
     """Write ``README.md``: every variable, unit, dims and clock of the schema, and the rates used.
 
-    Generated from :mod:`campaign.schema` and the trials' scenes, without a date, so the same
+    Generated from :mod:`campaign.scene.schema` and the trials' scenes, without a date, so the same
     campaign always gets the same README. ``records`` as in :func:`write_index`.
     """
     campaign = _campaign(campaign_dir)

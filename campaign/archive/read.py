@@ -13,12 +13,11 @@ import h5py
 import numpy as np
 from h5py import h5d, h5ds, h5i, h5o, h5r
 
-from ..errors import TrialFileError
-from ..progress import progress
-from ..scene import BASES
-from ..schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
-from .fileformat import GROUPS, _SCHEMA_MAJOR, _STRUCTURAL, _digest
-
+from ..core.errors import TrialFileError
+from ..core.progress import progress
+from ..core.vocabulary import bases
+from ..scene.schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
+from .fileformat import _SCHEMA_MAJOR, _STRUCTURAL, GROUPS, _digest
 
 # ---------------------------------------------------------------------------------------
 # reading
@@ -274,8 +273,8 @@ def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str
                                 f"({SCHEMA_VERSION}) and there is no converter")
                 return out
             base = root.get("base")
-            if base not in BASES:
-                problems.append(f"root attribute base is {base!r}, expected one of {list(BASES)}")
+            if base not in bases():
+                problems.append(f"root attribute base is {base!r}, expected one of {list(bases())}")
                 return out
             stored = root.get("content_sha256")
             if stored is None:

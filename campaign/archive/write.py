@@ -13,13 +13,13 @@ import numpy as np
 from h5py import h5a, h5d, h5ds, h5p, h5s, h5t
 
 from .. import __version__
-from .._lazy import LazyModule
-from ..errors import InputError
-from ..scene import Scene
-from ..schema import TrialArrays
-from .fileformat import GROUPS, TRIAL_SUFFIX, _DEFLATE_LEVEL, _Group, _plan
+from ..core.errors import InputError
+from ..core.lazy import LazyModule
+from ..scene.description import Scene
+from ..scene.schema import TrialArrays
+from .fileformat import _DEFLATE_LEVEL, GROUPS, TRIAL_SUFFIX, _Group, _plan
 
-#: xarray, imported on first use (:mod:`campaign._lazy`): jobs that only check or index
+#: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
 xr: Any = LazyModule("xarray")
 

@@ -33,22 +33,29 @@ Closed-form stress (:func:`closed_form_stress`)
 
 from __future__ import annotations
 
-from .common import (
-    write_section, machine_line, TARGET_FIXED, TARGET_FLEXIBLE, TARGET_WRITE, BASELINE_AT_TARGETS,
-    XARRAY_WRITE_AT_TARGETS, H5PY_WRITE_AT_TARGETS, TARGET_REL_ERR, REF_FACTOR, ERR_FLOOR, _md,
-)
+from .closed_form import closed_form_stress, format_closed_form
+from .common import machine_line, write_section
+from .cost import format_cost, trial_cost, truth_m_impulse, write_probe
 from .naive import naive_rk4, naive_trial
-from .work_precision import (
-    WPScene, Setting, wp_scenes, wp_settings, work_precision, pareto_front, format_wp_table,
-    plot_work_precision, rig_available, trial_errors, timing_noise, assign_fronts, wp_verdict,
-    format_wp_references,
-)
-from .cost import trial_cost, format_cost, truth_m_impulse, write_probe, cost_scenes
 from .stress import (
-    StressCase, StressResult, stress_cases, run_case, run_stress, check_invariants, format_stress,
-    ENERGY_RTOL, POST_SAMPLES, GROWTH_TOL, MEFF_LOWER, E_UPPER, LIMIT_TOL, PAPER_HIGH, stress_summary,
+    StressCase,
+    StressResult,
+    check_invariants,
+    format_stress,
+    run_case,
+    run_stress,
+    stress_cases,
 )
-from .closed_form import closed_form_stress, format_closed_form, singular_pose, _q_dh
+from .work_precision import (
+    Setting,
+    WPScene,
+    format_wp_table,
+    pareto_front,
+    plot_work_precision,
+    work_precision,
+    wp_scenes,
+    wp_settings,
+)
 
 __all__ = [
     "naive_rk4", "naive_trial", "WPScene", "Setting", "wp_scenes", "wp_settings", "work_precision",

@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import math
 import time
+import warnings as _w
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from ..model import exiit
+from ..model.paper import load_paper
+from ..model.robot import load_robot
+from ..model.robot.floating import BaseBody, attach_to_floating_base
 from .common import _md
 
 
@@ -16,14 +21,12 @@ from .common import _md
 # closed-form stress: Ex-IIT near singular configurations, eq 11 conditioning, lambda fit
 # ---------------------------------------------------------------------------------------
 def _q_dh(q_paper_deg) -> np.ndarray:
-    from ..paper import load_paper
     return np.radians(np.asarray(q_paper_deg, float) + np.asarray(load_paper()["offset_deg"], float))
 
 
 def _eq11_diagnostics(robot, q, lam=None, n=(-1.0, 0.0, 0.0)) -> dict[str, float]:
     """Conditioning of eq 11 at one pose: cond(H + lambda), cond(G*_33), and the relative
     condition number of m* = 1 / (n^T G n) with respect to G, ``||G||_2 / (n^T G n)``."""
-    from .. import exiit
     data = robot.model.createData()
     G = exiit.exiit_fixed(robot, q, lam, data=data)[:3, :3]
     H = exiit.inertia(robot.model, data, q) + exiit.lambda_matrix(lam, robot.nv)
@@ -40,8 +43,6 @@ def singular_pose(robot=None) -> tuple[float, float, float]:
     q2 such that ``n^T G* n = 0`` (wrist centre in the x-z plane, arm horizontal)."""
     from scipy.optimize import minimize, minimize_scalar
 
-    from .. import exiit
-    from ..robot import load_robot
     robot = robot or load_robot()
     data = robot.model.createData()
 
@@ -64,11 +65,7 @@ def closed_form_stress(*, log: Callable[[str], None] | None = print) -> dict[str
     """Ex-IIT (eq 7, 8, 11) towards the stretched singularity (paper q3 -> 0) and along
     random poses: every m* must be finite and positive or exactly ``inf``; scalar and batch
     evaluations agree; plus eq 11's conditioning and the lambda sensitivity of the paper's
-    design, and the lambda fit on ill-conditioned designs (when ``campaign.fit`` exists)."""
-    from .. import exiit
-    from ..paper import load_paper
-    from ..robot import load_robot
-    from ..robot.floating import BaseBody, attach_to_floating_base
+    design, and the lambda fit on ill-conditioned designs (when ``campaign.joints.lambda_fit`` exists)."""
 
     robot = load_robot()
     paper = load_paper()
@@ -149,7 +146,6 @@ def closed_form_stress(*, log: Callable[[str], None] | None = print) -> dict[str
 
 def _lambda_sensitivity(robot, Qs, lam, h: float = 1e-6) -> dict[str, Any]:
     """S_ij = d ln m*_i / d ln lambda_j (central differences) and cond(S)."""
-    from .. import exiit
     S = np.zeros((len(Qs), len(lam)))
     for i, q in enumerate(Qs):
         for j in range(len(lam)):
@@ -163,12 +159,12 @@ def _lambda_sensitivity(robot, Qs, lam, h: float = 1e-6) -> dict[str, Any]:
 
 
 def _fit_stress(robot, paper, *, log=None) -> dict[str, Any]:
-    """The lambda fit (``campaign.fit``) on a well-posed and on ill-conditioned designs:
+    """The lambda fit (``campaign.joints.lambda_fit``) on a well-posed and on ill-conditioned designs:
     it must report its condition number and not return wild values."""
     try:
-        from .. import fit as fitmod
+        from ..joints import lambda_fit as fitmod
     except ImportError as exc:
-        return dict(available=False, note=f"campaign.fit is not available yet ({exc})")
+        return dict(available=False, note=f"campaign.joints.lambda_fit is not available yet ({exc})")
     return _run_fit_stress(fitmod, robot, paper, log=log)
 
 
@@ -177,9 +173,7 @@ def _run_fit_stress(fitmod, robot, paper, *, log=None) -> dict[str, Any]:
     paper's design, and designs that are ill-conditioned by construction. A fit passes when
     every value is finite and inside its bounds, the condition number is reported, and any
     component more than 2x off the truth (or whose CI misses it) is flagged not identifiable."""
-    import warnings as _w
 
-    from .. import exiit
     lam_true = np.asarray(paper["table3"]["high"], float)
     qs = singular_pose(robot)
     c = {k: np.array(v, float) for k, v in paper["configurations"].items()}
@@ -264,7 +258,7 @@ def format_closed_form(c: dict[str, Any]) -> str:
         f"condition number of the sensitivity matrix **{s['cond']:.3g}**.", "",
         t2, "",
         "Problems: " + ("none." if not c["problems"] else "; ".join(c["problems"])), "",
-        "Lambda fit (`campaign.fit.LambdaFit`, synthetic m* from eq 11 at the Table 3 High lambda "
+        "Lambda fit (`campaign.joints.lambda_fit.LambdaFit`, synthetic m* from eq 11 at the Table 3 High lambda "
         "with lognormal noise, 5 trials per pose, 100 bootstrap resamples): " + fit["note"] + ".",
     ]
     if fit.get("rows"):

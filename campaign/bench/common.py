@@ -9,9 +9,11 @@ import os
 import platform
 import time
 from collections.abc import Callable, Iterable, Sequence
+from importlib.metadata import version
 from pathlib import Path
 from typing import Any
 
+from .. import __version__
 
 #: per-trial simulation time targets of the rig (fixed and flexible base) and the trial write [s]
 TARGET_FIXED = 0.025
@@ -77,9 +79,7 @@ def time_call(fn: Callable[[], Any], repeats: int) -> list[float]:
 
 def machine_line() -> str:
     """One line naming the machine, its load and the library versions."""
-    from importlib.metadata import version
 
-    from .. import __version__
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     libs = ", ".join(f"{name} {version(dist)}" for name, dist in
                      (("numpy", "numpy"), ("pin", "pin"), ("xarray", "xarray")))

@@ -11,8 +11,23 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
-from .common import (BASELINE_AT_TARGETS, H5PY_WRITE_AT_TARGETS, TARGET_FIXED, TARGET_FLEXIBLE, TARGET_WRITE, XARRAY_WRITE_AT_TARGETS, _md, _timed)
+from .. import archive
+from ..core.vocabulary import bases, gain_sets
+from ..model.exiit import impact_jacobian, unit_direction
+from ..rig import simulate
+from ..scene.description import make_scene
+from .common import (
+    BASELINE_AT_TARGETS,
+    H5PY_WRITE_AT_TARGETS,
+    TARGET_FIXED,
+    TARGET_FLEXIBLE,
+    TARGET_WRITE,
+    XARRAY_WRITE_AT_TARGETS,
+    _md,
+    _timed,
+)
 from .naive import naive_rk4, naive_trial
 from .work_precision import _identify, rig_available
 
@@ -25,8 +40,8 @@ def cost_scenes(*, quick: bool = False) -> list[tuple[str, dict]]:
     speeds = (1.0, 2.5) if not quick else (1.75,)
     configs = (1, 2, 3) if not quick else (1, 2)
     out = []
-    for base in ("fixed", "flexible"):
-        gains = ("zero", "low", "high") if base == "fixed" else ("low", "high")
+    for base in bases():
+        gains = gain_sets() if base == "fixed" else ("low", "high")
         cfgs = configs if base == "fixed" else tuple(c for c in configs if c in (1, 2))
         for c in cfgs:
             for g in gains:
@@ -81,9 +96,6 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
                log: Callable[[str], None] = print) -> dict[str, Any]:
     """Median simulation time per trial (default setting), file writing time separately, and
     the naive baseline (0.5 s of fixed-base trial, fixed-step RK4 at 0.1 ms) in the same run."""
-    from .. import archive
-    from ..rig import simulate
-    from ..scene import make_scene
 
     repeats = repeats or (2 if quick else 3)
     baseline_repeats = baseline_repeats or (2 if quick else 5)
@@ -174,7 +186,7 @@ def format_cost(c: dict[str, Any]) -> str:
             rows.append([group, "-", "-", "-", f"{target * 1e3:.0f}", "not available: " + why[:70]])
             continue
         lo, hi = c["sim_range"][group]
-        gains = ", ".join(f"{g} {c['per_gain'][(group, g)] * 1e3:.0f}" for g in ("zero", "low", "high")
+        gains = ", ".join(f"{g} {c['per_gain'][(group, g)] * 1e3:.0f}" for g in gain_sets()
                           if (group, g) in c["per_gain"])
         scaled = c["sim_scaled"][group]
         verdict = _verdict(c["sim"][group], scaled, target)
@@ -227,9 +239,7 @@ def truth_m_impulse(measured, truth, robot) -> float:
     spacing (1 ms) hardly enters. On the impulsive synthetic trials (``decay="none"``, fixed
     base) it is eq 11 with the trial's lambda.
     """
-    import pinocchio as pin
 
-    from ..exiit import impact_jacobian, unit_direction
 
     t = np.asarray(truth["t_truth"].values, float)
     q, v = np.asarray(truth["q"].values, float), np.asarray(truth["v"].values, float)

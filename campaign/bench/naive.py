@@ -7,7 +7,10 @@ import math
 
 import numpy as np
 
-from ..errors import InputError, SimulationError
+from ..core.errors import InputError, SimulationError
+from ..rig.integrate import Trajectory
+from ..rig.plant import FrictionState
+from ..rig.simulate import build, record
 
 
 # ---------------------------------------------------------------------------------------
@@ -38,9 +41,6 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
         :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.simulate.record``
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
-    from ..rig.integrate import Trajectory
-    from ..rig.plant import FrictionState
-    from ..rig.simulate import build
 
     if scene.base != "fixed":
         raise InputError("the naive RK4 baseline is defined for fixed-base scenes only")
@@ -143,7 +143,6 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
 
 def naive_trial(scene, *, step: float = 1e-4, duration: float | None = None):
     """The naive baseline's trial as a DataTree (same sensors and layout as :func:`simulate`)."""
-    from ..rig.simulate import record
 
     rig, traj = naive_rk4(scene, step=step, duration=duration)
     tree = record(rig, traj)

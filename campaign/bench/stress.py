@@ -13,11 +13,16 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, SimulationError
+from .. import archive
+from ..core.errors import InputError, SimulationError
+from ..model import exiit
+from ..model.paper import load_paper
+from ..model.robot import load_robot
+from ..rig import build, simulate
+from ..scene.description import load_rig, make_scene
 from .closed_form import singular_pose
 from .common import _md, _rel
 from .work_precision import _identify
-
 
 # ---------------------------------------------------------------------------------------
 # stress suite
@@ -45,7 +50,6 @@ class StressCase:
     hammer_x_meff: float | None = None
 
     def make(self):
-        from ..scene import make_scene
         kw = {k: (dict(v) if isinstance(v, dict) else v) for k, v in self.kwargs.items()}
         if self.hammer_x_meff is not None:
             m0 = _m0(kw)
@@ -56,15 +60,11 @@ class StressCase:
 
 
 def _rig_value(key: str):
-    from ..scene import load_rig
     return load_rig()[0][key]
 
 
 def _m0(kw: dict) -> float:
     """Ex-IIT m* (eq 11, lambda = 0, fixed base) of the pose of ``make_scene`` keywords."""
-    from .. import exiit
-    from ..paper import load_paper
-    from ..robot import load_robot
     paper = load_paper()
     q = kw.get("q_paper_deg") or paper["configurations"][int(kw.get("config", 1))]
     q = np.radians(np.asarray(q, float) + np.asarray(paper["offset_deg"], float))
@@ -322,7 +322,6 @@ def check_invariants(scene, tree, ident) -> tuple[list[str], dict]:
                 viol.append(f"base motion grows after the impact (peak {first:.3g} in the first quarter of the "
                             f"record, {last:.3g} in the last): unstable emulation loop or integration")
     # joint limits (the rig has no end stops): reported, not an invariant (see the README)
-    from ..robot import load_robot
     robot = load_robot(scene.p("robot"))
     q = np.asarray(tr.q.values, float)
     na = q.shape[1]
@@ -352,8 +351,6 @@ def check_invariants(scene, tree, ident) -> tuple[list[str], dict]:
 def run_case(case: StressCase, folder: str | os.PathLike, *, write: bool = True) -> StressResult:
     """Run one stress case through the trial pipeline (scene -> simulate -> invariants ->
     file) and classify it."""
-    from .. import archive
-    from ..rig import build, simulate
 
     folder = Path(folder)
     path = folder / (f"{abs(hash(case.label)) & 0xFFFFFFFF:08x}.nc")

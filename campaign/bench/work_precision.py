@@ -12,8 +12,21 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from .common import ERR_FLOOR, REF_FACTOR, TARGET_FIXED, TARGET_FLEXIBLE, TARGET_REL_ERR, _e, _md, _rel, _timed
+from ..core.errors import InputError
+from ..identify import identify_trial
+from ..rig import build, simulate
+from ..scene.description import make_scene
+from .common import (
+    ERR_FLOOR,
+    REF_FACTOR,
+    TARGET_FIXED,
+    TARGET_FLEXIBLE,
+    TARGET_REL_ERR,
+    _e,
+    _md,
+    _rel,
+    _timed,
+)
 from .naive import naive_trial
 
 
@@ -28,7 +41,6 @@ class WPScene:
     kwargs: dict
 
     def make(self):
-        from ..scene import make_scene
         return make_scene(**self.kwargs)
 
 
@@ -43,7 +55,6 @@ class Setting:
     default: bool = False
 
     def run(self, scene):
-        from ..rig import simulate
         if self.naive:
             return naive_trial(scene)
         if self.default:
@@ -83,7 +94,6 @@ def wp_scenes(*, quick: bool = False, flexible: bool = True) -> list[WPScene]:
 
 def rig_available(scene) -> tuple[bool, str]:
     """Can the rig build this scene? (False, reason) while a base is not integrated yet."""
-    from ..rig import build
     try:
         build(scene)
     except (InputError, NotImplementedError, ImportError, AttributeError) as exc:
@@ -159,7 +169,6 @@ def trial_errors(tree, ref, ident, ident_ref) -> dict[str, Any]:
 
 
 def _identify(tree):
-    from ..identify import identify_trial
     return identify_trial(tree["measured"].to_dataset(), meta=dict(tree.attrs))
 
 
@@ -217,7 +226,6 @@ def work_precision(*, quick: bool = False, repeats: int | None = None, flexible:
     CPU time per trial [s], and the errors of :func:`trial_errors`; ``front`` marks the Pareto
     front of (median wall time, max(rel. error of m*, e, v'_a, v'_b)) within its scene.
     """
-    from ..rig import build, simulate
 
     repeats = repeats or (3 if quick else 5)
     rows, skipped, scenes = [], [], []

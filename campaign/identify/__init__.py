@@ -5,8 +5,8 @@ interval from the piezo force, the hammer velocities from the pendulum encoder, 
 tip's velocities from the base F/T sensor or the joint encoders, then eq 12 and eq 10 (or
 the impulse estimator). A trial that cannot give a trustworthy m* is returned with
 ``excluded=True`` and the reason; a file that is not a trial raises
-:class:`~campaign.errors.TrialFileError`, a dataset without a required channel
-:class:`~campaign.errors.InputError`. One module per step (options, contact, hammer, the
+:class:`~campaign.core.errors.TrialFileError`, a dataset without a required channel
+:class:`~campaign.core.errors.InputError`. One module per step (options, contact, hammer, the
 three arm-velocity methods, the trial driver, loading); this package re-exports their
 public names.
 
@@ -16,18 +16,13 @@ The methods, their equations and their measured accuracy: user guide, *Identific
 
 from __future__ import annotations
 
-from .options import (
-    ACCURACY_NOTE, REQUIRED_CHANNELS, IdentifyOptions, FLEXIBLE_CONSTANTS, BASE_POSE_CHANNELS, ARM_MODELS,
-    EDGE_MODELS, PENDULUM_MODELS, ARM_VELOCITIES, FT_ROWS, JOINT_COULOMB, M_EFF_ESTIMATORS, FT_CHANNELS,
-)
-from .results import TrialIdentification
+from .channels import base_geometry
 from .contact import Contact, detect_contact
 from .hammer import hammer_velocity
-from .channels import base_geometry
-from .ft_momentum import _ft_tip_velocity, _cross
-from .joint_dynamics import _joint_dynamics_fit
-from .trial import identify_trial
 from .loading import find_trials, identify_file, identify_files, load_trial
+from .options import ACCURACY_NOTE, REQUIRED_CHANNELS, IdentifyOptions
+from .results import TrialIdentification
+from .trial import identify_trial
 
 __all__ = [
     "ACCURACY_NOTE",

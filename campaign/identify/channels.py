@@ -8,8 +8,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._lazy import LazyModule
-from ..errors import InputError
+from ..core.errors import InputError
+from ..core.lazy import LazyModule
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
 #: (``load_trial(path, arrays=True)``) and so never pay ~0.6 s for xarray and pandas

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .._lazy import LazyModule
-from ..errors import InputError
+from ..core.errors import InputError
+from ..core.lazy import LazyModule
 from .channels import _check_channels, _time
 from .contact import Contact
 from .options import FT_CHANNELS, IdentifyOptions

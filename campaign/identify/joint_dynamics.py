@@ -76,7 +76,7 @@ def _joint_dynamics_fit(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: C
 
     Parameters
     ----------
-    robot : campaign.robot.Robot
+    robot : campaign.model.robot.Robot
     n : ndarray, shape (3,)
         Unit impact direction, base frame.
     t, Q : ndarray, shapes (N,), (N, nv)

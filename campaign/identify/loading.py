@@ -5,9 +5,10 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from .._lazy import LazyModule
-from ..errors import InputError, TrialFileError
-from ..schema import GroupArrays
+from ..core.errors import InputError, TrialFileError
+from ..core.lazy import LazyModule
+from ..model.robot import load_robot
+from ..scene.schema import GroupArrays
 from .options import IdentifyOptions
 from .results import TrialIdentification
 from .trial import identify_trial
@@ -88,7 +89,6 @@ def identify_file(path, *, options: IdentifyOptions | None = None, robot=None) -
 
 def identify_files(paths: Iterable, *, options: IdentifyOptions | None = None) -> list[TrialIdentification]:
     """Identify many trial files, one robot model loaded per robot name."""
-    from ..robot import load_robot
 
     robots: dict[str, object] = {}
     out = []

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any, Mapping
 
-from ..errors import InputError
-
+from ..core.errors import InputError, allowed_names
 
 #: channels and constants identification reads from the ``measured`` group, with their dims
 REQUIRED_CHANNELS = {
@@ -252,3 +252,16 @@ class IdentifyOptions:
             # is a parameter of the ODE fit only (the polynomial has none)
             raise InputError(f"m_eff_estimator='impulse' needs pendulum_model='ode' (the pendulum's w^2 sizes "
                              f"the gravity impulse), got pendulum_model={self.pendulum_model!r}")
+
+
+def check_identify_options(options: Mapping[str, Any] | None, *, key: str = "identify"):
+    """:class:`campaign.identify.IdentifyOptions` from ``options``, every name and value checked."""
+    names = [f.name for f in dataclasses.fields(IdentifyOptions)]
+    for name in options or {}:
+        if name not in names:
+            raise InputError(f"{key}: unknown identification option {name!r}; {allowed_names(str(name), names)}")
+    try:
+        return IdentifyOptions(**dict(options or {}))
+    except InputError as exc:
+        raise InputError(f"{key}: {exc}") from None
+

@@ -8,6 +8,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.optimize import least_squares
 
+from ..model.exiit import impact_jacobian
 from .contact import _ContactInput
 from .options import IdentifyOptions
 
@@ -227,7 +228,6 @@ def _start_jacobian_series(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, t
 def _tip_displacement(robot, q_cmd, n, t, s, t_s, t_e, post_window, opt):
     """Largest tip displacement along n after the contact relative to the pre-contact mean
     [m], and the joint encoders' resolution projected on the tip along n [m]."""
-    from ..exiit import impact_jacobian
 
     data = robot.model.createData()
     pin.framesForwardKinematics(robot.model, data, q_cmd)

@@ -7,17 +7,37 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from .._lazy import LazyModule
-from ..errors import InputError
-from ..schema import GroupArrays
-from .channels import _check_channels, _finite_scalar, _float_or, _int_or, _servo_channel, _time, base_geometry
+from ..core.errors import InputError
+from ..core.lazy import LazyModule
+from ..model.robot import Robot, load_robot
+from ..scene.schema import GroupArrays
+from .channels import (
+    _check_channels,
+    _finite_scalar,
+    _float_or,
+    _int_or,
+    _servo_channel,
+    _time,
+    base_geometry,
+)
 from .contact import _ContactInput, detect_contact
 from .ft_momentum import _ft_tip_velocity
 from .hammer import _contact_impulse, _hammer_fit
 from .joint_dynamics import _joint_dynamics_fit
-from .options import BASE_POSE_CHANNELS, FLEXIBLE_CONSTANTS, IdentifyOptions, REQUIRED_CHANNELS
+from .options import (
+    BASE_POSE_CHANNELS,
+    FLEXIBLE_CONSTANTS,
+    REQUIRED_CHANNELS,
+    IdentifyOptions,
+)
 from .results import TrialIdentification
-from .tip_lti import _arm_fit, _rotate, _start_jacobian_series, _tip_displacement, _tip_positions
+from .tip_lti import (
+    _arm_fit,
+    _rotate,
+    _start_jacobian_series,
+    _tip_displacement,
+    _tip_positions,
+)
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
 #: (``load_trial(path, arrays=True)``) and so never pay ~0.6 s for xarray and pandas
@@ -44,10 +64,10 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
 
     Parameters
     ----------
-    measured : xarray.Dataset or campaign.schema.GroupArrays
+    measured : xarray.Dataset or campaign.scene.schema.GroupArrays
         The trial's ``measured`` group (schema 1.0); as plain arrays from
         ``load_trial(path, arrays=True)`` the result is the same.
-    robot : campaign.robot.Robot or str, optional
+    robot : campaign.model.robot.Robot or str, optional
         The arm; by default ``meta["robot"]`` (the trial's root attribute), else
         ``measured.attrs["robot"]``.
     meta : mapping, optional
@@ -67,13 +87,12 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
     InputError
         A required channel or constant is missing, has the wrong dims, or a bad value.
     """
-    from ..robot import Robot, load_robot
 
     opt = options or IdentifyOptions()
     meta = dict(meta or {})
     if not isinstance(measured, GroupArrays) and not isinstance(measured, xr.Dataset):
         raise InputError(f"{where}: expected the measured group as an xarray.Dataset (or "
-                         f"campaign.schema.GroupArrays), got {type(measured).__name__}")
+                         f"campaign.scene.schema.GroupArrays), got {type(measured).__name__}")
     _check_channels(measured, REQUIRED_CHANNELS, where)
     base_kind = str(meta.get("base", "") or "")
     flexible = base_kind == "flexible" or (not base_kind and "base_mass" in measured.variables)

@@ -1,7 +1,7 @@
 """The simulated VES-II: the truth behind every "measurement" of the campaign.
 
 ``simulate(scene) -> xarray.DataTree`` with ``/measured`` (raw channels) and ``/truth``;
-``simulate_arrays(scene)`` gives the same as plain arrays (``campaign.schema.TrialArrays``).
+``simulate_arrays(scene)`` gives the same as plain arrays (``campaign.scene.schema.TrialArrays``).
 Modules: :mod:`~campaign.rig.contact`, :mod:`~campaign.rig.pendulum`,
 :mod:`~campaign.rig.controller`, :mod:`~campaign.rig.plant`, :mod:`~campaign.rig.integrate`,
 :mod:`~campaign.rig.sensors`, :mod:`~campaign.rig.simulate`; the flexible base adds

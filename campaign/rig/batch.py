@@ -21,7 +21,7 @@ A trial whose step would hold an event (a joint stopping or breaking loose, the 
 starting or ending, the hammer caught, a non-finite state) is not stepped here: it goes
 back to its own loop at the state before that step, which locates and applies the event
 as the one-trial path does, and rejoins the batch at its next step. A finished trial
-leaves the batch; a failing one (:class:`~campaign.errors.SimulationError`) leaves it
+leaves the batch; a failing one (:class:`~campaign.core.errors.SimulationError`) leaves it
 with its error and the others go on.
 
 Every operation here is the one-trial path's, element for element, in the same order
@@ -36,8 +36,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import SimulationError
+from ..core.errors import SimulationError
 from .integrate import _END_SCALE, EDGE_SUBSTEPS, Lane, trial_steps
+from .simulate import build, integration_args, record_arrays
 
 __all__ = ["integrate_batch", "simulate_batch"]
 
@@ -351,7 +352,7 @@ def integrate_batch(jobs, *, threads: int = 1, on_done=None) -> list:
     -------
     list
         Per trial, its :class:`.integrate.Trajectory`, or the
-        :class:`~campaign.errors.SimulationError` that ended it (the others are unaffected).
+        :class:`~campaign.core.errors.SimulationError` that ended it (the others are unaffected).
     """
     n = len(jobs)
     results: list = [None] * n
@@ -409,13 +410,12 @@ def integrate_batch(jobs, *, threads: int = 1, on_done=None) -> list:
 def simulate_batch(scenes, *, integration: dict | None = None, threads: int = 1, on_done=None) -> list:
     """Simulate many trials through :func:`integrate_batch`; per scene what
     :func:`.simulate.simulate_arrays` returns (the same arrays), or the
-    :class:`~campaign.errors.SimulationError` that ended that trial.
+    :class:`~campaign.core.errors.SimulationError` that ended that trial.
 
     Every scene is built and checked first (:func:`.simulate.build`), so a bad input raises
-    its :class:`~campaign.errors.InputError` before any trial is integrated.
+    its :class:`~campaign.core.errors.InputError` before any trial is integrated.
     ``on_done(i, result)`` is called as each trial is recorded or fails.
     """
-    from .simulate import build, integration_args, record_arrays
 
     rigs = [build(scene, integration=integration) for scene in scenes]
     jobs = [(rig.plant, rig.pid, integration_args(rig)) for rig in rigs]

@@ -23,8 +23,8 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
 
-from ..errors import InputError
-from ..robot.floating import BaseBody
+from ..core.errors import InputError
+from ..model.robot.floating import BaseBody
 
 __all__ = [
     "Beam",
@@ -168,7 +168,7 @@ def exact_first_frequency(EI: float, length: float, beam_mass: float, tip_mass: 
         raise InputError("no first bending root found: the tip body is out of range")
     # the second root of any tip body lies above the bare beam's first (clamped-pinned 3.93,
     # clamped-sliding 2.37 in the limits), so [lo, hi] brackets the first root only
-    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
+    from scipy.optimize import brentq  # lazily: scipy.optimize costs ~0.5 s to import
     lam = brentq(_frequency_determinant, lo, hi, args=args, xtol=1e-15, rtol=1e-14)
     return lam**2 / (2.0 * math.pi * L**2) * math.sqrt(EI * L / m)
 
@@ -272,15 +272,20 @@ class Beam:
         object.__setattr__(self, "platform_com", tuple(com.tolist()))
 
     @classmethod
-    def from_scene(cls, scene) -> "Beam":
-        """The beam of a :class:`~campaign.scene.Scene` (its ``flexible.*`` parameters)."""
-        p = scene.p
+    def from_values(cls, values) -> "Beam":
+        """The beam of flat rig values (``flexible.*``, dotted keys)."""
+        v = values
         return cls(
-            EI=p("flexible.beam_EI"), length=p("flexible.beam_length"), mass=p("flexible.beam_mass"),
-            GJ_ratio=p("flexible.beam_GJ_ratio"), EA_ratio=p("flexible.beam_EA_ratio"),
-            damping_ratio=p("flexible.damping_ratio"), platform_mass=p("flexible.platform_mass"),
-            platform_inertia=p("flexible.platform_inertia"), mount_height=p("flexible.mount_height"),
+            EI=v["flexible.beam_EI"], length=v["flexible.beam_length"], mass=v["flexible.beam_mass"],
+            GJ_ratio=v["flexible.beam_GJ_ratio"], EA_ratio=v["flexible.beam_EA_ratio"],
+            damping_ratio=v["flexible.damping_ratio"], platform_mass=v["flexible.platform_mass"],
+            platform_inertia=v["flexible.platform_inertia"], mount_height=v["flexible.mount_height"],
         )
+
+    @classmethod
+    def from_scene(cls, scene) -> "Beam":
+        """The beam of a :class:`~campaign.scene.description.Scene` (its ``flexible.*`` parameters)."""
+        return cls.from_values(scene.param_dict)
 
     # -- section properties --------------------------------------------------------------
     @property
@@ -352,7 +357,7 @@ class Beam:
         return _readonly(self.spatial_inertia.matrix())
 
     def base_body(self) -> BaseBody:
-        """The emulated base as a :class:`~campaign.robot.floating.BaseBody` (free-flyer base
+        """The emulated base as a :class:`~campaign.model.robot.floating.BaseBody` (free-flyer base
         of the ideal coupling): its frame is the tip frame, the arm mounted ``mount_height``
         above it."""
         I = self.spatial_inertia

@@ -20,10 +20,11 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from typing import Any, Mapping
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 __all__ = ["Contact", "restitution_of_damping", "damping_for_restitution", "contact_duration_estimate",
            "peak_force_factor", "pulse_shape"]
@@ -35,7 +36,9 @@ def _dimensionless_contact(d: float, p: float, *, x0: float, dense_output: bool 
     It ends when ``x`` returns to 0 or the force ``x^p (1 + d x')`` reaches 0 (no tension);
     ``solve_ivp``'s solution is returned, with its events (``y_events``) in that order.
     """
-    from scipy.integrate import solve_ivp   # only the contact's closed-form checks integrate
+    from scipy.integrate import (
+        solve_ivp,  # only the contact's closed-form checks integrate
+    )
 
     def rhs(_, y):
         f = max(y[0], 0.0) ** p * (1.0 + d * y[1])
@@ -95,7 +98,7 @@ def damping_for_restitution(e: float, p: float = 1.0) -> float:
     if g(hi) <= 0.0:
         # for e below ~0.04 the root needs 1 - d e below 1e-12: not representable
         raise InputError(f"restitution {e} is too low for the contact model (use e >= 0.05)")
-    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
+    from scipy.optimize import brentq  # lazily: scipy.optimize costs ~0.5 s to import
     return float(brentq(g, lo, hi, xtol=1e-15, rtol=4 * np.finfo(float).eps))
 
 
@@ -186,6 +189,17 @@ class Contact:
     stiffness: float
     exponent: float
     restitution: float
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> "Contact":
+        """The contact law of flat rig values (``contact.*``, dotted keys)."""
+        return cls(float(values["contact.stiffness"]), float(values["contact.exponent"]),
+                   float(values["contact.restitution"]))
+
+    @classmethod
+    def from_scene(cls, scene) -> "Contact":
+        """The contact law of a :class:`~campaign.scene.description.Scene`."""
+        return cls.from_values(scene.param_dict)
 
     def __post_init__(self):
         for name in ("stiffness", "exponent"):

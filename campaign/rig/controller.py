@@ -23,18 +23,34 @@ loop (ZOH, per joint, linearised about the commanded pose) is unstable at the se
 from __future__ import annotations
 
 import dataclasses
+from typing import Any, Mapping
 
 import numpy as np
 
-from ..errors import InputError
+from ..core.errors import InputError
+from ..model.paper import gain_counts
 
-__all__ = ["PID", "check_stability", "equivalent_gains"]
+__all__ = ["PID", "check_stability", "equivalent_gains", "joint_gains"]
 
 
 def equivalent_gains(P, D, I, *, scale, resolution, period):
     """Continuous-time equivalents (Kp [N m/rad], Kd [N m s/rad], Ki [N m/(rad s)]) per joint."""
     r = np.asarray(resolution, dtype=float)
     return scale * P / r, scale * D / r, scale * I / r
+
+
+def joint_gains(gain: str, *, values: Mapping[str, Any], robot,
+                overrides: Mapping[str, Mapping[str, float]] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The servo of a gain set of the paper's Table 1 in joint units: ``(Kp [N m/rad],
+    Kd [N m s/rad], Ki [N m/(rad s)])`` per joint, from its controller counts
+    (:func:`campaign.model.paper.gain_counts`, with ``overrides``), the rig values
+    ``controller.torque_per_unit`` and ``controller.servo_rate`` and the robot's encoder
+    resolution (:func:`equivalent_gains`)."""
+    P, D, I = gain_counts(gain, overrides)
+    kp, kd, ki = equivalent_gains(P, D, I, scale=float(values["controller.torque_per_unit"]),
+                                  resolution=robot.encoder_resolution,
+                                  period=1.0 / float(values["controller.servo_rate"]))
+    return np.asarray(kp, float), np.asarray(kd, float), np.asarray(ki, float)
 
 
 def check_stability(inertia, viscous, *, P, D, I, scale, resolution, period, joint_names):

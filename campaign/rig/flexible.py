@@ -2,7 +2,7 @@
 
 Both plants reuse the fixed-base machinery (:class:`.plant.FixedBasePlant`: pendulum,
 contact, stick-slip friction, servo) on the Pinocchio free-flyer model of base + arm
-(:func:`campaign.robot.floating.attach_to_floating_base`, base body
+(:func:`campaign.model.robot.floating.attach_to_floating_base`, base body
 :meth:`.beam.Beam.base_body`: platform + the beam's tip share).
 
 :class:`IdealCouplingPlant` (``ves.mode = ideal``)
@@ -31,8 +31,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from ..robot import Robot
-from ..robot.floating import attach_to_floating_base
+from ..model.robot import Robot
+from ..model.robot.floating import attach_to_floating_base
 from .beam import Beam
 from .contact import Contact
 from .ideal_base import IdealBase, static_arm_wrench

@@ -2,7 +2,7 @@
 
 In the ideal (exactly coupled) mode of the flexible rig, arm and structure are integrated
 as one system: the Pinocchio free-flyer model of
-:func:`campaign.robot.floating.attach_to_floating_base` with the base body of :meth:`campaign.rig.beam.Beam.base_body`
+:func:`campaign.model.robot.floating.attach_to_floating_base` with the base body of :meth:`campaign.rig.beam.Beam.base_body`
 (beam share + platform, frame = beam tip frame) and, as the external force on the base
 joint, the wrench of :class:`IdealBase`. It is the reference against which the VES-II
 loop (:mod:`campaign.rig.ves`) is measured, so it removes the static load exactly as the
@@ -28,8 +28,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
-from ..robot import Robot
+from ..core.errors import InputError
+from ..model.robot import Robot
 from .beam import Beam
 
 __all__ = ["IdealBase", "static_arm_wrench"]

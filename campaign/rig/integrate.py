@@ -20,11 +20,12 @@ when the arm is static (all joints stuck and the servo output constant) or slowe
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 
 import numpy as np
 
-from ..errors import SimulationError
+from ..core.errors import SimulationError
 from .controller import PID
 from .linear_phase import last_tick, run_frozen
 from .plant import FixedBasePlant
@@ -272,7 +273,6 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
         if consistent(xx, fs.modes) is not None:
             return
         rest = np.flatnonzero(((fs.modes == 0) | (xx[iv] == 0.0)) & sticky)
-        import itertools
         for combo in itertools.product((0, 1, -1), repeat=len(rest)):
             m = fs.modes.copy()
             m[rest] = combo
@@ -381,7 +381,9 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
                     def gfun(s):
                         return max(fs.violations(plant.holding(x, tau, fs, None, t + s * h)[0]))
                     g0 = gfun(0.0)
-                    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
+                    from scipy.optimize import (
+                        brentq,  # lazily: scipy.optimize costs ~0.5 s to import
+                    )
                     fired_at = brentq(gfun, 0.0, 1.0, xtol=1e-14) if g0 < 0 else 0.0
             if fired_at is None:
                 xds.append(zero_xd)
@@ -447,7 +449,9 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
                         if s >= 1.0:
                             return g1[key]
                         return event_values(_hermite(x, k1, x_new, f1, h, s), t + s * h)[0].get(key, -1.0)
-                    from scipy.optimize import brentq   # lazily: scipy.optimize costs ~0.5 s to import
+                    from scipy.optimize import (
+                        brentq,  # lazily: scipy.optimize costs ~0.5 s to import
+                    )
                     s_k = brentq(gfun, 0.0, 1.0, xtol=1e-14) if gfun(0.0) <= 0 else 0.0
                     if s_k < best_s:
                         best_s, best_k = s_k, key

@@ -35,6 +35,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from .flexible import _platform_free_flyer
+
 __all__ = ["FrozenArm", "neglected_wrench", "frozen_wrench"]
 
 #: central-difference step of the rotation derivative [rad] (and of the translation [m]):
@@ -49,7 +51,6 @@ def frozen_wrench(plant, q_arm, pose, accel, twist=None):
     ``accel`` (6 each), and the bias torques ``rnea(q, 0, [a_b, 0])_m`` (na): what the
     per-tick path computes at an emulator tick (:meth:`.flexible.VesLoopPlant.on_emulator_tick`,
     :meth:`.flexible.VesLoopPlant._bias`) with the arm still."""
-    from .flexible import _platform_free_flyer
 
     twist = np.zeros(6) if twist is None else np.asarray(twist, float)
     qb, vb, ab = _platform_free_flyer(np.asarray(pose, float), twist, np.asarray(accel, float))

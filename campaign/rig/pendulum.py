@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any, Mapping
 
 import numpy as np
 from scipy.special import ellipj, ellipk
 
-from ..errors import InputError
-from ..scene import hammer_reach
+from ..core.errors import InputError
+from ..scene.description import hammer_reach
 
 __all__ = ["Pendulum"]
 
@@ -53,6 +54,18 @@ class Pendulum:
     radius: float
     gravity: float
     max_release_deg: float = 170.0
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> "Pendulum":
+        """The pendulum of flat rig values (``pendulum.*`` and ``gravity``, dotted keys)."""
+        return cls(float(values["pendulum.head_mass"]), float(values["pendulum.rod_mass"]),
+                   float(values["pendulum.radius"]), float(values["gravity"]),
+                   float(values["pendulum.max_release_deg"]))
+
+    @classmethod
+    def from_scene(cls, scene) -> "Pendulum":
+        """The pendulum of a :class:`~campaign.scene.description.Scene`."""
+        return cls.from_values(scene.param_dict)
 
     def __post_init__(self):
         if not (self.head_mass > 0 and math.isfinite(self.head_mass)):

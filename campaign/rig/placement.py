@@ -35,8 +35,9 @@ import dataclasses
 import math
 
 import numpy as np
+import pinocchio as pin
 
-from ..errors import InputError
+from ..core.errors import InputError
 
 __all__ = ["Placement", "PLACEMENT_KEYS", "arm_segments", "place_pendulum", "placement_params"]
 
@@ -97,7 +98,6 @@ def arm_segments(robot, q, *, data=None) -> tuple[list[tuple[str, np.ndarray, np
         the struck forearm); coincident origins are merged.
     tip : ndarray, shape (3,)
     """
-    import pinocchio as pin
 
     model = robot.model
     data = model.createData() if data is None else data
@@ -130,7 +130,7 @@ def place_pendulum(robot, q, n, *, radius: float, release_angle: float, link_rad
 
     Parameters
     ----------
-    robot : campaign.robot.Robot
+    robot : campaign.model.robot.Robot
     q : array_like
         DH joint angles [rad].
     n : array_like, shape (3,)

@@ -23,12 +23,13 @@ the force ``F`` pushes the tip along ``+n`` and the hammer along ``-n``.
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pinocchio as pin
 
-from ..robot import Robot
+from ..model.robot import Robot
 from .contact import Contact
 from .pendulum import Pendulum
 
@@ -169,7 +170,6 @@ class FixedBasePlant:
         H = pin.crba(self.model, self.data, self.q0)
         self._crba_full = bool(np.allclose(H, H.T))
         # free joints of each stuck set, precomputed (tuple(stuck) -> list of free indices)
-        import itertools
         self._free_of = {k: {c: [i for i in range(nv) if i not in c] for c in itertools.combinations(range(nv), k)}
                          for k in range(nv + 1)}
         # Pinocchio joint id of each dof, for locking stuck joints (buildReducedModel)

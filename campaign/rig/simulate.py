@@ -3,7 +3,7 @@
 :func:`simulate` builds only what the scene needs (a fixed-base scene has no base or
 platform states), checks every input before integrating (pendulum reach, servo
 stability, contact step), integrates (:mod:`.integrate`) and samples the sensors
-(:mod:`.sensors`) into an ``xarray.DataTree`` following :mod:`campaign.schema`:
+(:mod:`.sensors`) into an ``xarray.DataTree`` following :mod:`campaign.scene.schema`:
 ``/measured`` holds what a real rig records, ``/truth`` what only the simulator knows.
 """
 
@@ -13,23 +13,34 @@ import dataclasses
 import math
 
 import numpy as np
+import pinocchio as pin
 
-from .. import schema
-from .._lazy import LazyModule
-from ..errors import InputError, SimulationError
-from ..robot import load_robot
-from ..scene import Scene
-from ..schema import ChannelArray, GroupArrays, TrialArrays
+from ..core.errors import InputError, SimulationError
+from ..core.lazy import LazyModule
+from ..model.exiit import effective_mass
+from ..model.paper import load_paper
+from ..model.robot import load_robot
+from ..scene import schema
+from ..scene.description import Scene
+from ..scene.schema import ChannelArray, GroupArrays, TrialArrays
+from .beam import Beam
 from .contact import Contact, contact_duration_estimate
 from .controller import PID, check_stability
+from .flexible import IdealCouplingPlant, VesLoopPlant
 from .integrate import integrate_trial
 from .pendulum import Pendulum
 from .placement import place_pendulum, placement_params
 from .plant import FixedBasePlant
-from .sensors import StateSampler, mount_wrenches, noise_streams, quantize, sample_grid, truth_terms
+from .sensors import (
+    StateSampler,
+    mount_wrenches,
+    noise_streams,
+    quantize,
+    sample_grid,
+    truth_terms,
+)
 
-__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "check_stroke_before",
-           "predicted_platform_peak", "structure_modes", "Rig"]
+__all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "structure_modes", "Rig"]
 
 # imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
 # the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
@@ -49,15 +60,6 @@ MAX_SUBSTEPS_IDEAL = 16
 MIN_STEPS_PER_CONTACT = 8
 #: a contact needing more RK4 substeps than this per servo tick is refused as too stiff
 MAX_SUBSTEPS = 4096
-#: lambda [kg m^2] standing for a locked arm in the stroke prediction (far above any servo's)
-LOCKED_LAMBDA = 1e6
-#: a trial is refused before simulating when eq 8's predicted platform excursion exceeds the
-#: stroke this many times. The prediction (impulsive contact, the larger of a free and a
-#: locked arm) bounds the simulated peak from above: 0.64-0.98 of it over configurations
-#: 1-3, Zero/Low/High gains, 1.0 and 2.5 m/s on both structures (the stiff mast lowest, its
-#: contact is not impulsive). Twice the stroke refuses only trials the simulation would refuse
-#: too; those in between are simulated and refused by the definitive check after it.
-STROKE_MARGIN = 2.0
 
 
 @dataclasses.dataclass
@@ -106,7 +108,6 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     min_post, max_post = float(p("trial.min_post_contact")), float(p("trial.max_post_contact"))
     # the hammer must rebound: one at least as heavy as the arm's free effective mass (eq 11,
     # lambda = 0, the smallest m* the arm can show) keeps pushing it and never leaves cleanly
-    from ..exiit import effective_mass
     m1 = effective_mass(robot, q0, n)
     if pend.m_b >= m1:
         raise InputError(
@@ -118,8 +119,6 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     if scene.base == "fixed":
         plant = FixedBasePlant(robot, q0, n, pend, contact, **friction)
     else:
-        from .beam import Beam
-        from .flexible import IdealCouplingPlant, VesLoopPlant
         beam = Beam.from_scene(scene)
         # a flexible trial records trial_periods periods of the structure's first mode with
         # the arm (locked) on top, for Figure 9
@@ -161,17 +160,10 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                     f"{p('ves.latency'):g} s, ves.bandwidth = {p('ves.bandwidth'):g} Hz: its {fz[k]:.4g} Hz mode has "
                     f"damping ratio {zeta[k]:.3g} < 0 with the arm on the platform; lower the bandwidth or the latency")
 
-    if scene.base == "flexible" and "ves.stroke" in scene.param_dict:
-        peak = predicted_platform_peak(robot, q0, n, beam, mass=pend.m_b, speed=scene.speed,
-                                       restitution=contact.restitution, contact=contact)
-        check_stroke_before(peak, stroke=float(p("ves.stroke")),
-                            structure=str(scene.param_dict.get("flexible.structure", "")))
-
     T = 1.0 / float(p("controller.servo_rate"))
     P, D, I = scene.gains_counts
     scale = float(p("controller.torque_per_unit"))
     H = robot.model.createData()
-    import pinocchio as pin
     Hd = np.diag(pin.crba(plant.model, H, q0))
     check_stability(Hd, plant.viscous, P=P, D=D, I=I, scale=scale, resolution=robot.encoder_resolution,
                     period=T, joint_names=robot.joint_names)
@@ -237,7 +229,6 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
 def _modes_with_arm(robot, q0, beam):
     """Natural frequencies [Hz] of the structure with the arm locked on top (ascending) and
     the arm's composite inertia at the beam tip."""
-    import pinocchio as pin
 
     data = robot.model.createData()
     pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
@@ -249,37 +240,10 @@ def structure_modes(scene: Scene) -> np.ndarray:
     """Natural frequencies [Hz] of a flexible scene's structure with its arm locked on top in
     the scene's configuration, ascending: the first bending pair (its period T_1 sets the
     recording and Figure 9's time axis), then the second pair, torsion, axial."""
-    from .beam import Beam
 
     robot = load_robot(scene.p("robot"))
     q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
     return _modes_with_arm(robot, q0, Beam.from_scene(scene))[0]
-
-
-def predicted_platform_peak(robot, q0, n, beam, *, mass: float, speed: float, restitution: float, contact) -> float:
-    """The platform's peak excursion [m] eq 8 predicts before simulating: the base velocity
-    change of an impulsive contact (eq 8, 13-14) fed into the structure's first bending pair
-    (:func:`campaign.plan.predict`), the larger of a free arm (lambda = 0) and a locked one."""
-    from ..plan import pose_terms, predict
-
-    terms = pose_terms(robot, np.asarray(q0, float)[None], beam=beam)
-    lam = [np.zeros(robot.nv), np.full(robot.nv, LOCKED_LAMBDA)]
-    pred = predict(terms, lam, np.asarray(n, float)[None], mass=mass, speed=speed, restitution=restitution,
-                   contact=contact)
-    return float(np.max(pred.structure_peak))
-
-
-def check_stroke_before(peak: float, *, stroke: float, structure: str = "") -> None:
-    """Refuse, before any integration, a trial whose predicted platform excursion ``peak``
-    (:func:`predicted_platform_peak`) exceeds the stroke by more than the prediction's
-    error (:data:`STROKE_MARGIN`); :func:`check_stroke` on the simulated platform stays the
-    definitive check."""
-    if peak > STROKE_MARGIN * stroke:
-        raise InputError(
-            f"the emulated base would move about {peak:.4g} m from rest (eq 8's impulsive base velocity on the "
-            f"structure's first mode), beyond the VES platform's stroke ves.stroke = {stroke:g} m"
-            + (f" (structure {structure})" if structure else "")
-            + ": a slower hammer or a stiffer or heavier structure keeps the platform in range")
 
 
 def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: str = "") -> None:
@@ -298,7 +262,6 @@ def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: 
 
 
 def _offset():
-    from ..paper import load_paper
     return np.asarray(load_paper()["offset_deg"], dtype=float)
 
 
@@ -369,7 +332,7 @@ def simulate(scene: Scene, *, integration: dict | None = None) -> xr.DataTree:
 
 
 def simulate_arrays(scene: Scene, *, integration: dict | None = None) -> TrialArrays:
-    """:func:`simulate` returning the trial as plain arrays (``campaign.schema.TrialArrays``),
+    """:func:`simulate` returning the trial as plain arrays (``campaign.scene.schema.TrialArrays``),
     which :func:`campaign.archive.write_trial` stores as the same file: the campaign's
     simulation jobs use it and never import xarray (~0.7 s per job, more than a fixed-base
     trial takes to simulate). :func:`to_tree` gives the DataTree :func:`simulate` returns."""

@@ -23,8 +23,8 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
 
-from ..errors import InputError
-from .beam import Beam
+from ..core.errors import InputError
+from .beam import Beam, tip_inertia_matrix
 
 __all__ = ["VesLoop", "PlatformServo", "PlatformState", "platform_motion", "zoh", "foh",
            "MIN_TICKS_PER_PERIOD", "RECORD_WIDTH", "RECORD_COLUMNS", "STEP_WIDTH"]
@@ -432,7 +432,6 @@ class VesLoop:
         ndarray, shape (n, n)
             Transition of ``(s, p, set-points in flight, a_p)``.
         """
-        from .beam import tip_inertia_matrix
 
         Ma = tip_inertia_matrix(arm_inertia)
         to_sensor = np.linalg.inv(self.wrench_to_tip)

@@ -7,10 +7,9 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import compare_runs
 import h5py
 import pytest
-
-import compare_runs
 
 
 def write_trial(path: Path, *, date: str, measured: str = "m" * 64, seed: int = 7) -> None:

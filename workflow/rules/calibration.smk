@@ -6,7 +6,7 @@
 
 rule calibrate:
     input:
-        calibration=str(runner.package_file("calibration.yaml")),
+        calibration=str(config_file("calibration.yaml")),
     output:
         md=f"{RESULTS}/calibration/fit.md",
     log:

@@ -1,9 +1,10 @@
 # Helpers of the campaign workflow: the configuration (validated at start-up), where every
 # file lives, which trials and identification tables each product needs, and the targets.
 #
-# Only the standard library, campaign.runner and campaign.imports (both standard library
-# only at import) are imported here: Snakemake evaluates this file every time it starts, including for a
-# dry run, so the heavy stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
+# Only the standard library, PyYAML and the package's start-up modules (campaign.core.vocabulary,
+# campaign.pipeline.paths, .config, .digests: standard library and PyYAML at import) are imported
+# here: Snakemake evaluates this file every time it starts, a dry run included, so the heavy
+# stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
 
 import hashlib
 import os
@@ -14,8 +15,11 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
 
-from campaign import checks, imports, runner
-from campaign.errors import InputError
+from campaign.core import vocabulary
+from campaign.core.errors import InputError
+from campaign.core.yamlfile import config_file
+from campaign.pipeline import config as config_checks
+from campaign.pipeline import digests, paths
 
 min_version("9.0")
 
@@ -33,9 +37,9 @@ SCHEMA_FILE = Path(workflow.basedir, "workflow", "schemas", "config.schema.yaml"
 # (one line naming the key), then let Snakemake's validate fill in the schema's defaults
 with open(SCHEMA_FILE, encoding="utf-8") as _fh:
     _schema = yaml.safe_load(_fh)
-checks.parse_typed_strings(config, _schema)
+config_checks.parse_typed_strings(config, _schema)
 try:
-    checks.check_schema(config, _schema)
+    config_checks.check_schema(config, _schema)
 except InputError as _exc:
     raise WorkflowError(str(_exc)) from None
 validate(config, schema="../schemas/config.schema.yaml")
@@ -45,7 +49,7 @@ report: "../report/workflow.rst"
 
 
 wildcard_constraints:
-    gain="zero|low|high",
+    gain="|".join(vocabulary.gain_sets()),
     config="[0-9]+",
 
 
@@ -57,74 +61,40 @@ ARCHIVE = f"{config['archive_root']}/{CAMPAIGN}"
 RESULTS = f"{config['results_root']}/{CAMPAIGN}"
 SIMULATE = bool(config["simulate"])
 JOB_UNIT = config["job_unit"]
-GAIN_ORDER = ("zero", "low", "high")
+GAIN_ORDER = vocabulary.gain_sets()
 # the files every trial depends on: the rig parameters and the paper's tables (configurations, gains)
-RIG_FILE = config["rig"] if config.get("rig") else str(runner.package_file("rig.yaml"))
-PAPER_FILE = str(runner.package_file("paper.yaml"))
+RIG_FILE = config["rig"] if config.get("rig") else str(config_file("rig.yaml"))
+PAPER_FILE = str(config_file("paper.yaml"))
 # data the report takes from the repository's benchmarks (both structures; eq 8's validity map):
 # the campaign simulates one structure, the sweep behind these runs beside it
-BENCH_DIR = Path(runner.__file__).resolve().parents[1] / "benchmarks"
+BENCH_DIR = digests.PACKAGE.parent / "benchmarks"
 VALIDITY_CSV = str(BENCH_DIR / "eq8_validity.csv")
 STRUCTURES_CSV = str(BENCH_DIR / "table4_structures.csv")
 # the impact planner's candidates simulated on the rig (benchmarks/plan_rig_check.py)
 RIG_CHECK_CSV = str(BENCH_DIR / "plan_rig_check.csv")
 
 
-def source_files(*patterns):
-    """Files of the campaign package a rule's jobs run (glob patterns relative to the package)."""
-    package = Path(runner.__file__).resolve().parent
-    files = set()
-    for pattern in patterns:
-        matched = {f for f in package.glob(pattern) if f.is_file()}
-        if not matched:   # a moved module must not drop out of its stage's digest unnoticed
-            raise WorkflowError(f"no package source matches {pattern!r} under {package}")
-        files |= matched
-    return sorted(files)
-
-
 def code_digest(*patterns):
-    """sha256 over the names and contents of the package files a rule's jobs run.
-
-    Each rule takes the digest of its stage's code as the param ``code``, so editing that
-    code reruns the stage and what depends on it (the params rerun trigger; Snakemake's own
-    code trigger covers only the rule's script). A digest rather than the files as inputs:
-    listed as inputs, the 5-24 sources of every job would be stat'ed, sized and checksummed by
-    Snakemake each time it schedules or finishes a job, about 300 extra input files in the
-    reduced campaign.
-    """
-    package = Path(runner.__file__).resolve().parent
-    digest = hashlib.sha256()
-    # the patterns name a stage's entry modules and data files; every package module they
-    # import (also inside functions) counts too, so no edit to code a stage runs goes unseen
-    files = source_files(*patterns)
-    for f in sorted(set(files) | set(imports.closure(files))):
-        data = f.read_bytes()
-        digest.update(f"{f.relative_to(package).as_posix()}\0{len(data)}\0".encode())
-        digest.update(data)
-    return digest.hexdigest()
+    """The stage digest of the package files ``patterns`` name (campaign.pipeline.digests)."""
+    try:
+        return digests.code_digest(*patterns)
+    except InputError as exc:
+        raise WorkflowError(str(exc)) from None
 
 
 # the code behind each stage (see code_digest)
-CODE_SIMULATE = code_digest("rig/*.py", "robot/*.py", "robot/*/*", "scene.py", "paper.py", "schema.py", "archive/*.py",
-                            "checks.py", "cellpath.py")
-CODE_IDENTIFY = code_digest("identify/*.py", "robot/*.py", "robot/*/*", "archive/*.py", "runner.py", "checks.py",
-                            "cellpath.py")
-CODE_FIT = code_digest("fit.py", "exiit.py", "runner.py")
-CODE_TABLES = code_digest("tables.py", "exiit.py", "fit.py", "robot/floating.py", "runner.py", "htmlpage.py")
+CODE_SIMULATE = code_digest("pipeline/simulate.py", "model/robot/*/*")
+CODE_IDENTIFY = code_digest("identify/table.py", "model/robot/*/*")
+CODE_FIT = code_digest("pipeline/fit.py", "model/robot/*/*")
+CODE_TABLES = code_digest("pipeline/tabulate.py", "model/robot/*/*")
 
 
-def figure_code(name, *more):
-    """Digest of the figure's module, the shared style and the other package files it reads with."""
-    return code_digest(f"figures/{name}.py", "figures/style.py", *more)
+def figure_code(name):
+    """Digest of the figure's module and every package module it imports, with the robot files."""
+    return code_digest(f"report/figures/{name}.py", "model/robot/*/*")
 
 
-def _gain_classes():
-    """The paper's gain classes (Tables 2-3 pool Zero and Low): {class: [gains]} from paper.yaml."""
-    with open(PAPER_FILE, encoding="utf-8") as fh:
-        return {str(k): [str(g) for g in v] for k, v in yaml.safe_load(fh)["gain_classes"].items()}
-
-
-GAIN_CLASSES = _gain_classes()
+GAIN_CLASSES = {k: list(v) for k, v in vocabulary.gain_classes().items()}
 
 
 def _config_error(key, message):
@@ -149,7 +119,7 @@ def _reuse_cells(root):
     """{(base, configuration, gain): [trial files]} of the reused archive, from its own
     index.csv, restricted to the bases, configurations and gains the configuration lists."""
     try:
-        held = runner.index_cells(root)
+        held = paths.index_cells(root)
     except (OSError, ValueError) as exc:
         _config_error("reuse_archive", str(exc))
     wanted = _sweeps()
@@ -164,7 +134,7 @@ def _reuse_cells(root):
 def _held_sweeps(held):
     """The sweep of each base as the reused archive holds it (speeds and repeats from its files)."""
     out = {}
-    for base in [b for b in ("fixed", "flexible") if any(c[0] == b for c in held)]:
+    for base in [b for b in vocabulary.bases() if any(c[0] == b for c in held)]:
         rows = [c for c in held if c[0] == base]
         speeds = sorted({float(Path(p).parent.name[1:]) for c in rows for p in held[c]})
         repeats = max(int(Path(p).stem[1:]) for c in rows for p in held[c]) + 1
@@ -226,7 +196,7 @@ def _configured_structure():
 # the one the flexible sweep simulates
 FLEX_STRUCTURE = _configured_structure()
 if not SIMULATE and any(c[0] == "flexible" for c in REUSED):
-    from campaign.scene import trial_structures   # numpy and h5py: only when reusing an archive
+    from campaign.scene.description import trial_structures   # numpy and h5py: only when reusing an archive
 
     _held = ", ".join(trial_structures([p for c, ps in REUSED.items() if c[0] == "flexible" for p in ps]))
     if _held != FLEX_STRUCTURE:
@@ -235,7 +205,7 @@ if not SIMULATE and any(c[0] == "flexible" for c in REUSED):
     FLEX_STRUCTURE = _held
 
 try:
-    checks.check_workflow_config(config, sweeps=SWEEPS if SIMULATE else {})
+    config_checks.check_workflow_config(config, sweeps=SWEEPS if SIMULATE else {})
 except InputError as exc:
     raise WorkflowError(str(exc)) from None
 
@@ -254,15 +224,15 @@ def cell_trials(base, config_, gain):
     """Trial files of one cell: declared outputs when simulating, the archive's index when reusing."""
     if SIMULATE:
         sweep = SWEEPS[base]
-        return runner.cell_trials(TRIAL_ROOT, base, config_, gain, sweep["speeds"], sweep["repeats"])
+        return paths.cell_trials(TRIAL_ROOT, base, config_, gain, sweep["speeds"], sweep["repeats"])
     return REUSED[(base, config_, gain)]
 
 
 def trial_file(base, config_, gain, speed, repeat, key):
     """One trial a figure shows; ``key`` names the configuration entry that chose it."""
     if (base, config_, gain) not in cells(base):
-        raise WorkflowError(f"{key} needs cell {runner.cell_dir(base, config_, gain)}, which bases.{base} does not list")
-    path = f"{TRIAL_ROOT}/{runner.trial_relpath(base, config_, gain, speed, repeat)}"
+        raise WorkflowError(f"{key} needs cell {vocabulary.cell_dir(base, config_, gain)}, which bases.{base} does not list")
+    path = f"{TRIAL_ROOT}/{vocabulary.trial_relpath(base, config_, gain, speed, repeat)}"
     if SIMULATE:
         sweep = SWEEPS[base]
         if float(speed) not in sweep["speeds"]:
@@ -314,7 +284,7 @@ def simulate_outputs(base):
     """Declared trial files of one simulation job of ``base``, as patterns in its wildcards."""
     sweep = SWEEPS[base]
     configs = sweep["configurations"] if JOB_UNIT == "sweep" else ["{config}"]
-    return [f"{ARCHIVE}/{base}/config{c}/{{gain}}/v{s:.3f}/r{r:02d}.nc"
+    return [str(Path(ARCHIVE, *vocabulary.layout(base, vocabulary.config_folder(c), "{gain}", s, r)))
             for c in configs for s in sweep["speeds"] for r in range(sweep["repeats"])]
 
 
@@ -454,7 +424,7 @@ def calibration_targets():
 # ----------------------------------------------------------------------------------------
 # the project's config/designed.yaml (like rig.yaml and paper.yaml, whatever the working
 # directory), or the file --config designed=PATH names
-DESIGNED_FILE = str(config.get("designed") or runner.package_file("designed.yaml"))
+DESIGNED_FILE = str(config.get("designed") or config_file("designed.yaml"))
 
 
 def _designed_settings():
@@ -474,8 +444,7 @@ DESIGNED = _designed_settings()
 DESIGNED_RESULTS = f"{config['results_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ARCHIVE = f"{config['archive_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ROLES = ("paper", "designed", "heldout")
-CODE_DESIGNED = code_digest("design.py", "designed.py", "coulomb_fit.py", "impedance_fit.py", "fit.py", "exiit.py", "rig/*.py",
-                            "scene.py", "identify/*.py", "archive/*.py")
+CODE_DESIGNED = code_digest("design/designed_campaign.py", "model/robot/*/*")
 
 
 def designed_tables(role):

@@ -1,7 +1,7 @@
 # The designed campaign (config/designed.yaml): the paper's three configurations, poses and
 # impact directions chosen by `campaign design`, and held-out poses, on the fixed base for
 # every gain set; lambda fitted on each design and checked on the held-out poses
-# (campaign.designed). `snakemake designed` makes its report. The rules exist when the
+# (campaign.design.designed_campaign). `snakemake designed` makes its report. The rules exist when the
 # settings file does (common.smk: DESIGNED).
 
 

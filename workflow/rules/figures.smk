@@ -1,4 +1,4 @@
-# Figures 4-9 of the paper and the impact planner's maps (campaign.figures: one module per
+# Figures 4-9 of the paper and the impact planner's maps (campaign.report.figures: one module per
 # figure, one thin script each), PNG for the report and PDF beside it.
 
 
@@ -11,7 +11,7 @@ rule fig4_arm_configurations:
         pdf=report(f"{RESULTS}/figures/fig4.pdf", caption="../report/fig4.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 4", "format": "PDF"}),
     params:
-        code=figure_code("fig4", "robot/*.py", "robot/*/*"),
+        code=figure_code("fig4"),
     log:
         log_file("fig4"),
     resources:
@@ -33,7 +33,7 @@ rule fig5_joint3_motion:
         pdf=report(f"{RESULTS}/figures/fig5.pdf", caption="../report/fig5.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 5", "format": "PDF"}),
     params:
-        code=figure_code("fig5", "archive/*.py", "identify/*.py"),
+        code=figure_code("fig5"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
@@ -58,7 +58,7 @@ rule fig6_effective_mass:
         pdf=report(f"{RESULTS}/figures/fig6.pdf", caption="../report/fig6.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 6", "format": "PDF"}),
     params:
-        code=figure_code("fig6", "runner.py"),
+        code=figure_code("fig6"),
     log:
         log_file("fig6"),
     resources:
@@ -80,7 +80,7 @@ rule fig7_restitution:
         pdf=report(f"{RESULTS}/figures/fig7.pdf", caption="../report/fig7.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 7", "format": "PDF"}),
     params:
-        code=figure_code("fig7", "runner.py"),
+        code=figure_code("fig7"),
     log:
         log_file("fig7"),
     resources:
@@ -102,7 +102,7 @@ rule fig8_flexible_setup:
         pdf=report(f"{RESULTS}/figures/fig8.pdf", caption="../report/fig8.rst", category="Flexible base",
                    subcategory="Figures", labels={"figure": "Figure 8", "format": "PDF"}),
     params:
-        code=figure_code("fig8", "figures/fig4.py", "rig/beam.py", "robot/*.py", "robot/*/*"),
+        code=figure_code("fig8"),
         rig=config["rig"],
         rig_params=sweep_params("flexible"),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
@@ -129,8 +129,7 @@ rule fig9_base_motion:
         pdf=report(f"{RESULTS}/figures/fig9.pdf", caption="../report/fig9.rst", category="Flexible base",
                    subcategory="Figures", labels={"figure": "Figure 9", "format": "PDF"}),
     params:
-        code=figure_code("fig9", "archive/*.py", "identify/*.py", "scene.py", "rig/simulate.py", "rig/beam.py",
-                         "robot/*.py", "robot/*/*"),
+        code=figure_code("fig9"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
     priority: 1
@@ -164,8 +163,7 @@ rule planner_maps:
                               category="Impact planner", subcategory="Maps",
                               labels={"map": "directions", "format": "PDF"}),
     params:
-        code=figure_code("plan_maps", "plan.py", "exiit.py", "robot/*.py", "robot/*/*", "rig/contact.py",
-                         "rig/beam.py", "commands/plan.py", "scene.py", "paper.py"),
+        code=figure_code("plan_maps"),
         fits=lambda wc: list(fit_jsons().values()),
         rig=config["rig"],
         resolution=config.get("plan_maps", {}).get("resolution", 0.05),

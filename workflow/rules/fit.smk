@@ -1,6 +1,6 @@
 # Virtual Rotor Inertia: lambda (eq 11, 15) per gain class of the paper (zero_low, high)
 # from the fixed-base trials of every configuration, with bootstrap intervals and the
-# identifiability findings (campaign.fit.LambdaFit).
+# identifiability findings (campaign.joints.lambda_fit.LambdaFit).
 
 
 rule fit_lambda:

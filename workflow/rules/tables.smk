@@ -1,4 +1,4 @@
-# Tables 2-4 (campaign.tables), each CSV (full precision), Markdown and HTML (shown in the report), the
+# Tables 2-4 (campaign.report.tables), each CSV (full precision), Markdown and HTML (shown in the report), the
 # paper's values beside ours. Each table needs only its own inputs: Table 2 the fixed-base
 # identification, Table 3 the lambda fits, Table 4 the fits and the flexible-base
 # identification (so `snakemake table2` runs no flexible-base trial).

@@ -1,8 +1,9 @@
 """Snakemake script of rule designed_report: paper design vs designed, held-out prediction, lambda per speed."""
 
-from campaign import designed, runner
+from campaign.design import designed_campaign as designed
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="designed_report", exit_process=True):  # noqa: F821
+with job_log(snakemake.log[0], job="designed_report", exit_process=True):  # noqa: F821
     designed.report(snakemake.input.plan, {role: list(getattr(snakemake.input, role))  # noqa: F821
                                            for role in designed.ROLES},
                     snakemake.output.json, snakemake.output.md)  # noqa: F821

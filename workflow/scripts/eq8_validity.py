@@ -1,9 +1,9 @@
 """Snakemake script of rule eq8_validity: the validity map of eq 8 from the benchmark's CSV."""
 
-from campaign import runner
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="eq8_validity", exit_process=True) as timer:  # noqa: F821
+with job_log(snakemake.log[0], job="eq8_validity", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
-        from campaign.figures import validity
+        from campaign.report.figures import validity
     with timer("figure"):
         print(validity.make(snakemake.input.data, snakemake.output.png, snakemake.output.pdf))  # noqa: F821

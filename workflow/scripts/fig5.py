@@ -1,9 +1,9 @@
 """Snakemake script of rule fig5_joint3_motion: Figure 5 from one fixed-base trial."""
 
-from campaign import runner
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="fig5", exit_process=True) as timer:  # noqa: F821
+with job_log(snakemake.log[0], job="fig5", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
-        from campaign.figures import fig5
+        from campaign.report.figures import fig5
     with timer("figure"):
         print(fig5.make(snakemake.input.trial, snakemake.output.png, snakemake.output.pdf))  # noqa: F821

@@ -1,9 +1,9 @@
 """Snakemake script of rule fig7_restitution: Figure 7 from the fixed-base identification."""
 
-from campaign import runner
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="fig7", exit_process=True) as timer:  # noqa: F821
+with job_log(snakemake.log[0], job="fig7", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
-        from campaign.figures import fig7
+        from campaign.report.figures import fig7
     with timer("figure"):
         print(fig7.make(list(snakemake.input.tables), snakemake.output.png, snakemake.output.pdf))  # noqa: F821

@@ -1,8 +1,8 @@
 """Snakemake script of rule finalize_archive: index, README and manifest of the campaign's archive."""
 
-from campaign import runner
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="finalize_archive", exit_process=True) as timer:  # noqa: F821
+with job_log(snakemake.log[0], job="finalize_archive", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
         from campaign.archive import finalize_campaign
     with timer("finalize"):

@@ -1,8 +1,10 @@
 """Snakemake script of rule table4_structures: Table 4 and Figure 9 under both named
-structures (campaign.tables.structures_table) from the benchmark's CSV."""
+structures (campaign.report.tables.structures_table) from the benchmark's CSV."""
 
-from campaign import runner
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="table4_structures", exit_process=True) as timer:  # noqa: F821
-    runner.make_table("table4_structures", snakemake.output.csv, snakemake.output.md,  # noqa: F821
+with job_log(snakemake.log[0], job="table4_structures", exit_process=True) as timer:  # noqa: F821
+    with timer.imports():
+        from campaign.pipeline.tabulate import make_table
+    make_table("table4_structures", snakemake.output.csv, snakemake.output.md,  # noqa: F821
                       source=snakemake.input.data, out_html=snakemake.output.html, timer=timer)  # noqa: F821

@@ -5,9 +5,9 @@ also against its manifest and index. A damaged archive fails the job, listing ev
 in the log; an archive that was never finalized (no ``MANIFEST.sha256``) passes with a note.
 """
 
-from campaign import runner
+from campaign.pipeline.joblog import job_log
 
-with runner.job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer:  # noqa: F821
+with job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
         from campaign.archive import MANIFEST, verify
     archive = snakemake.params.archive  # noqa: F821

@@ -1,0 +1,1 @@
+"""Subcommands of the ``campaign`` CLI, one module each (see :mod:`campaign.cli.main`)."""

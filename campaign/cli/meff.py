@@ -1,0 +1,346 @@
+"""``campaign meff``: the effective mass of the arm's tip along an impact direction (eq 11).
+
+Evaluates the Ex-IIT of the PUMA 560 (eq 7 on a fixed base, eq 8 on a flexible base) at one
+configuration, or reproduces the m1, m2 and m3 columns of the paper's Table 2 next to the
+published values. Everything the command needs is read from ``config/``: the paper's
+configurations, angle mapping, impact direction and Table 3 lambda from ``paper.yaml``, the
+flexible base body from ``rig.yaml``.
+
+Examples
+--------
+::
+
+    campaign meff --config 1
+    campaign meff --q 0,150,90 --lambda 19.82,4.62,0.80 --json
+    campaign meff --config 2 --base flexible
+    campaign meff --table
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.vocabulary import bases
+from ..model.exiit import effective_mass
+from ..model.paper import configuration_q, impact_direction, load_paper, paper_q
+from ..model.robot import load_robot
+from ..model.robot.floating import attach_to_floating_base
+from ..rig.beam import Beam
+from ..scene.description import make_scene
+
+__all__ = ["register", "run", "parse_vector", "flexible_base_body", "evaluate", "table2_rows", "format_table2"]
+
+HELP = "effective mass of the tip along an impact direction (eq 11), or the paper's Table 2"
+
+DESCRIPTION = """\
+Effective mass m* = 1 / (n^T G*_33 n) of the PUMA 560's impact point (the wrist centre)
+along the impact direction n (paper, eq 11), with G* from eq 7 (fixed base) or eq 8
+(flexible base), or the paper's Table 2 reproduced with --table.
+
+Units: joint angles in degrees in the paper's convention (Table 1), mapped to the model's
+DH angles as q_DH = q_paper + offset_deg of config/paper.yaml (0, 0, -90 deg); Virtual
+Rotor Inertia lambda in kg m^2 (diagonal, one value per joint); the direction n is
+dimensionless and normalised; m* in kg. Joint limits are inclusive (configuration 3 sits
+exactly on joint 3's +45 deg DH limit).
+
+Give comma-separated values without spaces. Values starting with '-' work as they are
+(--direction -1,0,0), or write them as --q=-10,150,90.
+"""
+
+EPILOG = """\
+flexible base: the arm stands on a free rigid body (eq 8; in the impulsive phase the
+beam's spring and damper transmit no impulse): the emulated base of the rig, i.e. the
+platform (flexible.platform_mass [kg], flexible.platform_inertia [kg m^2]) plus the beam's
+tip share of its mass (flexible.beam_mass [kg], flexible.beam_length [m]; consistent
+Hermite tip mass, campaign/rig/beam.py), all from config/rig.yaml, with the arm's base
+frame flexible.mount_height [m] above the beam tip.
+
+output: one line per quantity; with --json one JSON object with "m_eff" [kg] (null when
+m* is infinite, i.e. n leaves the range of G*_33: then "m_eff_is_infinite" is true).
+--table prints, for configurations 1-3: m1 (lambda = 0), m2 (Table 3 lambda of the
+Zero/Low gains) and m3 (Table 3 lambda of the High gains), each with the paper's value
+and the relative difference (model - paper) / paper.
+
+exit status: 0 on success, 2 on bad input (one line on stderr naming the value).
+"""
+
+#: Table 2 columns: (column, Table 3 gain class whose lambda it uses, or None for zero)
+TABLE2_COLUMNS = (("m1", None), ("m2", "zero_low"), ("m3", "high"))
+
+# Python 3.11's argparse takes "-1,0,0" for an option flag; accept any argument that starts
+# like a negative number as a value (the rule Python 3.13 adopted; this command has no
+# option that looks like a negative number).
+_NEGATIVE_VALUE = re.compile(r"^-\.?\d")
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    """Add the ``meff`` subcommand to the ``campaign`` command's subparsers."""
+    p = subparsers.add_parser(
+        "meff", help=HELP, description=DESCRIPTION, epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p._negative_number_matcher = _NEGATIVE_VALUE
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("--config", metavar="N",
+                      help="paper configuration of Table 1 (1, 2 or 3; config/paper.yaml)")
+    what.add_argument("--q", metavar="Q1,Q2,Q3",
+                      help="joint angles [deg], paper convention (q3 from the straight elbow)")
+    what.add_argument("--table", action="store_true",
+                      help="reproduce Table 2 (m1, m2, m3 of configurations 1-3) beside the paper's "
+                           "values; fixed base, the paper's n and Table 3 lambda")
+    p.add_argument("--lambda", dest="lam", metavar="L1,L2,L3",
+                   help="Virtual Rotor Inertia, diagonal [kg m^2], each >= 0 (default: 0,0,0)")
+    p.add_argument("--direction", metavar="X,Y,Z",
+                   help="impact direction n in the arm's base frame, normalised "
+                        "(default: the paper's n = -1,0,0 from config/paper.yaml)")
+    p.add_argument("--base", choices=bases(), default=None,
+                   help="fixed: ground-fixed arm (eq 7, default); flexible: arm on the emulated "
+                        "base body of config/rig.yaml (eq 8, see below)")
+    p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    p.set_defaults(func=run)
+    return p
+
+
+# -- parsing --------------------------------------------------------------------------
+def parse_vector(text: str, *, option: str, size: int, units: str = "") -> list[float]:
+    """Parse ``"a,b,c"`` into ``size`` finite floats, or raise InputError naming the value.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as typed.
+    option : str
+        Option name for the message (``"--lambda"``).
+    size : int
+        Number of values expected.
+    units : str
+        Units for the message.
+    """
+
+    unit = f" [{units}]" if units else ""
+    parts = [s.strip() for s in str(text).split(",")]
+    if len(parts) != size:
+        raise InputError(f"{option} {text}: expected {size} comma-separated values{unit}, got {len(parts)}")
+    out = []
+    for i, s in enumerate(parts, start=1):
+        try:
+            v = float(s)
+        except ValueError:
+            raise InputError(f"{option} {text}: value {i} {s!r} is not a number") from None
+        if not math.isfinite(v):
+            raise InputError(f"{option} {text}: value {i} = {s} is not a finite number")
+        out.append(v)
+    return out
+
+
+def _arm_q(args, robot):
+    """(config or None, paper angles [deg], DH angles [rad]) from --config / --q."""
+
+
+    paper = load_paper()
+    if args.config is not None:
+        table = paper["configurations"]
+        key = args.config.strip()
+        if not re.fullmatch(r"[0-9]+", key) or int(key) not in table:
+            raise InputError(f"--config {args.config}: unknown configuration; known: {sorted(table)}")
+        config = int(key)
+        q_paper = [float(v) for v in table[config]]
+        q = configuration_q(config)
+        option = f"--config {config}"
+    else:
+        config = None
+        q_paper = parse_vector(args.q, option="--q", size=robot.nv, units="deg")
+        q = paper_q(q_paper)
+        option = f"--q {args.q}"
+    try:
+        q = robot.check_q(q, what=option)
+    except ValueError as exc:
+        off = np.asarray(paper["offset_deg"], dtype=float)
+        raise InputError(f"{exc} (paper angles map to DH as q + {off.tolist()} deg)") from None
+    return config, q_paper, q
+
+
+def _lambda(args, nv: int) -> list[float]:
+
+    if args.lam is None:
+        return [0.0] * nv
+    lam = parse_vector(args.lam, option="--lambda", size=nv, units="kg m^2")
+    for i, v in enumerate(lam, start=1):
+        if v < 0:
+            raise InputError(f"--lambda {args.lam}: lambda_{i} = {v:g} kg m^2 is negative (must be >= 0)")
+    return lam
+
+
+def _direction(args) -> list[float]:
+
+
+    if args.direction is None:
+        return impact_direction().tolist()
+    n = np.asarray(parse_vector(args.direction, option="--direction", size=3))
+    norm = float(np.linalg.norm(n))
+    if norm == 0.0:
+        raise InputError(f"--direction {args.direction}: the zero vector has no direction")
+    return (n / norm).tolist()
+
+
+# -- evaluation -----------------------------------------------------------------------
+def flexible_base_body(rig_path=None):
+    """The emulated base body of the flexible scene, exactly as the rig builds it.
+
+    Platform (``flexible.platform_mass`` [kg], ``flexible.platform_inertia`` [kg m^2]) plus
+    the beam's tip share of its mass (:meth:`campaign.rig.beam.Beam.base_body`), the arm's
+    base frame ``flexible.mount_height`` [m] above the beam tip.
+
+    Parameters
+    ----------
+    rig_path : str or Path, optional
+        Rig parameter file; default ``config/rig.yaml``.
+
+    Returns
+    -------
+    campaign.model.robot.floating.BaseBody
+    """
+
+    return Beam.from_scene(make_scene(base="flexible", rig=rig_path)).base_body()
+
+
+def evaluate(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> float:
+    """Effective mass [kg] of ``robot`` at DH angles ``q`` [rad] (eq 11, ``inf`` off range).
+
+    Parameters
+    ----------
+    robot : campaign.model.robot.Robot
+    q : array_like, shape (nv,)
+        DH joint angles [rad].
+    lam : array_like, shape (nv,)
+        Diagonal Virtual Rotor Inertia [kg m^2].
+    n : array_like, shape (3,)
+        Impact direction in the arm's base frame.
+    base : {"fixed", "flexible"}
+        Eq 7 or eq 8.
+    base_body : BaseBody, optional
+        Base of the flexible case; default :func:`flexible_base_body`.
+    """
+
+    if base == "fixed":
+        return effective_mass(robot, q, n, lam)
+    if base == "flexible":
+        frobot = attach_to_floating_base(robot, flexible_base_body() if base_body is None else base_body)
+        return effective_mass(frobot, q, n, lam)
+    raise ValueError(f"unknown base {base!r}; expected 'fixed' or 'flexible'")
+
+
+def table2_rows(robot=None) -> list[dict]:
+    """Table 2 of the paper recomputed: one row per (configuration, column).
+
+    ``m1`` uses lambda = 0, ``m2`` and ``m3`` the paper's Table 3 lambda of the Zero/Low and
+    High gain classes; fixed base, the paper's impact direction.
+
+    Returns
+    -------
+    list of dict
+        Keys ``config``, ``column``, ``gain_class`` (None for m1), ``lambda`` [kg m^2],
+        ``model`` [kg], ``paper`` [kg], ``rel_diff`` = (model - paper) / paper.
+    """
+
+    paper = load_paper()
+    robot = load_robot(paper["robot"]) if robot is None else robot
+    n = impact_direction()
+    rows = []
+    for column, gain_class in TABLE2_COLUMNS:
+        lam = [0.0] * robot.nv if gain_class is None else [float(v) for v in paper["table3"][gain_class]]
+        for config in sorted(paper["configurations"]):
+            model = effective_mass(robot, configuration_q(config), n, lam)
+            published = float(paper["table2"][column][config])
+            rows.append({
+                "config": int(config), "column": column, "gain_class": gain_class, "lambda": lam,
+                "model": model, "paper": published, "rel_diff": (model - published) / published,
+            })
+    return rows
+
+
+def format_table2(rows: list[dict]) -> str:
+    """Plain-text Table 2: configurations as rows, model / paper / difference per column."""
+    columns = [c for c, _ in TABLE2_COLUMNS]
+    by = {(r["config"], r["column"]): r for r in rows}
+    configs = sorted({r["config"] for r in rows})
+    lines = ["Table 2: effective mass m* [kg] of the tip along the paper's n, fixed base (eq 7, 11)"]
+    for column, gain_class in TABLE2_COLUMNS:
+        lam = by[(configs[0], column)]["lambda"]
+        source = "zero" if gain_class is None else f"the paper's Table 3, {gain_class} gains"
+        lines.append(f"  {column}: lambda = {_fmt(lam)} kg m^2 ({source})")
+    lines.append("")
+    head = "config" + "".join(f"  {c + ' model':>9} {c + ' paper':>9} {'diff':>7}" for c in columns)
+    lines.append(head)
+    lines.append("-" * len(head))
+    for cfg in configs:
+        cells = []
+        for c in columns:
+            r = by[(cfg, c)]
+            cells.append(f"  {r['model']:9.2f} {r['paper']:9.2f} {100 * r['rel_diff']:+6.1f}%")
+        lines.append(f"{cfg:>6}" + "".join(cells))
+    worst = max(rows, key=lambda r: abs(r["rel_diff"]))
+    lines.append("")
+    lines.append(f"largest |difference|: {100 * abs(worst['rel_diff']):.1f}% "
+                 f"({worst['column']}, configuration {worst['config']})")
+    return "\n".join(lines)
+
+
+def _fmt(values, spec: str = "g") -> str:
+    return "[" + ", ".join(format(float(v), spec) for v in values) + "]"
+
+
+def _json_number(x: float):
+    return float(x) if math.isfinite(x) else None
+
+
+def run(args) -> int:
+    """Entry point of ``campaign meff`` (see ``campaign meff --help``)."""
+
+
+    paper = load_paper()
+    if args.table:
+        extra = [f"{opt} {val}" for opt, val in (("--lambda", args.lam), ("--direction", args.direction))
+                 if val is not None]
+        if args.base == "flexible":
+            extra.append("--base flexible")
+        if extra:
+            raise InputError(f"--table reproduces the paper's Table 2 (fixed base, the paper's n and "
+                             f"Table 3 lambda) and takes no {', '.join(extra)}")
+        rows = table2_rows()
+        if args.json:
+            print(json.dumps({"table": "2", "units": "kg", "base": "fixed", "robot": paper["robot"],
+                              "direction": impact_direction().tolist(), "rows": rows}))
+        else:
+            print(format_table2(rows))
+        return 0
+
+    robot = load_robot(paper["robot"])
+    config, q_paper, q = _arm_q(args, robot)
+    lam = _lambda(args, robot.nv)
+    n = _direction(args)
+    base = args.base or "fixed"
+    m = evaluate(robot, q, lam=lam, n=n, base=base)
+    infinite = math.isinf(m)
+    if args.json:
+        print(json.dumps({
+            "m_eff": _json_number(m), "m_eff_is_infinite": infinite, "units": "kg",
+            "base": base, "config": config, "q_paper_deg": q_paper, "q_dh_rad": np.asarray(q).tolist(),
+            "lambda": lam, "direction": n, "robot": robot.name,
+        }))
+        return 0
+    where = f", configuration {config}" if config is not None else ""
+    value = "inf (n leaves the range of G*_33: the tip cannot move along n)" if infinite else f"{m:.6g}"
+    print(f"m*        = {value} kg")
+    print(f"base      = {base} (eq {'7' if base == 'fixed' else '8'})")
+    print(f"arm       = {robot.name}{where}, q = {_fmt(q_paper)} deg (paper) = "
+          f"{_fmt(np.degrees(q))} deg (DH)")
+    print(f"lambda    = {_fmt(lam)} kg m^2")
+    print(f"direction = {_fmt(n, '.6g')}")
+    return 0

@@ -1,0 +1,216 @@
+"""``campaign plan``: every pose, gain class and direction to meet an object at a point, ranked.
+
+Examples
+--------
+::
+
+    campaign plan --point -0.6,-0.15,-0.15 --speed 2
+    campaign plan --point -0.6,-0.15,-0.15 --horizontal 12 --base flexible --objective displacement
+    campaign plan --point 0.5,0.3,0.2 --cone -1,0,0,30 --count 9 --fit results/full/fit/lambda_high.json --json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.vocabulary import bases
+from ..model.paper import impact_direction
+from ..plan.factory import build_planner, planner_lambdas
+from ..plan.planner import (
+    check_object,
+    cone_directions,
+    horizontal_directions,
+)
+from .meff import _NEGATIVE_VALUE, parse_vector
+
+__all__ = ["register", "run", "parse_named_lambdas"]
+
+HELP = "rank the arm's poses, gain classes and impact directions for catching an object at a point"
+
+DESCRIPTION = """\
+Impact planner (paper, section 2: select configurations that reduce the impact). For a
+contact point, finds every pose of the arm's positioning chain that puts the impact point
+(the wrist centre) there within the joint limits (all inverse-kinematics branches, with
+Pinocchio's kinematics), and predicts for each pose x gain class x impact direction n:
+m* (eq 7 fixed base, eq 8 flexible base, eq 11), the impulse (eq 14), the post-impact joint
+velocities (eq 13), the contact's duration and peak force from the rig's contact law, and
+on the flexible base the base momentum and the peak base displacement of the structure,
+pushed through the arm by the contact's force pulse and followed while the servo, the
+joints' friction and gravity resist it and pass the arm's momentum to the base. The candidates are ranked by --objective (smallest first).
+
+Units: point in metres in the arm's base frame (DH frame 0); n is the direction of the
+force on the arm (the object moves along n), normalised; object mass in kg, speed in m/s;
+lambda in kg m^2; angles printed in degrees (DH).
+"""
+
+EPILOG = """\
+gain classes: the paper's Table 3 lambda (zero_low, high) by default; --fit reads a lambda
+fit of the campaign (results/<campaign>/fit/lambda_<class>.json, keys gain_class, lambda);
+--lambda NAME=L1,L2,L3 names one directly. --fit and --lambda may repeat and replace the
+default.
+
+contact and structure: the contact law F = k delta^p (1 + d ddelta/v0) with k, p from
+config/rig.yaml (contact.stiffness, contact.exponent) and d solved for --restitution; its
+pulse (shape and duration) is that of two free bodies of reduced mass m* m_b / (m* + m_b).
+On the fixed base the peak force takes the arm's apparent mass over the compression instead
+of m*: the force peaks about a quarter into the contact, before the servo's proportional and
+derivative gains (the paper's Table 1 gains in joint units, controller.torque_per_unit of
+config/rig.yaml) and the joints' viscous friction have built up the resistance lambda
+averages over the whole contact. The flexible base is the rig's cantilever (flexible.* of
+config/rig.yaml): in the impulsive phase a free base body (eq 8). Its peak displacement
+(x_b) is that of the linearised arm on the structure pushed by eq 14's impulse spread over
+the contact's pulse and followed over one period of the first mode, under the servo, the
+joints' viscous friction and gravity: the contact lasts 70-200 ms and the structure peaks a
+quarter period after it starts, while the joints are still being slowed. The paper's pooled
+class zero_low is planned as its gain sets zero and low (same lambda, different servo); a
+class not named in Table 1 has no servo. --json also gives contact_duration,
+compression_mass (fixed base) and structure_peak_release: the structure's modes released
+with eq 8's base velocity change alone.
+
+output: the best --top candidates (all with --top 0); --json prints every candidate.
+
+exit status: 0 on success, 2 on bad input (one line on stderr naming the value), e.g. an
+unreachable point, a zero direction, a negative mass.
+"""
+
+
+def register(subparsers) -> argparse.ArgumentParser:
+    """Add the ``plan`` subcommand to the ``campaign`` command's subparsers."""
+    p = subparsers.add_parser("plan", help=HELP, description=DESCRIPTION, epilog=EPILOG,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p._negative_number_matcher = _NEGATIVE_VALUE
+    p.add_argument("--point", metavar="X,Y,Z", required=True, help="contact point in the arm's base frame [m]")
+    dirs = p.add_mutually_exclusive_group()
+    dirs.add_argument("--direction", metavar="X,Y,Z",
+                      help="one impact direction n (default: the paper's n = -1,0,0 of config/paper.yaml)")
+    dirs.add_argument("--horizontal", metavar="N", type=int,
+                      help="N horizontal directions evenly spaced over 360 deg, starting at -x")
+    dirs.add_argument("--cone", metavar="X,Y,Z,DEG",
+                      help="the axis X,Y,Z and --count - 1 directions on the cone of half-angle DEG around it")
+    p.add_argument("--count", type=int, default=9, help="directions of --cone, axis included (default 9)")
+    p.add_argument("--mass", type=float, default=None,
+                   help="object mass m_b [kg] (default: the rig hammer's effective mass, config/rig.yaml)")
+    p.add_argument("--speed", type=float, default=2.0, help="object speed along n [m/s] (default 2.0)")
+    p.add_argument("--restitution", type=float, default=None,
+                   help="restitution e (default: contact.restitution of config/rig.yaml)")
+    p.add_argument("--base", choices=bases(), default="fixed",
+                   help="fixed: ground-fixed arm (eq 7); flexible: on the rig's cantilever (eq 8)")
+    p.add_argument("--fit", action="append", metavar="JSON", default=[],
+                   help="a campaign lambda fit (JSON with gain_class and lambda); repeatable")
+    p.add_argument("--lambda", dest="lambdas", action="append", metavar="NAME=L1,L2,L3", default=[],
+                   help="a gain class and its diagonal lambda [kg m^2]; repeatable")
+    p.add_argument("--objective", choices=("impulse", "force", "displacement", "weighted"), default="impulse",
+                   help="what the ranking minimises (displacement needs --base flexible; default impulse)")
+    p.add_argument("--weights", metavar="WI,WF,WD", default="1,1,1",
+                   help="weights of impulse, peak force, displacement in the weighted objective, each over "
+                        "its largest candidate value (default 1,1,1)")
+    p.add_argument("--top", type=int, default=20, help="candidates printed (0: all; default 20)")
+    p.add_argument("--rig", metavar="YAML", default=None, help="rig parameter file (default config/rig.yaml)")
+    p.add_argument("--json", action="store_true", help="print one JSON object with every candidate")
+    p.set_defaults(func=run)
+    return p
+
+
+def parse_named_lambdas(texts, *, nv: int = 3) -> dict[str, list[float]]:
+    """``--lambda NAME=L1,L2,L3`` options as ``{NAME: [L1, L2, L3]}`` (kg m^2, each >= 0)."""
+    out: dict[str, list[float]] = {}
+    for text in texts:
+        name, sep, values = str(text).partition("=")
+        if not sep or not name.strip():
+            raise InputError(f"--lambda {text}: expected NAME=L1,L2,L3")
+        lam = parse_vector(values, option=f"--lambda {name.strip()}", size=nv, units="kg m^2")
+        if any(v < 0 for v in lam):
+            raise InputError(f"--lambda {text}: lambda must be >= 0 kg m^2")
+        out[name.strip()] = lam
+    return out
+
+
+def _directions(args):
+
+
+    if args.horizontal is not None:
+        if args.horizontal < 1:
+            raise InputError(f"--horizontal {args.horizontal}: need at least 1 direction")
+        return horizontal_directions(args.horizontal)
+    if args.cone is not None:
+        v = parse_vector(args.cone, option="--cone", size=4)
+        if args.count < 1:
+            raise InputError(f"--count {args.count}: need at least 1 direction")
+        if np.linalg.norm(v[:3]) == 0.0:
+            raise InputError(f"--cone {args.cone}: the zero vector has no direction")
+        return cone_directions(v[:3], v[3], args.count)
+    if args.direction is not None:
+        n = np.asarray(parse_vector(args.direction, option="--direction", size=3))
+        if np.linalg.norm(n) == 0.0:
+            raise InputError(f"--direction {args.direction}: the zero vector has no direction")
+        return n[None] / np.linalg.norm(n)
+    return impact_direction()[None]
+
+
+def _fmt(v, spec=".1f"):
+    # + 0.0 turns a negative zero into zero, so "-0.0" is never printed
+    return "[" + ", ".join(format(float(x) + 0.0, spec) for x in v) + "]"
+
+
+def run(args) -> int:
+    """Entry point of ``campaign plan`` (see ``campaign plan --help``)."""
+
+
+    point = parse_vector(args.point, option="--point", size=3, units="m")
+    dirs = _directions(args)
+    if args.mass is not None and not (math.isfinite(args.mass) and args.mass > 0):
+        raise InputError(f"--mass {args.mass:g}: the object mass must be > 0 kg")
+    if args.top < 0:
+        raise InputError(f"--top {args.top}: must be >= 0")
+    weights = parse_vector(args.weights, option="--weights", size=3)
+    if args.objective == "displacement" and args.base != "flexible":
+        raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
+    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas))
+    planner = build_planner(base=args.base, lambdas=lambdas, mass=args.mass, speed=args.speed,
+                            restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig)
+    check_object(mass=planner.mass, speed=planner.speed, restitution=planner.restitution)
+    planner.fit(point, dirs)
+    rows = planner.rows()
+    if args.json:
+        print(json.dumps({
+            "point": point, "base": args.base, "objective": args.objective, "weights": weights,
+            "object_mass": planner.mass, "speed": planner.speed, "restitution": planner.restitution,
+            "lambdas": planner.lambdas, "branches_dh_deg": np.degrees(planner.q_).tolist(),
+            "structure_frequency_hz": None if planner.frequency_ is None else planner.frequency_.tolist(),
+            "units": {"m_eff": "kg", "impulse": "N s", "peak_force": "N", "tip_velocity": "m/s", "dq": "rad/s",
+                      "base_velocity": "m/s, rad/s", "base_momentum": "N s", "structure_peak": "m",
+                      "structure_peak_release": "m",
+                      "q_dh_deg": "deg"},
+            "candidates": rows,
+        }))
+        return 0
+    flex = args.base == "flexible"
+    print(f"point      = {_fmt(point, '.4g')} m, base {args.base} (eq {'8' if flex else '7'})")
+    print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")
+    print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in planner.lambdas.items()))
+    print(f"branches   = {len(planner.q_)} poses reach the point (DH deg):")
+    for i, q in enumerate(planner.q_, start=1):
+        print(f"  {i}: {_fmt(np.degrees(q))}")
+    shown = rows if args.top == 0 else rows[:args.top]
+    print(f"candidates = {len(rows)} (pose x gain x direction), best {len(shown)} by {args.objective}:")
+    head = f"{'rank':>4} {'br':>2} {'gain':>9} {'az':>6} {'el':>5} {'m* kg':>8} {'I N s':>7} {'F N':>6} {'|dq| r/s':>8}"
+    if flex:
+        head += f" {'p_b N s':>7} {'x_b mm':>7}"
+    print(head)
+    print("-" * len(head))
+    for r in shown:
+        n = np.asarray(r["direction"])
+        az = float(np.round(np.degrees(np.arctan2(n[1], n[0])), 6)) + 0.0
+        el = float(np.round(np.degrees(np.arcsin(np.clip(n[2], -1, 1))), 6)) + 0.0
+        m = "inf" if r["m_eff"] is None else f"{r['m_eff']:.3f}"
+        line = (f"{r['rank']:>4} {r['branch']:>2} {r['gain_class'][:9]:>9} {az:6.1f} {el:5.1f} {m:>8} "
+                f"{r['impulse']:7.4f} {r['peak_force']:6.2f} {np.linalg.norm(r['dq']):8.4f}")
+        if flex:
+            line += f" {r['base_momentum']:7.4f} {1e3 * r['structure_peak']:7.4f}"
+        print(line)
+    return 0

@@ -1,0 +1,93 @@
+"""``campaign sweep``: simulate a batch of trials together and write one file per trial."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import sys
+import time
+
+from ..core.vocabulary import bases, gain_sets
+from ..pipeline.simulate import run_cells
+from .trial import _param
+
+
+def _floats(text: str) -> list[float]:
+    return [float(v) for v in text.split(",") if v.strip()]
+
+
+def _ints(text: str) -> list[int]:
+    return [int(v) for v in text.split(",") if v.strip()]
+
+
+def _names(text: str) -> list[str]:
+    return [v.strip() for v in text.split(",") if v.strip()]
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "sweep",
+        help="simulate a sweep of trials together (batched rig) and write one file per trial",
+        description="Simulate every configuration x gain set x speed x repeat of one base together, in lock-step "
+        "through Pinocchio's batched dynamics (the same numbers as `campaign trial` gives each of them), and "
+        "write one NetCDF4/HDF5 file per trial under OUT, at the campaign's paths "
+        "(<base>/config<N>/<gain>/v<speed>/r<repeat>.nc). Rig parameters come from config/rig.yaml (SI units).",
+    )
+    p.add_argument("--base", choices=bases(), default="fixed", help="base of every trial (default fixed)")
+    p.add_argument("--configs", type=_ints, default=[1, 2, 3], metavar="N,N",
+                   help="arm configurations of the paper's Table 1 (default 1,2,3)")
+    p.add_argument("--gains", type=_names, default=list(gain_sets()), metavar="G,G",
+                   help="servo gain sets of Table 1 (default zero,low,high)")
+    p.add_argument("--speeds", type=_floats, required=True, metavar="V,V",
+                   help="hammer speeds along the impact direction [m/s], e.g. 1.0,1.5,2.5")
+    p.add_argument("--repeats", type=int, default=1, metavar="R", help="trials per speed (default 1)")
+    p.add_argument("--campaign-seed", type=int, default=0, metavar="S",
+                   help="seed the trials' seeds derive from, with their cells (default 0)")
+    p.add_argument("--rig", default=None, metavar="PATH", help="rig parameter file (default config/rig.yaml)")
+    p.add_argument("--set", dest="params", type=_param, action="append", default=[], metavar="KEY=VALUE",
+                   help="override a rig parameter by dotted key, e.g. --set contact.stiffness=2000 (SI units)")
+    p.add_argument("--threads", type=int, default=1, metavar="N",
+                   help="OpenMP threads of the batched dynamics calls (default 1)")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder the trial files go under (written atomically)")
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+
+
+    if args.repeats < 1:
+        raise ValueError(f"--repeats {args.repeats}: expected at least 1")
+    if args.threads < 1:
+        raise ValueError(f"--threads {args.threads}: expected at least 1")
+    for g in args.gains:
+        if g not in gain_sets():
+            raise ValueError(f"--gains: unknown gain set {g!r}; expected one of {', '.join(gain_sets())}")
+    if not args.speeds:
+        raise ValueError("--speeds: expected at least one speed")
+    cells = [(args.base, c, g) for c in args.configs for g in args.gains]
+    # a progress line redrawn in place on a terminal; nothing when the output is a file
+    tty = sys.stderr.isatty() and not args.quiet
+    t0 = time.perf_counter()
+
+    def progress(done: int, total: int, cell: str) -> None:
+        if tty:
+            width = 30
+            bar = "#" * (width * done // total) + "-" * (width - width * done // total)
+            print(f"\r[{bar}] {done}/{total} trials, {time.perf_counter() - t0:.1f} s  {cell:<34}", end="",
+                  file=sys.stderr, flush=True)
+            if done == total:
+                print(file=sys.stderr)
+
+    log = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(log):      # run_cells' per-trial lines, printed after the bar
+            written = run_cells(cells, archive_dir=args.out, speeds=args.speeds, repeats=args.repeats,
+                                campaign_seed=args.campaign_seed, rig=args.rig, params=dict(args.params),
+                                threads=args.threads, progress=progress)
+    finally:
+        if not args.quiet:
+            print(log.getvalue(), end="", file=sys.stderr)
+    if not args.quiet:
+        print(f"wrote {len(written)} trials under {args.out} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return 0

@@ -1,1 +1,0 @@
-"""Subcommands of the ``campaign`` CLI, one module each (see :mod:`campaign.cli`)."""

@@ -1,0 +1,73 @@
+"""The paper's conventions and published values, read from ``config/paper.yaml``.
+
+Configurations, the paper-to-DH angle mapping and the impact direction live in the
+config folder, not in code; this module only reads and checks them.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.yamlfile import config_dir, read_yaml
+
+__all__ = ["load_paper", "paper_q", "configuration_q", "impact_direction", "gain_counts"]
+
+
+def load_paper() -> dict:
+    """The parsed ``paper.yaml`` (cached while the file is unchanged; treat as read-only)."""
+    return read_yaml(config_dir() / "paper.yaml", copy=False)
+
+
+def paper_q(q_paper_deg) -> np.ndarray:
+    """Map the paper's joint angles [deg] to the model's DH angles [rad]."""
+    q = np.asarray(q_paper_deg, dtype=float)
+    off = np.asarray(load_paper()["offset_deg"], dtype=float)
+    if q.shape != off.shape:
+        raise ValueError(f"expected {off.size} paper angles, got {q.tolist()}")
+    return np.radians(q + off)
+
+
+def configuration_q(config) -> np.ndarray:
+    """DH angles [rad] of the paper's configuration ``config`` (1, 2 or 3)."""
+    table = load_paper()["configurations"]
+    try:
+        key = int(config)
+    except (TypeError, ValueError):
+        key = None
+    if key not in table:
+        raise ValueError(f"unknown configuration {config!r}; known: {sorted(table)}")
+    return paper_q(table[key])
+
+
+def impact_direction() -> np.ndarray:
+    """Unit impact direction n of the paper, base frame."""
+    n = np.asarray(load_paper()["impact_direction"], dtype=float)
+    return n / np.linalg.norm(n)
+
+
+def gain_counts(gain: str, overrides: Mapping[str, Mapping[str, float]] | None = None) -> tuple[float, float, float]:
+    """(P, D, I) controller counts of a gain set: the paper's Table 1 row with ``overrides``.
+
+    Parameters
+    ----------
+    gain : str
+        A gain set of Table 1 (``zero``, ``low``, ``high``).
+    overrides : mapping, optional
+        ``{gain: {"P": ..., "D": ..., "I": ...}}``; any key may be left out.
+    """
+    table = load_paper()["gains"]
+    if gain not in table:
+        raise InputError(f"unknown gain set {gain!r}; expected one of {sorted(table)}")
+    row = {k: float(table[gain][k]) for k in ("P", "D", "I")}
+    for key, value in dict((overrides or {}).get(gain) or {}).items():
+        if key not in row:
+            raise InputError(f"gain_counts.{gain}.{key}: unknown gain term (expected P, D or I)")
+        value = float(value)
+        if not (math.isfinite(value) and value >= 0):
+            raise InputError(f"gain_counts.{gain}.{key} = {value!r} must be a finite count >= 0")
+        row[key] = value
+    return row["P"], row["D"], row["I"]

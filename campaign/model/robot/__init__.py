@@ -1,0 +1,220 @@
+"""Robot models: a URDF plus a drive-parameter file, loaded into Pinocchio.
+
+A robot is described by two files in one folder:
+
+* a URDF with the links' kinematics and rigid-body inertias (the lingua franca of
+  robot models), and
+* ``drives.yaml`` with what a URDF cannot say: rotor inertia ``Jm``, gear ratio ``G``,
+  motor-side viscous ``B`` and Coulomb ``Tc_pos``/``Tc_neg`` friction, peak joint torque
+  ``tau_max``, encoder resolution, which joints move, where the others are locked, and
+  where the impact point is.
+
+:func:`load_robot` turns them into a :class:`Robot`: a Pinocchio ``model`` reduced to the
+active joints (the locked links ride on the last active one), with
+``model.armature = Jm G^2`` (the reflected rotor inertia, part of the "link dynamics" of
+the paper's Table 2) and an operational frame at the impact point. Drive values are
+referred to the joint side once, here, so no later stage has to remember the gearing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from ...core.yamlfile import parse_yaml_bytes
+
+__all__ = ["Robot", "load_robot", "robot_dir", "ROBOTS_DIR"]
+
+ROBOTS_DIR = Path(__file__).resolve().parent
+
+_DRIVE_KEYS = ("Jm", "G", "B", "Tc_pos", "Tc_neg", "tau_max", "encoder_resolution")
+
+
+@dataclasses.dataclass(frozen=True)
+class Robot:
+    """A robot arm ready for dynamics, with its drives referred to the joint side.
+
+    Attributes
+    ----------
+    name : str
+        Robot name from the drive file.
+    model : pinocchio.Model
+        Reduced model (active joints only), ``armature`` set to ``Jm G^2``.
+    impact_frame_id : int
+        Id in ``model`` of the impact-point frame.
+    joint_names : tuple of str
+        Names of the active joints, in ``q`` order.
+    armature : ndarray, shape (nv,)
+        Reflected rotor inertia ``Jm G^2`` [kg m^2].
+    viscous : ndarray, shape (nv,)
+        Joint-side viscous friction ``B G^2`` [N m s/rad].
+    coulomb_pos, coulomb_neg : ndarray, shape (nv,)
+        Joint-side Coulomb friction magnitudes ``|Tc| |G|`` for joint velocity > 0 and
+        < 0 [N m], both >= 0.
+    tau_max : ndarray, shape (nv,)
+        Peak joint torque [N m].
+    encoder_resolution : ndarray, shape (nv,)
+        Joint-side encoder resolution [rad per count].
+    q_lower, q_upper : ndarray, shape (nq,)
+        Joint limits [rad], inclusive.
+    source : str
+        Path of the drive file the robot was loaded from.
+    """
+
+    name: str
+    model: pin.Model
+    impact_frame_id: int
+    joint_names: tuple[str, ...]
+    armature: np.ndarray
+    viscous: np.ndarray
+    coulomb_pos: np.ndarray
+    coulomb_neg: np.ndarray
+    tau_max: np.ndarray
+    encoder_resolution: np.ndarray
+    q_lower: np.ndarray
+    q_upper: np.ndarray
+    source: str
+
+    @property
+    def nv(self) -> int:
+        return self.model.nv
+
+    def check_q(self, q, *, what: str = "q") -> np.ndarray:
+        """Return ``q`` as a float array, or raise ValueError naming a bad angle.
+
+        Limits are inclusive (configuration 3 of the paper sits exactly on joint 3's
+        +45 deg DH limit); a tolerance of 1e-9 rad absorbs degree-radian round-off.
+        """
+        q = np.asarray(q, dtype=float)
+        if q.shape != (self.model.nq,):
+            raise ValueError(f"{what} must have {self.model.nq} angles, got shape {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise ValueError(f"{what} = {q.tolist()} is not finite")
+        tol = 1e-9
+        for i, name in enumerate(self.joint_names):
+            if not (self.q_lower[i] - tol <= q[i] <= self.q_upper[i] + tol):
+                raise ValueError(
+                    f"{what}: joint {name} angle {np.degrees(q[i]):.6g} deg (DH) is outside its "
+                    f"limits [{np.degrees(self.q_lower[i]):.6g}, {np.degrees(self.q_upper[i]):.6g}] deg"
+                )
+        return q
+
+
+def robot_dir(name_or_path: str | Path) -> Path:
+    """Folder of a robot: a name shipped with the package (``puma560``) or a path."""
+    p = Path(name_or_path)
+    if p.is_file():
+        return p.parent
+    if p.is_dir():
+        return p
+    shipped = ROBOTS_DIR / str(name_or_path)
+    if shipped.is_dir():
+        return shipped
+    known = sorted(d.name for d in ROBOTS_DIR.iterdir() if (d / "drives.yaml").is_file())
+    raise ValueError(f"unknown robot {str(name_or_path)!r}: not a folder or drive file, and not one of {known}")
+
+
+def load_robot(name_or_path: str | Path = "puma560") -> Robot:
+    """Load a robot from its URDF and drive file.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A shipped robot name (``"puma560"``, ``"planar2"``), a folder holding
+        ``drives.yaml``, or the path of a drive file.
+
+    Returns
+    -------
+    Robot
+    """
+    folder = robot_dir(name_or_path)
+    drive_file = Path(name_or_path) if Path(name_or_path).is_file() else folder / "drives.yaml"
+    with open(drive_file, "rb") as fh:
+        drive_content = fh.read()
+    spec = parse_yaml_bytes(str(drive_file), drive_content)
+    urdf = folder / spec["urdf"]
+    try:
+        with open(urdf, "rb") as fh:
+            urdf_content = fh.read()
+    except OSError:
+        urdf_content = None          # Pinocchio reports the missing file, as before
+    robot = _load_robot(str(drive_file), drive_content, str(urdf), urdf_content)
+    # a fresh model and arrays per call (callers may modify them), as from a fresh parse
+    return dataclasses.replace(robot, model=robot.model.copy(), **{
+        f.name: getattr(robot, f.name).copy() for f in dataclasses.fields(robot)
+        if isinstance(getattr(robot, f.name), np.ndarray)})
+
+
+@functools.lru_cache(maxsize=16)
+def _load_robot(drive_file: str, drive_content: bytes, urdf: str, urdf_content: bytes | None) -> Robot:
+    """The robot of a drive file and its URDF, built once per content of both files (an
+    edited file is picked up at the next call; the key holds their bytes)."""
+    return _build_robot(Path(drive_file), parse_yaml_bytes(drive_file, drive_content), urdf)
+
+
+def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
+    """Build the robot from a parsed drive file (not modified: it is the cached parse)."""
+    full = pin.buildModelFromUrdf(urdf)
+
+    locked = spec.get("locked_q") or {}
+    active = list(spec["active_joints"])
+    all_names = [full.names[i] for i in range(1, full.njoints)]
+    for name in list(locked) + active:
+        if name not in all_names:
+            raise ValueError(f"{drive_file}: joint {name!r} is not in the URDF (joints: {all_names})")
+    missing = [n for n in all_names if n not in locked and n not in active]
+    if missing:
+        raise ValueError(f"{drive_file}: joints {missing} are neither active nor locked")
+
+    q_ref = pin.neutral(full)
+    for name, value in locked.items():
+        q_ref[full.joints[full.getJointId(name)].idx_q] = float(value)
+    if locked:
+        model = pin.buildReducedModel(full, [full.getJointId(n) for n in locked], q_ref)
+    else:
+        model = full
+    names = tuple(model.names[i] for i in range(1, model.njoints))
+    if list(names) != active:
+        raise ValueError(f"{drive_file}: active_joints {active} must follow the URDF order {list(names)}")
+
+    drives = spec["joints"]
+    vals = {}
+    for key in _DRIVE_KEYS:
+        try:
+            vals[key] = np.array([float(drives[n][key]) for n in names])
+        except KeyError as exc:
+            raise ValueError(f"{drive_file}: drive parameter {exc} missing for an active joint") from None
+    for key in ("Jm", "B", "tau_max", "encoder_resolution"):
+        if np.any(vals[key] < 0) or (key in ("tau_max", "encoder_resolution") and np.any(vals[key] == 0)):
+            raise ValueError(f"{drive_file}: {key} = {vals[key].tolist()} must be positive")
+    G = vals["G"]
+    armature = vals["Jm"] * G**2
+    model.armature = armature.copy()
+
+    imp = spec["impact_frame"]
+    parent = model.getFrameId(imp["parent_frame"])
+    if parent >= model.nframes:
+        raise ValueError(f"{drive_file}: impact parent frame {imp['parent_frame']!r} not in the model")
+    pf = model.frames[parent]
+    placement = pf.placement * pin.SE3(np.eye(3), np.asarray(imp["xyz"], dtype=float))
+    fid = model.addFrame(pin.Frame(imp["name"], pf.parentJoint, parent, placement, pin.FrameType.OP_FRAME))
+
+    return Robot(
+        name=str(spec["robot"]),
+        model=model,
+        impact_frame_id=int(fid),
+        joint_names=names,
+        armature=armature,
+        viscous=vals["B"] * G**2,
+        coulomb_pos=np.abs(vals["Tc_pos"]) * np.abs(G),
+        coulomb_neg=np.abs(vals["Tc_neg"]) * np.abs(G),
+        tau_max=vals["tau_max"],
+        encoder_resolution=vals["encoder_resolution"],
+        q_lower=np.array(model.lowerPositionLimit, dtype=float),
+        q_upper=np.array(model.upperPositionLimit, dtype=float),
+        source=str(drive_file),
+    )

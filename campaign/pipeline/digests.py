@@ -1,0 +1,113 @@
+"""Stage digests: which package modules a stage runs, read with ``ast`` (nothing is imported).
+
+Every import counts, also one inside a function: a lazy import defers the cost, not the
+dependency. Each workflow rule takes :func:`code_digest` of its stage's entry modules as a
+parameter, so editing any module the stage runs reruns it; the layout test reads the same
+import graph. Standard library only: the workflow reads this every time it starts.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import hashlib
+from pathlib import Path
+
+from ..core.errors import InputError
+
+__all__ = ["PACKAGE", "module_name", "modules", "imports", "graph", "closure", "source_files", "code_digest"]
+
+#: the campaign package's folder
+PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def module_name(path: Path, *, root: Path = PACKAGE) -> str:
+    """Dotted name of a file of the package at ``root`` (``campaign/rig/plant.py`` -> ``campaign.rig.plant``)."""
+    parts = Path(path).resolve().relative_to(Path(root).resolve().parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def modules(*, root: Path = PACKAGE) -> dict[str, Path]:
+    """Every module of the package at ``root`` (default: campaign) by dotted name."""
+    return {module_name(p, root=root): p for p in sorted(Path(root).rglob("*.py"))}
+
+
+def imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
+    """The package modules ``name`` imports (absolute or relative, anywhere in the file)."""
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - (node.level - 1)]
+                stem = ".".join(base + ([node.module] if node.module else []))
+            else:
+                stem = node.module or ""
+            # `from pkg import sub` imports the module pkg.sub when it is one, else a name of pkg
+            targets = [stem] + [f"{stem}.{alias.name}" for alias in node.names]
+        else:
+            continue
+        out.update(t for t in targets if t in known and t != name)
+    return out
+
+
+@functools.lru_cache(maxsize=4)
+def _cached_graph(root: Path, stamp: tuple) -> dict[str, frozenset[str]]:
+    known = modules(root=root)
+    return {name: frozenset(imports(name, path, known)) for name, path in known.items()}
+
+
+def graph(*, root: Path = PACKAGE) -> dict[str, frozenset[str]]:
+    """{module: the package modules it imports} over the whole package at ``root``."""
+    known = modules(root=root)
+    return _cached_graph(Path(root), tuple((n, p.stat().st_mtime_ns, p.stat().st_size) for n, p in known.items()))
+
+
+def closure(paths) -> list[Path]:
+    """The package files ``paths`` and every package module they import, directly or not,
+    with the ``__init__`` of each package on the way (Python runs it on import), sorted."""
+    known, g = modules(), graph()
+    todo = [module_name(p) for p in paths if Path(p).suffix == ".py"]
+    seen: set[str] = set()
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        parts = name.split(".")
+        todo.extend(".".join(parts[:i]) for i in range(1, len(parts)) if ".".join(parts[:i]) in known)
+        todo.extend(g.get(name, ()))
+    return sorted(known[n] for n in seen)
+
+
+def source_files(*patterns: str) -> list[Path]:
+    """Files of the package that glob ``patterns`` (relative to the package) match, sorted;
+    a pattern matching nothing raises InputError (a moved module must not drop out of its
+    stage's digest unnoticed)."""
+    files: set[Path] = set()
+    for pattern in patterns:
+        matched = {f for f in PACKAGE.glob(pattern) if f.is_file()}
+        if not matched:
+            raise InputError(f"no package source matches {pattern!r} under {PACKAGE}")
+        files |= matched
+    return sorted(files)
+
+
+def code_digest(*patterns: str) -> str:
+    """sha256 over the names and contents of the files ``patterns`` name and every package
+    module they import (:func:`closure`).
+
+    A digest rather than the files as a rule's inputs: listed as inputs, the sources of
+    every job would be stat'ed, sized and checksummed by Snakemake each time it schedules
+    or finishes a job, hundreds of extra input files in the reduced campaign.
+    """
+    files = source_files(*patterns)
+    digest = hashlib.sha256()
+    for f in sorted(set(files) | set(closure(files))):
+        data = f.read_bytes()
+        digest.update(f"{f.relative_to(PACKAGE).as_posix()}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()

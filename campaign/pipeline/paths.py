@@ -1,0 +1,72 @@
+"""Where a campaign's trials are: the trials of a sweep cell, declared or found in an archive.
+
+Standard library only: the workflow's helpers call these while Snakemake builds the DAG.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+from typing import Sequence
+
+from ..core.vocabulary import TRIAL_SUFFIX, cell_dir, trial_relpath
+
+__all__ = ["cell_trials", "find_cell_trials", "index_cells"]
+def cell_trials(archive_dir: str | os.PathLike, base: str, config: int, gain: str,
+                speeds: Sequence[float], repeats: int) -> list[str]:
+    """Paths of every trial of a cell: each speed x repeat ``0 .. repeats-1``, speed-major."""
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be an integer >= 1, got {repeats!r}")
+    return [str(Path(archive_dir) / trial_relpath(base, config, gain, s, r)) for s in speeds for r in range(repeats)]
+
+
+
+def find_cell_trials(archive_dir: str | os.PathLike, base: str, config: int, gain: str) -> list[str]:
+    """The trial files of a cell already in an archive folder, sorted (empty if none).
+
+    Used when a campaign is re-analysed without simulating: the trials are whatever the
+    archive holds for the cell, whichever speeds and repeats it was run with.
+    """
+    folder = Path(archive_dir) / cell_dir(base, config, gain)
+    if not folder.is_dir():
+        return []
+    return sorted(str(p) for p in folder.glob(f"v*/r*{TRIAL_SUFFIX}") if p.is_file() and not p.name.startswith("."))
+
+
+
+def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], list[str]]:
+    """The trials of a finalized archive by cell, from its own ``index.csv``.
+
+    ``{(base, configuration, gain): [trial path, ...]}``, each list speed-major as
+    :func:`cell_trials` orders it. Re-analysing an archive takes its cells from here, so
+    the workflow asks for what the archive holds, whatever campaign configuration made it.
+
+    Raises
+    ------
+    FileNotFoundError
+        The folder has no ``index.csv`` (not finalized).
+    ValueError
+        A row whose path is not the one its base, configuration, gain, speed and repeat
+        give (named), or an index without trials.
+    """
+    index = Path(archive_dir) / "index.csv"
+    if not index.is_file():
+        raise FileNotFoundError(f"{archive_dir}: no index.csv (finalize it first: campaign archive finalize {archive_dir})")
+    cells: dict[tuple[str, int, str], list[tuple[float, int, str]]] = {}
+    with open(index, newline="", encoding="utf-8") as fh:
+        for n, row in enumerate(csv.DictReader(fh), start=2):
+            try:
+                base, config, gain = row["base"], int(row["config"]), row["gain"]
+                speed, repeat = float(row["speed"]), int(row["repeat"])
+                expected = trial_relpath(base, config, gain, speed, repeat)
+            except (KeyError, TypeError, ValueError) as exc:
+                raise ValueError(f"{index}, line {n}: unreadable row ({exc})") from None
+            if row["path"] != expected:
+                raise ValueError(f"{index}, line {n}: path {row['path']} contradicts its row "
+                                 f"(base, config, gain, speed, repeat give {expected})")
+            cells.setdefault((base, config, gain), []).append((speed, repeat, str(Path(archive_dir) / expected)))
+    if not cells:
+        raise ValueError(f"{index}: lists no trial")
+    return {cell: [p for _, _, p in sorted(rows)] for cell, rows in sorted(cells.items())}
+

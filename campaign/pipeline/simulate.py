@@ -1,0 +1,142 @@
+"""The workflow's simulation job: every speed x repeat of sweep cells, one trial file each.
+
+:func:`run_cells` simulates the trials of one or more sweep cells (base x configuration x
+gain set) together with the batched rig and writes one file per trial with
+:func:`campaign.archive.write_trial` (atomic), printing one progress line per trial.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Any, Callable, Iterable, Mapping, Sequence
+
+from ..archive import trial_path, write_trial
+from ..core.errors import SimulationError
+from ..core.timing import Timer
+from ..model.paper import gain_counts
+from ..plan.stroke import check_scene_stroke
+from ..rig.batch import simulate_batch
+from ..scene.checks import check_rig_params, check_speeds, pendulum_reach
+from ..scene.description import make_scene
+
+__all__ = ["run_cells", "run_cell"]
+
+
+def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike, speeds: Sequence[float],
+              repeats: int, campaign_seed: int = 0, gain_overrides: Mapping | None = None,
+              rig: str | os.PathLike | None = None, params: Mapping[str, Any] | None = None,
+              timer: Timer | None = None, threads: int = 1,
+              progress: Callable[[int, int, str], None] | None = None) -> list[Path]:
+    """Simulate every speed x repeat of sweep cells and write one trial file per trial.
+
+    The trials are integrated together, in lock-step, by the batched rig
+    (:func:`campaign.rig.batch.simulate_batch`: the same numbers as one trial at a time).
+
+    Parameters
+    ----------
+    cells : iterable of (base, config, gain)
+        The sweep cells, e.g. ``[("fixed", 1, "zero")]``.
+    archive_dir : path-like
+        The campaign's archive folder; trial ``t`` goes to ``archive_dir/<t.cell>.nc``.
+    speeds : sequence of float
+        Hammer speeds along n [m/s].
+    repeats : int
+        Trials per speed (repeat indices ``0 .. repeats-1``; each has its own seed).
+    campaign_seed : int
+        Seed the trials' seeds derive from (with the cell), see :func:`campaign.scene.description.make_scene`.
+    gain_overrides : mapping, optional
+        Overrides of the paper's gain counts, ``{gain: {"P": ...}}`` (:func:`gain_counts`).
+    rig : path-like, optional
+        Rig parameter file (default ``config/rig.yaml``).
+    params : mapping, optional
+        Dotted-key rig parameter overrides.
+    timer : Timer, optional
+        Receives the seconds spent in ``simulate`` and ``write``.
+    threads : int
+        OpenMP threads of the batched Pinocchio calls (one: jobs already run side by side).
+    progress : callable, optional
+        Called as ``progress(done, total, cell)`` as each trial finishes (``campaign sweep``
+        draws its progress line from it).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The trial files written, in the order simulated.
+
+    Raises
+    ------
+    ValueError
+        A bad cell, speed, repeat count or rig parameter (before any simulation).
+    campaign.core.errors.SimulationError
+        One or more trials failed to integrate, each named with its cell and its message;
+        every other trial of the batch is written (each is complete).
+    """
+    timer = timer if timer is not None else Timer()
+    # every speed within the pendulum's reach and distinct in its path, before any trial
+    speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
+    cells = [(str(b), int(c), str(g)) for b, c, g in cells]
+    plan = []
+    for base, config, gain in cells:
+        counts = gain_counts(gain, gain_overrides)
+        for speed in speeds:
+            for repeat in range(int(repeats)):
+                scene = make_scene(base=base, config=config, gain=gain, speed=float(speed), repeat=repeat,
+                                   gains_counts=counts, rig=rig, params=dict(params or {}),
+                                   campaign_seed=int(campaign_seed))
+                check_scene_stroke(scene)
+                plan.append((scene, trial_path(archive_dir, scene)))
+    n = len(plan)
+    finished = [0]
+    t_start = time.perf_counter()
+
+    def done(i, _result):
+        finished[0] += 1
+        if progress is not None:
+            progress(finished[0], n, plan[i][0].cell)
+
+    with timer("simulate"):
+        results = simulate_batch([scene for scene, _ in plan], threads=threads, on_done=done)
+    per_trial = 1e3 * (time.perf_counter() - t_start) / max(n, 1)
+    written, failed = [], []
+    for i, ((scene, path), trial) in enumerate(zip(plan, results), 1):
+        if isinstance(trial, SimulationError):
+            failed.append(f"{scene.cell}: {trial}")
+            print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, FAILED: {trial}", flush=True)
+            continue
+        t1 = time.perf_counter()
+        with timer("write"):
+            write_trial(trial, path)
+        t2 = time.perf_counter()
+        truth = trial["truth"].data_vars
+        duration = 1e3 * float(truth["contact_end"].values - truth["contact_start"].values)
+        print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, contact {duration:.1f} ms, peak "
+              f"{float(truth['peak_force'].values):.1f} N; simulated {per_trial:.0f} ms (batch mean), written "
+              f"{1e3 * (t2 - t1):.0f} ms -> {path}", flush=True)
+        written.append(path)
+    if failed:
+        raise SimulationError(f"{len(failed)} of {n} trials failed (the other {n - len(failed)} are written): "
+                              + "; ".join(failed))
+    return written
+
+
+def run_cell(base: str, config: int, gain: str, out_dir: str | os.PathLike, **kwargs: Any) -> list[Path]:
+    """Simulate one sweep cell: :func:`run_cells` with ``cells=[(base, config, gain)]``."""
+    return run_cells([(base, config, gain)], archive_dir=out_dir, **kwargs)
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+
+

@@ -1,0 +1,136 @@
+"""An impact planner built from the rig's values: its contact law, hammer, structure and servo.
+
+:func:`build_planner` reads the rig file once (:func:`campaign.scene.description.rig_values`,
+with a named structure and overrides) and assembles an
+:class:`campaign.plan.planner.ImpactPlanner` with the rig's contact law and object, the
+structure's beam on the flexible base and the arm's servo, friction and gravity after the
+impact (:class:`campaign.plan.post_contact.ArmAfterImpact`). The CLI, the maps and the
+studies all build their planners here.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.vocabulary import gain_classes
+from ..model.paper import load_paper
+from ..model.robot import Robot, load_robot
+from ..rig.beam import Beam
+from ..rig.contact import Contact
+from ..rig.controller import joint_gains
+from ..rig.pendulum import Pendulum
+from ..scene.description import rig_values
+from .planner import ImpactPlanner
+from .post_contact import ArmAfterImpact
+
+__all__ = ["planner_lambdas", "object_defaults", "gain_sets", "arm_after_impact", "build_planner"]
+
+
+def planner_lambdas(*, fits: Sequence[str | Path] = (), named: Mapping[str, Sequence[float]] | None = None,
+                    nv: int = 3) -> dict[str, list[float]]:
+    """Gain classes and their lambda [kg m^2]: from lambda-fit JSONs (``fits``) and ``named``
+    ones, or the paper's Table 3 when neither is given. A bad file is named (InputError)."""
+    out: dict[str, list[float]] = {}
+    for path in fits:
+        try:
+            doc = json.loads(Path(path).read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise InputError(f"--fit {path}: no such file") from None
+        except (OSError, ValueError) as exc:
+            raise InputError(f"--fit {path}: not a readable JSON file ({exc})") from None
+        if not isinstance(doc, dict) or "lambda" not in doc or "gain_class" not in doc:
+            raise InputError(f"--fit {path}: not a lambda fit (needs keys gain_class and lambda)")
+        lam = doc["lambda"]
+        if not isinstance(lam, list) or len(lam) != nv or any(v is None for v in lam):
+            raise InputError(f"--fit {path}: lambda = {lam!r} is not {nv} numbers")
+        out[str(doc["gain_class"])] = [float(v) for v in lam]
+    for name, lam in (named or {}).items():
+        out[str(name)] = [float(v) for v in lam]
+    if not out:
+        out = {str(k): [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
+    return out
+
+
+def object_defaults(values: Mapping[str, Any]) -> dict[str, float]:
+    """The object the planner assumes by default: the rig's hammer (its effective mass
+    [kg]), the contact law's stiffness and exponent and its restitution."""
+    contact = Contact.from_values(values)
+    return {"mass": Pendulum.from_values(values).m_b, "restitution": float(contact.restitution),
+            "contact_stiffness": float(contact.stiffness), "contact_exponent": float(contact.exponent)}
+
+
+def gain_sets(lambdas: Mapping[str, Sequence[float]]) -> dict[str, Sequence[float]]:
+    """``lambdas`` with each of the paper's pooled gain classes (``zero_low``) split into its
+    gain sets (``zero``, ``low``), each with the class's lambda: after the impact their servos
+    differ, so the structure's response does too."""
+    pooled = gain_classes()
+    out: dict[str, Sequence[float]] = {}
+    for name, lam in lambdas.items():
+        members = pooled.get(name, (name,))
+        for member in members if len(members) > 1 else (name,):
+            if member == name or member not in lambdas:      # a set named on its own keeps its lambda
+                out[str(member)] = lam
+    return out
+
+
+def arm_after_impact(values: Mapping[str, Any], robot: Robot) -> ArmAfterImpact:
+    """The rig's arm after the impact: the servo of every gain set of the paper's Table 1 in
+    joint units (:func:`campaign.rig.controller.joint_gains`: proportional and derivative)
+    and of every single-set gain class, the joints' viscous friction (the drive file's times
+    ``arm.viscous_scale``) and gravity."""
+    gains = {}
+    for name in load_paper()["gains"]:
+        kp, kd, _ = joint_gains(str(name), values=values, robot=robot)
+        gains[str(name)] = (kp, kd)
+    for cls, members in gain_classes().items():
+        if len(members) == 1 and cls not in gains:
+            gains[cls] = gains[members[0]]
+    return ArmAfterImpact(gains=gains, viscous=np.asarray(robot.viscous) * float(values["arm.viscous_scale"]),
+                          gravity=float(values["gravity"]))
+
+
+def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=None, objective="impulse",
+                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None, params=None,
+                  post_contact: bool = True) -> ImpactPlanner:
+    """An :class:`~campaign.plan.planner.ImpactPlanner` with the rig's contact law and structure.
+
+    Parameters
+    ----------
+    base : {"fixed", "flexible"}
+    lambdas : mapping
+        Gain class -> lambda [kg m^2] (:func:`planner_lambdas`).
+    mass, restitution : float, optional
+        The object [kg] and the restitution; default the rig's hammer (:func:`object_defaults`).
+    speed : float
+        The object's speed [m/s].
+    rig : path-like, optional
+        Rig parameter file (default ``config/rig.yaml``).
+    structure : str, optional
+        A structure of the rig file's ``structures:`` (default the file's own).
+    params : mapping, optional
+        Dotted rig overrides, applied to every value the planner reads.
+    post_contact : bool
+        Split the paper's pooled gain classes into their gain sets (:func:`gain_sets`) and
+        let the arm's servo, friction and gravity (:func:`arm_after_impact`) act over the
+        contact's pulse and after it.
+    """
+    over = dict(params or {})
+    if structure is not None:
+        over["flexible.structure"] = structure
+    values = rig_values(rig=rig, params=over or None)
+    robot = load_robot(str(values["robot"])) if robot is None else robot
+    d = object_defaults(values)
+    beam = Beam.from_values(values) if base == "flexible" else None
+    arm = None
+    if post_contact:
+        lambdas = gain_sets(lambdas)
+        arm = arm_after_impact(values, robot)
+    return ImpactPlanner(robot, lambdas=lambdas, mass=d["mass"] if mass is None else mass, speed=speed,
+                         restitution=d["restitution"] if restitution is None else restitution,
+                         contact_stiffness=d["contact_stiffness"], contact_exponent=d["contact_exponent"],
+                         beam=beam, objective=objective, weights=weights, arm=arm)
