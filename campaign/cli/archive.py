@@ -9,6 +9,8 @@ import sys
 from campaign.archive import INDEX_COLUMNS, finalize_campaign, list_trials, verify
 from campaign.core.errors import InputError
 
+from .commands import HELP
+
 __all__ = ["register"]
 
 
@@ -70,7 +72,7 @@ def _ls(args: argparse.Namespace) -> int:
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add ``campaign archive {verify,finalize,ls}``."""
     parser = subparsers.add_parser(
-        "archive", help="verify, finalize and list a campaign folder of trial files",
+        "archive", help=HELP["archive"],
         description="Work on a campaign folder (archive/<name>/): one NetCDF4/HDF5 file per trial, "
         "index.csv, README.md and MANIFEST.sha256.")
     sub = parser.add_subparsers(dest="archive_command", metavar="ACTION", required=True)

@@ -18,12 +18,13 @@ import sys
 from pathlib import Path
 
 from .. import bench
+from .commands import HELP
 
 
 def register(sub) -> None:
     p = sub.add_parser(
         "bench",
-        help="work-precision / per-trial cost benchmark and the numerical stress suite",
+        help=HELP["bench"],
         description="Benchmarks of the simulated VES-II. Timings are medians of repeated trials on "
         "this machine; they are not tests.",
     )

@@ -25,12 +25,13 @@ from ..pipeline.calibration_report import (
 )
 from ..scene.checks import check_positive_int
 from ..scene.description import load_rig
+from .commands import HELP
 
 
 def register(sub) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="fit unpublished rig parameters to the paper's fixed-base observations",
+        help=HELP["calibrate"],
         description="Fit the rig parameters listed in config/calibration.yaml (friction, servo scale, contact) "
         "by bounded least squares so that a reduced fixed-base sweep matches the paper's Table 2 (m2, m3), "
         "Figure 7 (e = 0.55), the 30-70 N force range and Figure 5's 2.5 deg; write the fitted values back into "

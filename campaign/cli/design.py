@@ -7,13 +7,14 @@ import sys
 from ..core.errors import InputError
 from ..design.designer import run_design, write_design
 from ..model.paper import load_paper
+from .commands import HELP
 from .meff import parse_vector
 
 
 def register(sub) -> None:
     p = sub.add_parser(
         "design",
-        help="choose K arm poses and impact directions that identify lambda best (D-, A- or E-optimal)",
+        help=HELP["design"],
         description="Choose K poses of the arm, each with a horizontal impact direction, from a candidate set, "
         "maximising the information about ln lambda (eq 11, 15) of each gain class under the identification's "
         "measurement error model var(ln m*) = a^2 + b^2 ((1 + m*/m_b)/v)^2, calibrated on a campaign's identified "

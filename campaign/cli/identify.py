@@ -22,12 +22,13 @@ from ..identify import find_trials, identify_files
 from ..joints.lambda_fit import IdentifiabilityWarning
 from ..report.tables import fit_gain_classes, write_tables
 from ..scene.checks import check_seed
+from .commands import HELP
 
 
 def register(sub) -> None:
     p = sub.add_parser(
         "identify",
-        help="identify m* (eq 10) and e (eq 12) of trial files from their measured channels",
+        help=HELP["identify"],
         description="Identify each trial from its measured channels only: the contact interval from the piezo "
         "force, hammer velocities from the pendulum encoder, arm tip velocities from the joint encoders "
         "(forward kinematics along n, one-sided models at the contact edges), then m* (eq 10), e (eq 12) and "
@@ -41,7 +42,7 @@ def register(sub) -> None:
 
     p = sub.add_parser(
         "fit-lambda",
-        help="fit the Virtual Rotor Inertia lambda per gain class over an archive's fixed-base trials",
+        help=HELP["fit-lambda"],
         description="Identify every trial under ARCHIVE (*.nc, recursively), then fit a diagonal lambda >= 0 "
         "(eq 11, 15) per gain class (the paper's: Zero+Low, High) to the fixed-base trials that were not "
         "excluded, by least squares on log m*, with stratified bootstrap confidence intervals, the "
@@ -54,7 +55,7 @@ def register(sub) -> None:
 
     p = sub.add_parser(
         "tables",
-        help="write Tables 2-4 (CSV and Markdown) from an archive, beside the paper's values",
+        help=HELP["tables"],
         description="Identify every trial under ARCHIVE, fit lambda per gain class and write Table 2 (effective "
         "mass per configuration), Table 3 (lambda with CIs) and Table 4 (flexible base, eq 8 prediction vs "
         "identified) as CSV and Markdown into --out, plus identification.csv with every trial.",

@@ -1,9 +1,10 @@
 """The ``campaign`` command: one subcommand per stage.
 
-Each subcommand lives in ``campaign/commands/<module>.py`` and defines
-``register(subparsers)``, which adds its parser and sets ``func`` to a callable taking the
-parsed arguments and returning an exit status. Command modules import the heavy stages
-lazily, so ``campaign --help`` stays fast.
+Each subcommand lives in a module of :mod:`campaign.cli` (:data:`campaign.cli.commands.COMMANDS`)
+that defines ``register(subparsers)``, which adds its parser and sets ``func`` to a callable
+taking the parsed arguments and returning an exit status. Only the module of the subcommand
+given on the command line is imported (with the stages it uses); the others are listed by
+their help line alone, so ``campaign --help`` imports no stage.
 
 Errors a user can act on (:class:`campaign.core.errors.CampaignError`, ``ValueError``, any
 ``OSError``: a file missing, unreadable or not writable) print one line ``campaign <cmd>:
@@ -20,12 +21,20 @@ import sys
 
 from .. import __version__
 from ..core.errors import CampaignError
-
-#: command modules under campaign.cli, in the order --help lists them
-COMMANDS = ("meff", "plan", "map", "trial", "sweep", "design", "archive", "identify", "calibrate", "bench")
+from .commands import COMMANDS, HELP
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _chosen(argv: list[str]) -> str | None:
+    """The subcommand named on the command line (the first argument that is not an option)."""
+    for arg in argv:
+        if not arg.startswith("-"):
+            return arg if arg in COMMANDS else None
+    return None
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The ``campaign`` parser with the full parser of the subcommand in ``argv`` (every
+    subcommand's when ``argv`` is None) and the help line of the others."""
     parser = argparse.ArgumentParser(
         prog="campaign",
         description="Impact dynamics of long-reach manipulators: the simulated VES-II campaign "
@@ -33,8 +42,16 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"campaign {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in COMMANDS:
-        importlib.import_module(f"campaign.cli.{name}").register(sub)
+    wanted = set(COMMANDS.values()) if argv is None else {COMMANDS[c] for c in [_chosen(argv)] if c}
+    done: set[str] = set()
+    for name, module in COMMANDS.items():
+        if module in done:
+            continue
+        if module in wanted:
+            importlib.import_module(f"campaign.cli.{module}").register(sub)
+            done.add(module)
+        else:
+            sub.add_parser(name, help=HELP[name])
     return parser
 
 
@@ -48,7 +65,8 @@ def _one_line(exc: BaseException) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)

@@ -19,12 +19,12 @@ from ..model.paper import load_paper, paper_q
 from ..model.robot import load_robot
 from ..plan.factory import planner_lambdas
 from ..report.figures import plan_maps
+from .commands import HELP
 from .meff import _NEGATIVE_VALUE, parse_vector
 from .plan import parse_named_lambdas
 
 __all__ = ["register", "run"]
 
-HELP = "maps of m* and structure excitation over the workspace or the impact direction"
 
 DESCRIPTION = """\
 workspace: in a vertical plane y = const of the arm's base frame (default: the plane of the
@@ -44,7 +44,7 @@ in campaign plan (--fit, --lambda; default the paper's Table 3).
 
 def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``map`` subcommand."""
-    p = subparsers.add_parser("map", help=HELP, description=DESCRIPTION,
+    p = subparsers.add_parser("map", help=HELP["map"], description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     p._negative_number_matcher = _NEGATIVE_VALUE
     p.add_argument("kind", choices=("workspace", "directions"), help="which map")

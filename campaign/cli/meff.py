@@ -33,10 +33,10 @@ from ..model.robot import load_robot
 from ..model.robot.floating import attach_to_floating_base
 from ..rig.beam import Beam
 from ..scene.description import make_scene
+from .commands import HELP
 
 __all__ = ["register", "run", "parse_vector", "flexible_base_body", "evaluate", "table2_rows", "format_table2"]
 
-HELP = "effective mass of the tip along an impact direction (eq 11), or the paper's Table 2"
 
 DESCRIPTION = """\
 Effective mass m* = 1 / (n^T G*_33 n) of the PUMA 560's impact point (the wrist centre)
@@ -82,7 +82,7 @@ _NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``meff`` subcommand to the ``campaign`` command's subparsers."""
     p = subparsers.add_parser(
-        "meff", help=HELP, description=DESCRIPTION, epilog=EPILOG,
+        "meff", help=HELP["meff"], description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p._negative_number_matcher = _NEGATIVE_VALUE

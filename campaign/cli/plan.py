@@ -26,11 +26,11 @@ from ..plan.planner import (
     cone_directions,
     horizontal_directions,
 )
+from .commands import HELP
 from .meff import _NEGATIVE_VALUE, parse_vector
 
 __all__ = ["register", "run", "parse_named_lambdas"]
 
-HELP = "rank the arm's poses, gain classes and impact directions for catching an object at a point"
 
 DESCRIPTION = """\
 Impact planner (paper, section 2: select configurations that reduce the impact). For a
@@ -81,7 +81,7 @@ unreachable point, a zero direction, a negative mass.
 
 def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``plan`` subcommand to the ``campaign`` command's subparsers."""
-    p = subparsers.add_parser("plan", help=HELP, description=DESCRIPTION, epilog=EPILOG,
+    p = subparsers.add_parser("plan", help=HELP["plan"], description=DESCRIPTION, epilog=EPILOG,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
     p._negative_number_matcher = _NEGATIVE_VALUE
     p.add_argument("--point", metavar="X,Y,Z", required=True, help="contact point in the arm's base frame [m]")

@@ -9,6 +9,7 @@ import time
 
 from ..core.vocabulary import bases, gain_sets
 from ..pipeline.simulate import run_cells
+from .commands import HELP
 from .trial import _param
 
 
@@ -27,7 +28,7 @@ def _names(text: str) -> list[str]:
 def register(sub) -> None:
     p = sub.add_parser(
         "sweep",
-        help="simulate a sweep of trials together (batched rig) and write one file per trial",
+        help=HELP["sweep"],
         description="Simulate every configuration x gain set x speed x repeat of one base together, in lock-step "
         "through Pinocchio's batched dynamics (the same numbers as `campaign trial` gives each of them), and "
         "write one NetCDF4/HDF5 file per trial under OUT, at the campaign's paths "

@@ -13,6 +13,7 @@ from ..core.yamlfile import yaml_load
 from ..plan.stroke import check_scene_stroke
 from ..rig import simulate
 from ..scene.description import make_scene
+from .commands import HELP
 from .meff import parse_vector
 
 
@@ -26,7 +27,7 @@ def _param(text: str):
 def register(sub) -> None:
     p = sub.add_parser(
         "trial",
-        help="simulate one impact trial and write its NetCDF4/HDF5 file",
+        help=HELP["trial"],
         description="Simulate one trial of the simulated VES-II (PUMA 560 + pendulum impact device) and write "
         "its raw sensor channels (group /measured) and the simulator truth (group /truth) to one file. "
         "Rig parameters come from config/rig.yaml (SI units); --set overrides any of them.",
