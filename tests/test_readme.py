@@ -28,9 +28,11 @@ def _id(path: Path, command: str) -> str:
     return f"{path.relative_to(REPO).as_posix()}: {command}"
 
 
-def test_the_readme_has_examples():
+def test_the_readme_and_the_cli_reference_have_examples():
     readme = [c for c, _ in file_examples(REPO / "README.md")]
-    assert len(readme) >= 12 and all(c.startswith("campaign ") for c in readme), readme
+    assert len(readme) >= 3 and all(c.startswith("campaign ") for c in readme), readme
+    reference = [c for c, _ in file_examples(REPO / "docs" / "cli.rst")]
+    assert len(reference) >= 20 and all(c.startswith("campaign ") for c in reference), reference
 
 
 @pytest.mark.parametrize("path", SOURCES, ids=[p.relative_to(REPO).as_posix() for p in SOURCES])
