@@ -30,8 +30,9 @@ def register(sub) -> None:
         "identify",
         help=HELP["identify"],
         description="Identify each trial from its measured channels only: the contact interval from the piezo "
-        "force, hammer velocities from the pendulum encoder, arm tip velocities from the joint encoders "
-        "(forward kinematics along n, one-sided models at the contact edges), then m* (eq 10), e (eq 12) and "
+        "force, hammer velocities from the pendulum encoder, the arm tip's velocities along n from the base F/T "
+        "momentum when the joint encoders are sampled coarser than 5 ms, else from the joint encoders through "
+        "the arm's dynamics (campaign.identify.options.IdentifyOptions), then m* (eq 10), e (eq 12) and "
         "the piezo impulse beside m_b (v_b - v'_b). Trials that cannot give a trustworthy m* are flagged "
         "'excluded' with the reason.",
     )
