@@ -1,6 +1,6 @@
 """Throughput of the impact planner: (pose, direction, gain class) predictions per second.
 
-Each prediction is everything :func:`campaign.plan.planner.predict` returns for one candidate: m*
+Each prediction is everything :func:`campaign.plan.prediction.predict` returns for one candidate: m*
 (eq 7 or 8), the impulse (eq 14), the joint velocities (eq 13), the contact's duration and
 peak force (on the fixed base at the arm's apparent mass over the compression,
 :mod:`campaign.plan.compression`) and, on the flexible base, the base velocity, momentum and the
@@ -8,7 +8,7 @@ structure's peak displacement under the contact's pulse (:mod:`campaign.plan.pos
 where the OS allows it), median of the repeats after one warm-up call, for:
 
 * ``grid``: random poses inside the joint limits x gain classes x horizontal directions,
-  the Pinocchio pass per pose (:func:`campaign.plan.planner.pose_terms`) included;
+  the Pinocchio pass per pose (:func:`campaign.plan.prediction.pose_terms`) included;
 * ``one pose per prediction``: 1 gain class x 1 direction per pose, the worst case, where
   the per-pose Pinocchio pass is the whole cost;
 * ``plan``: a whole :meth:`campaign.plan.planner.ImpactPlanner.fit` at one point (inverse
@@ -43,8 +43,9 @@ import pinocchio as pin  # noqa: E402
 from campaign import __version__  # noqa: E402
 from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call, write_section  # noqa: E402
 from campaign.model.robot.ik import impact_point  # noqa: E402
+from campaign.plan.directions import horizontal_directions  # noqa: E402
 from campaign.plan.factory import build_planner  # noqa: E402
-from campaign.plan.planner import horizontal_directions, pose_terms, predict  # noqa: E402
+from campaign.plan.prediction import pose_terms, predict  # noqa: E402
 from campaign.rig.contact import Contact  # noqa: E402
 
 HEADING = "## Impact planner throughput"
@@ -95,9 +96,9 @@ def measure_plan(planner, *, n_dirs: int, repeats: int) -> dict:
 
 
 def measure_map(planner, *, resolution: float, repeats: int) -> dict:
-    """A whole workspace map (:func:`campaign.plan.planner.workspace_map`): IK of every grid point and the
+    """A whole workspace map (:func:`campaign.plan.maps.workspace_map`): IK of every grid point and the
     predictions of every branch x gain class, the paper's n."""
-    from campaign.plan.planner import workspace_map
+    from campaign.plan.maps import workspace_map
 
     contact = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
@@ -146,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     worst = min(grid, key=lambda r: r["rate"])
     ok = worst["rate"] >= TARGET
     summary = "\n".join([
-        "(pose, direction, gain class) predictions per second of `campaign.plan.planner` (m*, impulse, joint "
+        "(pose, direction, gain class) predictions per second of `campaign.plan.prediction` (m*, impulse, joint "
         "velocities, contact duration and peak contact force, on the fixed base at the arm's apparent mass over "
         "the compression, `campaign.plan.compression`; on the flexible base also the base velocity and momentum and the "
         "structure's peak displacement under the contact's pulse with the arm's servo, friction and gravity, "

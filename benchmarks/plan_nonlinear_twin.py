@@ -116,7 +116,7 @@ def compare(speed: float, head_mass: float, *, n_dirs: int = 4, dt: float = 2e-4
 
     from campaign.model.paper import load_paper
     from campaign.plan.factory import build_planner
-    from campaign.plan.planner import horizontal_directions
+    from campaign.plan.directions import horizontal_directions
 
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     name = "config 1 wrist centre"

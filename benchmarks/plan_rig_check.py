@@ -4,7 +4,7 @@ For each contact point, every candidate of the planner (every IK branch x gain s
 direction) is simulated on the VES-II rig (``campaign.rig.simulate.simulate_arrays``) at one
 impact speed, and the rig's peak contact force (fixed base, simulator truth ``f_contact``)
 and peak base displacement (flexible base, truth ``base_position``, translation) are set
-beside the planner's predictions (``campaign.plan.planner``: the peak force of the contact law at
+beside the planner's predictions (``campaign.plan.prediction``: the peak force of the contact law at
 the reduced mass of the arm's apparent mass over the compression, ``campaign.plan.compression``;
 on the flexible base the structure's response to the contact's pulse with the arm's motion
 under it and after it, ``campaign.plan.post_contact``), and beside the same with the impulse at
@@ -236,7 +236,7 @@ def impulsive_limit(speed: float) -> list[str]:
     displacement against the prediction, as the contact becomes impulsive."""
     from campaign.model.paper import configuration_q
     from campaign.model.robot import load_robot
-    from campaign.plan.planner import pose_terms, predict
+    from campaign.plan.prediction import pose_terms, predict
     from campaign.rig.beam import Beam
     from campaign.rig.contact import Contact
     from campaign.rig.simulate import simulate_arrays
@@ -513,7 +513,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from campaign import __version__
     from campaign.model.paper import impact_direction
-    from campaign.plan.planner import horizontal_directions
+    from campaign.plan.directions import horizontal_directions
 
     any_direction = rig_takes_directions()
     directions = horizontal_directions(args.directions) if any_direction else impact_direction()[None]

@@ -13,7 +13,7 @@ from campaign.model.exiit import effective_mass
 from campaign.model.robot import load_robot
 from campaign.model.robot.ik import impact_point
 from campaign.plan.compression import compression_mass
-from campaign.plan.planner import pose_terms, predict
+from campaign.plan.prediction import pose_terms, predict
 from campaign.plan.post_contact import ArmAfterImpact
 from campaign.rig.contact import Contact, peak_force_factor, pulse_shape
 

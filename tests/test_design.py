@@ -170,7 +170,7 @@ def test_lambda_fit_recovers_lambda_from_trials_struck_along_several_directions(
 
 # -- the design ---------------------------------------------------------------------------
 def test_error_model_fit_recovers_its_coefficients_from_seeded_errors():
-    from campaign.design.designer import ErrorModel
+    from campaign.design.error_model import ErrorModel
 
     # both terms matter over this range: b x runs from 0.5 a to 8 a
     rng = np.random.default_rng(0)
@@ -186,7 +186,8 @@ def test_error_model_fit_recovers_its_coefficients_from_seeded_errors():
 
 
 def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot):
-    from campaign.design.designer import ErrorModel, ExperimentDesign
+    from campaign.design.designer import ExperimentDesign
+    from campaign.design.error_model import ErrorModel
 
     lam = np.array([19.82, 4.62, 0.80])
     em = ErrorModel(a=0.01, b=1e-4)
@@ -209,13 +210,9 @@ def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot)
 
 
 def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):
-    from campaign.design.designer import (
-        ErrorModel,
-        ExperimentDesign,
-        feasible,
-        grid_candidates,
-        paper_design,
-    )
+    from campaign.design.candidates import feasible, grid_candidates, paper_design
+    from campaign.design.designer import ExperimentDesign
+    from campaign.design.error_model import ErrorModel
 
     Q, D = grid_candidates(q1=(0.0,), q2=(90.0, 135.0, 180.0), q3=(0.0, 90.0, 135.0), azimuths=(0.0, 60.0, 120.0))
     ok, reasons = feasible(robot, Q, D, speed=2.5)

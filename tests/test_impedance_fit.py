@@ -108,7 +108,7 @@ def test_a_joint_friction_cannot_move_is_a_locked_joint_of_eq_11(puma, arm, join
 
 def test_the_fit_recovers_damping_and_friction_from_synthetic_masses_of_two_gain_sets(puma):
     rng = np.random.default_rng(11)
-    from campaign.design.designer import random_candidates
+    from campaign.design.candidates import random_candidates
 
     Qdeg, D = random_candidates(14, robot=puma, seed=5)
     Q = np.array([paper_q(q) for q in Qdeg])

@@ -15,14 +15,9 @@ from campaign.model import exiit
 from campaign.model.paper import configuration_q
 from campaign.model.robot.floating import attach_to_floating_base
 from campaign.model.robot.ik import impact_point, position_branches
-from campaign.plan.planner import (
-    ImpactPlanner,
-    cone_directions,
-    horizontal_directions,
-    peak_amplitude_factor,
-    pose_terms,
-    predict,
-)
+from campaign.plan.directions import cone_directions, horizontal_directions
+from campaign.plan.planner import ImpactPlanner
+from campaign.plan.prediction import peak_amplitude_factor, pose_terms, predict
 from campaign.rig.beam import Beam
 from campaign.rig.contact import Contact, peak_force_factor
 

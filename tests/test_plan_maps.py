@@ -9,7 +9,7 @@ from campaign.cli.main import main
 from campaign.model import exiit
 from campaign.model.paper import configuration_q
 from campaign.model.robot.ik import impact_point, position_branches
-from campaign.plan.planner import direction_map, workspace_map
+from campaign.plan.maps import direction_map, workspace_map
 from campaign.report.figures import plan_maps
 from campaign.rig.beam import Beam
 from campaign.rig.contact import Contact

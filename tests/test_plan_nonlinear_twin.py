@@ -27,7 +27,7 @@ def load(name):
 def fitted_planner(speed, head_mass=None):
     from campaign.model.paper import load_paper
     from campaign.plan.factory import build_planner
-    from campaign.plan.planner import horizontal_directions
+    from campaign.plan.directions import horizontal_directions
 
     prc = load("plan_rig_check")
     params = None if head_mass is None else {"pendulum.head_mass": head_mass}

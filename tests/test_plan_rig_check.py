@@ -88,7 +88,7 @@ def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
     the space-class structure: every candidate is simulated or refused with a reason, and each
     simulated one carries the planner's own prediction."""
     from campaign.plan.factory import build_planner
-    from campaign.plan.planner import horizontal_directions
+    from campaign.plan.directions import horizontal_directions
 
     bench = load_benchmark()
     point = bench.contact_points()["config 1 wrist centre"]
@@ -122,7 +122,7 @@ def test_sign_check_reports_the_measured_difference_of_opposite_directions():
     """The sign check's difference and joint excursion are those of the rig's own trials of a +-n pair."""
     from campaign.model.robot import load_robot
     from campaign.model.robot.ik import position_branches
-    from campaign.plan.planner import horizontal_directions
+    from campaign.plan.directions import horizontal_directions
 
     bench = load_benchmark()
     dirs = horizontal_directions(2)

@@ -13,7 +13,7 @@ from campaign.core.errors import InputError
 from campaign.model.robot import load_robot
 from campaign.model.robot.floating import attach_to_floating_base
 from campaign.model.robot.ik import impact_point
-from campaign.plan.planner import pose_terms, predict
+from campaign.plan.prediction import pose_terms, predict
 from campaign.plan.post_contact import (
     ArmAfterImpact,
     peak_displacement,

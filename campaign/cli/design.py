@@ -1,11 +1,11 @@
-"""``campaign design``: choose poses and impact directions that identify lambda (campaign.design.designer)."""
+"""``campaign design``: choose poses and impact directions that identify lambda (campaign.design.run)."""
 
 from __future__ import annotations
 
 import sys
 
 from ..core.errors import InputError
-from ..design.designer import run_design, write_design
+from ..design.run import run_design, write_design
 from ..model.paper import load_paper
 from .commands import HELP
 from .meff import parse_vector

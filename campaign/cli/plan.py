@@ -20,12 +20,9 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.vocabulary import bases
 from ..model.paper import impact_direction
+from ..plan.directions import cone_directions, horizontal_directions
 from ..plan.factory import build_planner, planner_lambdas
-from ..plan.planner import (
-    check_object,
-    cone_directions,
-    horizontal_directions,
-)
+from ..plan.prediction import check_object
 from .commands import HELP
 from .meff import _NEGATIVE_VALUE, parse_vector
 

@@ -3,7 +3,7 @@
 Three stages, each one function the workflow's thin scripts call (``snakemake designed``,
 ``config/designed.yaml``):
 
-* :func:`plan` designs the poses (:func:`campaign.design.designer.run_design`) and draws the
+* :func:`plan` designs the poses (:func:`campaign.design.run.run_design`) and draws the
   held-out set: seeded random poses within the joint limits with random horizontal
   directions, kept when the rig can strike them at every gain and speed and when they are
   none of the paper's or the designed poses. It writes the plan (JSON): every trial by role
@@ -49,14 +49,8 @@ from ..model.paper import load_paper
 from ..model.robot import load_robot
 from ..rig import simulate_arrays
 from ..scene.description import make_scene
-from .designer import (
-    _rig_refusal,
-    feasible,
-    paper_design,
-    random_candidates,
-    run_design,
-    write_design,
-)
+from .candidates import feasible, paper_design, random_candidates, rig_refusal
+from .run import run_design, write_design
 
 __all__ = ["plan", "run_trials", "report", "report_markdown", "ROLES"]
 
@@ -97,7 +91,7 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
     out_json : path-like
         The plan.
     out_md : path-like, optional
-        The design's Markdown tables (:func:`campaign.design.designer.design_markdown`).
+        The design's Markdown tables (:func:`campaign.design.run.design_markdown`).
     """
 
     speeds = [float(v) for v in settings["speeds"]]
@@ -142,7 +136,7 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
             continue
         # each held-out pose at one speed, alternating, so both speeds are predicted
         v = [speeds[len(poses["heldout"]) % len(speeds)]]
-        if _rig_refusal(Q[i], D[i], gains=gains, speeds=v, rig=rig):
+        if rig_refusal(Q[i], D[i], gains=gains, speeds=v, rig=rig):
             continue
         poses["heldout"].append({"config": 0, "q_paper_deg": Q[i].tolist(), "direction": D[i].tolist(), "speeds": v,
                                  "azimuth_deg": direction_azimuth(D[i])})

@@ -209,22 +209,39 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
         ``simulated``, ``relative_difference``, ``target``, ``verdict`` (met|missed; empty
         for fitted rows), ``reason`` (why a held-out comparison missed), ``note``.
     """
+    record = _calibration_record(rig)
+    paper = load_paper()
+    summary = record["summary"]
+    rows = _fitted_rows(summary, paper)
+    table4 = _table4_cells(table4_csv, summary)
+    figure9 = _figure9(fig9_trials, paper)
+    held = assess_held_out(table4, figure9)
+    rows.extend(held)
+    return _report_markdown(record, rows, held, paper), rows
 
 
+def _calibration_record(rig) -> dict:
+    """The calibration record of the rig file (default ``config/rig.yaml``); InputError if it has none."""
     path = Path(rig) if rig is not None else config_dir() / "rig.yaml"
     with open(path) as fh:
         tree = yaml_load(fh)
     record = tree.get("calibration")
     if not record:
         raise InputError(f"{path} has no calibration record: run `campaign calibrate` first")
-    paper = load_paper()
-    t2 = paper["table2"]
-    summary = record["summary"]
-    rows: list[dict] = []
+    return record
 
-    def fixed_value(name, c):
-        group = summary[name]
-        return float(group[str(c)] if str(c) in group else group[c])
+
+def _fixed_value(summary: Mapping, name: str, c) -> float:
+    """A fixed-base observation of the calibration summary (``m2``, ``m3``) for configuration ``c``."""
+    group = summary[name]
+    return float(group[str(c)] if str(c) in group else group[c])
+
+
+def _fitted_rows(summary: Mapping, paper: Mapping) -> list[dict]:
+    """The report's rows of the fitted observations: Table 2, the mean restitution, the
+    sweep's force range and Figure 5's joint 3 excursion."""
+    rows: list[dict] = []
+    t2 = paper["table2"]
 
     def row(kind, observation, ref, sim):
         rows.append({"kind": kind, "observation": observation, "paper": ref, "simulated": sim,
@@ -232,23 +249,34 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
 
     for name in ("m2", "m3"):
         for c in (1, 2, 3):
-            row("fitted", f"Table 2 {name}, configuration {c} [kg]", t2[name][c], fixed_value(name, c))
+            row("fitted", f"Table 2 {name}, configuration {c} [kg]", t2[name][c], _fixed_value(summary, name, c))
     row("fitted", "mean restitution e (Figure 7)", paper["restitution_mean"], float(summary["e_mean"]))
     lo, hi = paper["impact_force_range_N"]
     row("fitted", "smallest peak force over the sweep [N]", lo, float(summary.get("force_min", summary["force_low"])))
     row("fitted", "largest peak force over the sweep [N]", hi, float(summary.get("force_max", summary["force_high"])))
     row("fitted", f"joint 3 excursion, configuration 1, zero gains, {summary['figure5_speed']} m/s [deg]",
         paper["figure5_joint3_displacement_deg"], float(summary["figure5_deg"]))
+    return rows
 
+
+def _table4_cells(table4_csv, summary: Mapping) -> dict[str, dict]:
+    """The campaign's Table 4 cells the paper reports, by ``<config>-<gain>``: identified
+    (``simulated``), the paper's (``paper``), the fixed-base m* (``fixed``) and eq 8's (``eq8``)."""
     table4 = {}
     with open(table4_csv) as fh:
         for r in csv.DictReader(fh):
             if r.get("in_paper") in ("yes", "True", "true"):
                 cell = {"paper": float(r["identified_paper"]), "simulated": float(r["identified"]),
-                        "fixed": fixed_value("m3" if r["gain"] == "high" else "m2", int(r["config"]))}
+                        "fixed": _fixed_value(summary, "m3" if r["gain"] == "high" else "m2", int(r["config"]))}
                 if r.get("predicted") not in (None, ""):
                     cell["eq8"] = float(r["predicted"])
                 table4[f"{r['config']}-{r['gain']}"] = cell
+    return table4
+
+
+def _figure9(fig9_trials: Mapping[str, str | Path], paper: Mapping) -> dict[int, dict]:
+    """Per configuration 1 and 2, the Low-vs-High reduction of the peak base amplitude of the
+    Figure 9 trials and eq 8's impulsive answer with the paper's lambda on their bases."""
     peaks, speeds = {}, {}
     robot = None
     for key, trial in fig9_trials.items():
@@ -262,10 +290,13 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
                              "base_com": ds["base_com"].values.tolist(), "base_mount": ds["base_mount"].values.tolist()})
         speeds[key] = impulsive_base_speed(robot, ds["q_cmd"].values, base, _paper_lambda(key.split("-")[1]),
                                            float(ds["hammer_mass_eff"].values), ds["impact_direction"].values)
-    figure9 = {c: {"reduction": 1.0 - peaks[f"{c}-low"] / peaks[f"{c}-high"],
-                   "eq8_paper_lambda": 1.0 - speeds[f"{c}-low"] / speeds[f"{c}-high"]} for c in (1, 2)}
-    held = assess_held_out(table4, figure9)
-    rows.extend(held)
+    return {c: {"reduction": 1.0 - peaks[f"{c}-low"] / peaks[f"{c}-high"],
+                "eq8_paper_lambda": 1.0 - speeds[f"{c}-low"] / speeds[f"{c}-high"]} for c in (1, 2)}
+
+
+def _report_markdown(record: Mapping, rows: list[dict], held: list[dict], paper: Mapping) -> str:
+    """The report's Markdown: every row, the reasons of the missed held-out comparisons and
+    the calibrated parameters with their sensitivities."""
 
     def num(x, fmt):
         return "" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, fmt)
@@ -305,7 +336,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
         lines.append(f"| {k} | {v:.6g} | {sens.get(k, float('nan')):.3g} |")
     lines += ["", "A small sensitivity means the observations barely constrain that parameter; a large one "
               "means it is pinned down (the restitution and the contact exponent most of all)."]
-    return "\n".join(lines) + "\n", rows
+    return "\n".join(lines) + "\n"
 
 
 def validate(*, rig=None, speeds=(1.0, 1.75, 2.5), workers: int = 2, fixed: Mapping | None = None) -> dict:

@@ -19,7 +19,7 @@ from ..model.paper import gain_counts
 from ..plan.stroke import check_scene_stroke
 from ..rig.batch import simulate_batch
 from ..scene.checks import check_rig_params, check_speeds, pendulum_reach
-from ..scene.description import make_scene
+from ..scene.description import Scene, make_scene
 
 __all__ = ["run_cells", "run_cell"]
 
@@ -76,17 +76,8 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     timer = timer if timer is not None else Timer()
     # every speed within the pendulum's reach and distinct in its path, before any trial
     speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
-    cells = [(str(b), int(c), str(g)) for b, c, g in cells]
-    plan = []
-    for base, config, gain in cells:
-        counts = gain_counts(gain, gain_overrides)
-        for speed in speeds:
-            for repeat in range(int(repeats)):
-                scene = make_scene(base=base, config=config, gain=gain, speed=float(speed), repeat=repeat,
-                                   gains_counts=counts, rig=rig, params=dict(params or {}),
-                                   campaign_seed=int(campaign_seed))
-                check_scene_stroke(scene)
-                plan.append((scene, trial_path(archive_dir, scene)))
+    plan = _plan_trials(cells, archive_dir=archive_dir, speeds=speeds, repeats=repeats, campaign_seed=campaign_seed,
+                        gain_overrides=gain_overrides, rig=rig, params=params)
     n = len(plan)
     finished = [0]
     t_start = time.perf_counter()
@@ -99,6 +90,32 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     with timer("simulate"):
         results = simulate_batch([scene for scene, _ in plan], threads=threads, on_done=done)
     per_trial = 1e3 * (time.perf_counter() - t_start) / max(n, 1)
+    return _write_trials(plan, results, timer=timer, per_trial_ms=per_trial)
+
+
+def _plan_trials(cells, *, archive_dir, speeds, repeats, campaign_seed, gain_overrides, rig,
+                 params) -> list[tuple[Scene, Path]]:
+    """Every trial's scene and file path, cell by cell, speed by speed, repeat by repeat; each
+    flexible-base scene's stroke checked (:func:`campaign.plan.stroke.check_scene_stroke`)
+    before any trial is simulated."""
+    cells = [(str(b), int(c), str(g)) for b, c, g in cells]
+    plan = []
+    for base, config, gain in cells:
+        counts = gain_counts(gain, gain_overrides)
+        for speed in speeds:
+            for repeat in range(int(repeats)):
+                scene = make_scene(base=base, config=config, gain=gain, speed=float(speed), repeat=repeat,
+                                   gains_counts=counts, rig=rig, params=dict(params or {}),
+                                   campaign_seed=int(campaign_seed))
+                check_scene_stroke(scene)
+                plan.append((scene, trial_path(archive_dir, scene)))
+    return plan
+
+
+def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float) -> list[Path]:
+    """Write each simulated trial to its path with one progress line; SimulationError naming
+    every trial that failed, after the others are written."""
+    n = len(plan)
     written, failed = [], []
     for i, ((scene, path), trial) in enumerate(zip(plan, results), 1):
         if isinstance(trial, SimulationError):
@@ -112,7 +129,7 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
         truth = trial["truth"].data_vars
         duration = 1e3 * float(truth["contact_end"].values - truth["contact_start"].values)
         print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, contact {duration:.1f} ms, peak "
-              f"{float(truth['peak_force'].values):.1f} N; simulated {per_trial:.0f} ms (batch mean), written "
+              f"{float(truth['peak_force'].values):.1f} N; simulated {per_trial_ms:.0f} ms (batch mean), written "
               f"{1e3 * (t2 - t1):.0f} ms -> {path}", flush=True)
         written.append(path)
     if failed:
@@ -124,19 +141,3 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
 def run_cell(base: str, config: int, gain: str, out_dir: str | os.PathLike, **kwargs: Any) -> list[Path]:
     """Simulate one sweep cell: :func:`run_cells` with ``cells=[(base, config, gain)]``."""
     return run_cells([(base, config, gain)], archive_dir=out_dir, **kwargs)
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-

@@ -133,7 +133,7 @@ def unit_responses(terms, X: np.ndarray, kp: np.ndarray, damping: np.ndarray, *,
 
     Parameters
     ----------
-    terms : campaign.plan.planner.PoseTerms
+    terms : campaign.plan.prediction.PoseTerms
         Flexible-base terms (``M_full``, ``gravity_stiffness``, the structure's stiffness and
         damping).
     X : (N, G, nv, 3) array

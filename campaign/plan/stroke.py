@@ -18,7 +18,7 @@ from ..rig.beam import Beam
 from ..rig.contact import Contact
 from ..rig.pendulum import Pendulum
 from ..scene.description import Scene
-from .planner import pose_terms, predict
+from .prediction import pose_terms, predict
 
 __all__ = ["LOCKED_LAMBDA", "STROKE_MARGIN", "predicted_platform_peak", "check_stroke_before", "check_scene_stroke"]
 
@@ -36,7 +36,7 @@ STROKE_MARGIN = 2.0
 def predicted_platform_peak(robot, q0, n, beam, *, mass: float, speed: float, restitution: float, contact) -> float:
     """The platform's peak excursion [m] eq 8 predicts before simulating: the base velocity
     change of an impulsive contact (eq 8, 13-14) fed into the structure's first bending pair
-    (:func:`campaign.plan.planner.predict`), the larger of a free arm (lambda = 0) and a
+    (:func:`campaign.plan.prediction.predict`), the larger of a free arm (lambda = 0) and a
     locked one."""
     terms = pose_terms(robot, np.asarray(q0, float)[None], beam=beam)
     lam = [np.zeros(robot.nv), np.full(robot.nv, LOCKED_LAMBDA)]

@@ -9,7 +9,7 @@
   predicted peak displacement against the horizontal impact direction (polar axes), per gain
   class: the direction of least excitation the paper leaves open.
 
-The numbers come from :func:`campaign.plan.planner.workspace_map` and :func:`campaign.plan.planner.direction_map`.
+The numbers come from :func:`campaign.plan.maps.workspace_map` and :func:`campaign.plan.maps.direction_map`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import numpy as np
 from ...model.paper import configuration_q, impact_direction, load_paper
 from ...model.robot.ik import impact_point
 from ...plan.factory import build_planner
-from ...plan.planner import direction_map, workspace_map
+from ...plan.maps import direction_map, workspace_map
 from ...rig.contact import Contact
 from . import style
 
@@ -37,7 +37,7 @@ def paper_points(robot) -> dict[int, np.ndarray]:
 
 
 def draw_workspace(m: dict, *, marks: dict[int, np.ndarray] | None = None):
-    """Figure of :func:`campaign.plan.planner.workspace_map`'s output; returns the matplotlib figure."""
+    """Figure of :func:`campaign.plan.maps.workspace_map`'s output; returns the matplotlib figure."""
     names = m["gain_classes"]
     panels = [("m_eff_best", "m* best branch [kg]"), ("m_eff_worst", "m* worst branch [kg]")]
     if "structure_peak_best" in m:
@@ -85,7 +85,7 @@ def draw_workspace(m: dict, *, marks: dict[int, np.ndarray] | None = None):
 
 
 def draw_directions(d: dict, *, title: str = ""):
-    """Figure of :func:`campaign.plan.planner.direction_map`'s output (polar axes); returns the figure."""
+    """Figure of :func:`campaign.plan.maps.direction_map`'s output (polar axes); returns the figure."""
     has_structure = "structure_peak" in d
     fig = style.plt.figure(figsize=(6.5 if has_structure else 3.6, 3.4), layout="constrained")
     ax1 = fig.add_subplot(1, 2 if has_structure else 1, 1, projection="polar")
