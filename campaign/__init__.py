@@ -13,6 +13,7 @@ it (:data:`LAYERS`, bottom up; ``tests/test_layout.py`` enforces the order):
 ``joints``    joint-resistance models: the lambda fits (eq 11, 15), Coulomb, joint impedance
 ``plan``      the impact planner, its factory, compression and post-contact terms, the stroke check
 ``design``    experiment design and the designed campaign
+``studies``   experiments on the rig whose results the user guide and the report show (one module each)
 ``report``    Tables 2-4, the figures, HTML pages
 ``bench``     work-precision, per-trial cost and stress suites behind ``campaign bench``
 ``pipeline``  the workflow's jobs: paths, configuration checks, stage digests, job logs, calibration
@@ -23,8 +24,8 @@ from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _version
 
 #: the packages of the campaign package, bottom up: a module imports only from its own package and those before it
-LAYERS = ("core", "model", "scene", "rig", "archive", "identify", "joints", "plan", "design", "report", "bench",
-          "pipeline", "cli")
+LAYERS = ("core", "model", "scene", "rig", "archive", "identify", "joints", "plan", "design", "studies", "report",
+          "bench", "pipeline", "cli")
 
 try:
     __version__ = _version("campaign")

@@ -11,13 +11,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pinocchio as pin
 
 from .. import archive
 from ..core.vocabulary import bases, gain_sets
-from ..model.exiit import impact_jacobian, unit_direction
 from ..rig import simulate
 from ..scene.description import make_scene
+from ..studies.common import truth_m_impulse  # noqa: F401  (campaign.bench names it too)
 from .common import (
     BASELINE_AT_TARGETS,
     H5PY_WRITE_AT_TARGETS,
@@ -226,34 +225,3 @@ def format_cost(c: dict[str, Any]) -> str:
                         f"{c['identify'] * 1e3:.1f} ms."])
 
 
-def truth_m_impulse(measured, truth, robot) -> float:
-    """Eq 11's impulsive-limit m* of a trial from its truth: the true contact impulse over
-    the true tip velocity change through the Jacobian at the contact start,
-    ``P / n.J(q_s) (qd(t_e) - qd(t_s))`` -- what identification with
-    ``m_eff_estimator="impulse"`` is scored against (synthetic or rig trials; tests and
-    ``benchmarks/identification_accuracy.py``).
-
-    ``n.J(q_s) qd(t_s)`` is the true ``v_a_pre``, and ``n.J(q_s) qd(t_e)`` the true
-    ``v_a_post`` less ``n.(J(q_e) - J(q_s)) qd(t_e)``; only that correction (< 1 % of the
-    velocity change) takes ``q`` and ``qd`` interpolated from the truth samples, so their
-    spacing (1 ms) hardly enters. On the impulsive synthetic trials (``decay="none"``, fixed
-    base) it is eq 11 with the trial's lambda.
-    """
-
-
-    t = np.asarray(truth["t_truth"].values, float)
-    q, v = np.asarray(truth["q"].values, float), np.asarray(truth["v"].values, float)
-    t_s, t_e = float(truth["contact_start"]), float(truth["contact_end"])
-    n = unit_direction(np.asarray(measured["impact_direction"].values, float))
-
-    def at(x, tq):
-        return np.array([np.interp(tq, t, x[:, k]) for k in range(x.shape[1])])
-
-    def jn(qq):
-        data = robot.model.createData()
-        pin.framesForwardKinematics(robot.model, data, qq)
-        return n @ impact_jacobian(robot.model, data, qq, robot.impact_frame_id)[:3]
-
-    qd_e = at(v, t_e)
-    dv = float(truth["v_a_post"]) - float(truth["v_a_pre"]) - float((jn(at(q, t_e)) - jn(at(q, t_s))) @ qd_e)
-    return float(truth["impulse"]) / dv

@@ -18,13 +18,13 @@ import numpy as np
 from ..archive import open_trial_arrays
 from ..core.errors import InputError
 from ..core.yamlfile import config_dir, yaml_load
-from ..model import exiit
 from ..model.paper import load_paper
 from ..model.robot import load_robot
-from ..model.robot.floating import attach_to_floating_base, base_body_of
+from ..model.robot.floating import base_body_of
 from ..rig.beam import Beam
 from ..rig.pendulum import Pendulum
 from ..scene.description import make_scene
+from ..studies.common import impulsive_base_speed
 from .calibration import sweep_records
 
 __all__ = ["validate", "assess_held_out", "campaign_report", "impulsive_base_speed", "TABLE4_TOLERANCE", "TABLE4_ORDER",
@@ -51,7 +51,8 @@ FIGURE9_REDUCTION_BAND = (0.15, 0.35)
 
 
 #: where the reasons of a missed held-out comparison are diagnosed with numbers
-DIAGNOSIS = "benchmarks/README.md, 'Flexible-base validation (held-out diagnosis)'"
+DIAGNOSIS = ("user guide, Studies, 'Flexible-base validation' (docs/studies.rst; "
+             "snakemake study_flexible_validation)")
 
 
 
@@ -60,33 +61,6 @@ def _paper_lambda(gain: str) -> list[float]:
     paper = load_paper()
     cls = next(name for name, members in paper["gain_classes"].items() if gain in members)
     return list(paper["table3"][cls])
-
-
-
-def impulsive_base_speed(robot, q_arm, base, lam, m_b: float, n) -> float:
-    """Eq 8's base velocity along ``n`` right after an impulsive contact, per unit hammer
-    momentum ``(1 + e) m_b v_b`` [m/s per N s].
-
-    The arm (``lam`` added to its joint inertia) stands on the free base ``base`` (a
-    :class:`~campaign.model.robot.floating.BaseBody`); the impulse on the tip is ``P n`` with
-    ``P = m*/(m* + m_b)`` per unit hammer momentum (eq 14, m* from eq 8), and the
-    generalised velocity jump is ``(M + lambda)^-1 J^T n P``. The ratio of its Low and High
-    values is the Ex-IIT's answer to Figure 9's Low-vs-High reduction of the base motion
-    (the spring and damper of the structure transmit no impulse).
-    """
-
-    frobot = attach_to_floating_base(robot, base)
-    model = frobot.model
-    data = model.createData()
-    q_arm = np.asarray(q_arm, float)
-    q = frobot.q_full(q_arm)
-    M = exiit.inertia(model, data, q)
-    M[6:, 6:] += exiit.lambda_matrix(lam, frobot.nv_arm)
-    J = exiit.impact_jacobian(model, data, q, frobot.impact_frame_id)
-    n = exiit.unit_direction(n)
-    jump = np.linalg.solve(M, J[:3].T @ n)
-    m8 = exiit.effective_mass_from_G(exiit.exiit_floating(frobot, q_arm, lam, data=data), n)
-    return float(n @ jump[:3]) * m8 / (m8 + m_b)
 
 
 
