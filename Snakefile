@@ -4,6 +4,9 @@
 #
 #   simulate -> identify -> fit -> tables, figures -> report
 #
+# beside it, the studies (workflow/rules/studies.smk: not per campaign; the report shows
+# those the configuration lists under `studies:`).
+#
 # This file only includes the rules (helpers: workflow/rules/common.smk) and names the
 # default target: Snakemake takes the default target from the root Snakefile only (a rule
 # in an included file, even with `default_target: True`, cannot be it).
@@ -18,6 +21,7 @@ include: "workflow/rules/figures.smk"
 include: "workflow/rules/archive.smk"
 include: "workflow/rules/calibration.smk"
 include: "workflow/rules/designed.smk"
+include: "workflow/rules/studies.smk"
 
 
 rule all:

@@ -32,8 +32,8 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
     fits : mapping, optional
         ``{gain class: JSON of fit_lambda}`` for Tables 3 and 4, in the paper's order.
     source : path-like, optional
-        For ``table4_structures``: the CSV ``benchmarks/space_structure.py`` writes; for
-        ``plan_rig_check``: the CSV ``benchmarks/plan_rig_check.py`` writes.
+        For ``table4_structures``: the CSV the study :mod:`campaign.studies.space_structure`
+        writes; for ``plan_rig_check``: the CSV :mod:`campaign.studies.plan_rig_check` writes.
     structure : str, optional
         For ``table4``: the structure its flexible-base trials emulate (a note names it).
     timer : Timer, optional

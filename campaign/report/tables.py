@@ -402,15 +402,16 @@ def table4(records, fits: Mapping, *, robot=None, gain_classes=None, structure: 
 
 def structures_table(path) -> Table:
     """Table 4 and Figure 9's Low-vs-High reduction under both named structures (stiff mast,
-    space class), each beside the paper, from the CSV ``benchmarks/space_structure.py``
-    writes (``benchmarks/table4_structures.csv``: the campaign itself runs one structure)."""
+    space class), each beside the paper, from the CSV the study
+    :mod:`campaign.studies.space_structure` writes (``table4_structures.csv``: the campaign itself
+    runs one structure)."""
 
     paper = load_paper()
     lo, hi = (float(x) for x in paper["figure9_low_vs_high_reduction"])
     with open(path, newline="") as fh:
         src = list(csv.DictReader(fh))
     if not src:
-        raise ValueError(f"{path}: no rows; run benchmarks/space_structure.py --structures-csv {path}")
+        raise ValueError(f"{path}: no rows; run `snakemake study_space_structure`")
     rows = []
     for r in src:
         f = {k: float(v) for k, v in r.items() if k not in ("structure", "cell")}
@@ -425,7 +426,7 @@ def structures_table(path) -> Table:
             ("paper", "paper experiment [kg]"), ("ident_vs_paper", "identified / paper - 1"),
             ("paper_eq8", "paper eq 8 [kg]"), ("fig9", "Figure 9 reduction (configuration)"),
             ("fig9_eq8", "eq 8's Figure 9 reduction")]
-    notes = [f"from {Path(path).name}, written by benchmarks/space_structure.py (lambda identified on the rig's "
+    notes = [f"from {Path(path).name}, written by the study space_structure (lambda identified on the rig's "
              "fixed base; means over 1.5 and 2.5 m/s); the campaign's own Table 4 and Figure 9 use the structure "
              "its config names (bases.flexible.structure)",
              "f_1: first bending mode with the arm on top; T_c: contact duration",
@@ -439,11 +440,11 @@ def rig_check_table(path) -> Table:
     """The impact planner checked on the rig: per object, contact point and base, the predicted and
     measured ranges of the planner's quantity over its simulated candidates, Spearman's rank
     correlation of the two and the measured value of the planner's best candidate over the worst,
-    from the CSV ``benchmarks/plan_rig_check.py`` writes (``benchmarks/plan_rig_check.csv``)."""
+    from the CSV the study :mod:`campaign.studies.plan_rig_check` writes (``plan_rig_check.csv``)."""
     with open(path, newline="") as fh:
         src = list(csv.DictReader(fh))
     if not src:
-        raise ValueError(f"{path}: no rows; run benchmarks/plan_rig_check.py --csv {path}")
+        raise ValueError(f"{path}: no rows; run `snakemake study_plan_rig_check`")
 
     def num(text):
         return float(text) if text not in ("", None) else None
@@ -469,7 +470,7 @@ def rig_check_table(path) -> Table:
             ("best_over_worst_at_once", "best / worst, impulse at once"),
             ("spearman_release", "Spearman, eq 8 release alone"),
             ("best_over_worst_release", "best / worst, eq 8 release alone")]
-    notes = [f"from {Path(path).name}, written by benchmarks/plan_rig_check.py: every IK branch x gain set x "
+    notes = [f"from {Path(path).name}, written by the study plan_rig_check: every IK branch x gain set x "
              "horizontal direction the planner returns, simulated on the rig (candidates the rig refuses left out)",
              "measured: the simulator truth's peak contact force (fixed base) and peak translational base "
              "displacement (flexible base); best / worst: the measured value of the planner's best candidate "

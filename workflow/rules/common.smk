@@ -15,6 +15,7 @@ import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
 
+from campaign import studies as study_registry   # names and files only: it imports nothing
 from campaign.core import vocabulary
 from campaign.core.errors import InputError
 from campaign.core.yamlfile import config_file
@@ -65,15 +66,6 @@ GAIN_ORDER = vocabulary.gain_sets()
 # the files every trial depends on: the rig parameters and the paper's tables (configurations, gains)
 RIG_FILE = config["rig"] if config.get("rig") else str(config_file("rig.yaml"))
 PAPER_FILE = str(config_file("paper.yaml"))
-# data the report takes from the repository's benchmarks (both structures; eq 8's validity map):
-# the campaign simulates one structure, the sweep behind these runs beside it
-BENCH_DIR = digests.PACKAGE.parent / "benchmarks"
-VALIDITY_CSV = str(BENCH_DIR / "eq8_validity.csv")
-STRUCTURES_CSV = str(BENCH_DIR / "table4_structures.csv")
-# the impact planner's candidates simulated on the rig (benchmarks/plan_rig_check.py)
-RIG_CHECK_CSV = str(BENCH_DIR / "plan_rig_check.csv")
-
-
 def code_digest(*patterns):
     """The stage digest of the package files ``patterns`` name (campaign.pipeline.digests)."""
     try:
@@ -350,12 +342,10 @@ def missing_requirement(product):
     fixed = SWEEPS.get("fixed")
     if product in ("fig4", "fig8"):
         return ""
-    if product in ("eq8_validity", "table4_structures"):
-        data = VALIDITY_CSV if product == "eq8_validity" else STRUCTURES_CSV
-        return "" if Path(data).is_file() else f"needs the benchmark data {data} (benchmarks/space_structure.py)"
-    if product == "plan_rig_check":
-        return "" if Path(RIG_CHECK_CSV).is_file() else \
-            f"needs the benchmark data {RIG_CHECK_CSV} (benchmarks/plan_rig_check.py --csv)"
+    if product in STUDY_PRODUCTS:
+        study = STUDY_PRODUCTS[product]
+        return "" if study in STUDIES else \
+            f"needs the study {study} listed under the configuration key studies: (or `snakemake study_{study}` alone)"
     if product == "fig5":
         return "" if ("fixed", 1, "zero") in cells("fixed") else "needs bases.fixed with configuration 1 and gain zero"
     if product in ("fig6", "fig7"):
@@ -377,6 +367,8 @@ def missing_requirement(product):
 
 
 def product_files(product):
+    if product in STUDY_PRODUCTS:
+        return study_report_files(product)
     return figure_files(product) if product in FIGURES else table_files(product)
 
 
@@ -398,18 +390,65 @@ def default_targets():
             print(f"campaign {CAMPAIGN}: skipping {product}: it {why}", file=sys.stderr)
         else:
             out += product_files(product)
+    out += [f for f in study_targets() if f not in out]
     out.append(f"{ARCHIVE}/MANIFEST.sha256" if SIMULATE else f"{RESULTS}/archive_verify.txt")
     return out
 
 
-def log_file(rule_name, unit=None):
-    """Log of one job: ``<results>/logs/<rule>[/<unit>].log``."""
-    return str(Path(RESULTS, "logs", rule_name, *([unit] if unit else [])).with_suffix(".log"))
+def log_file(rule_name, unit=None, *, root=None):
+    """Log of one job: ``<root>/logs/<rule>[/<unit>].log``, the campaign's results folder by default."""
+    return str(Path(root or RESULTS, "logs", rule_name, *([unit] if unit else [])).with_suffix(".log"))
 
 
 def bench_file(rule_name, unit=None):
     """Snakemake benchmark record of one job (wall time, CPU time, memory)."""
     return str(Path(RESULTS, "benchmarks", rule_name, *([unit] if unit else [])).with_suffix(".tsv"))
+
+
+# ----------------------------------------------------------------------------------------
+# studies (campaign.studies, workflow/rules/studies.smk): not per campaign
+# ----------------------------------------------------------------------------------------
+STUDY_NAMES = study_registry.NAMES
+#: the studies this campaign's `all` target and report include
+STUDIES = list(config["studies"])
+#: a reduced run of each study (seconds; the tests) into a folder of its own
+STUDIES_QUICK = bool(config["studies_quick"])
+#: the report's products a study makes
+STUDY_PRODUCTS = {"table4_structures": "space_structure", "eq8_validity": "space_structure",
+                  "plan_rig_check": "plan_rig_check"}
+
+
+def study_dir(name):
+    """Folder of one study's files: ``<results_root>/studies/<study>[/quick]``."""
+    return f"{config['results_root']}/studies/{name}" + ("/quick" if STUDIES_QUICK else "")
+
+
+def study_outputs(name):
+    """The files one study's job writes (campaign.studies.FILES)."""
+    return [f"{study_dir(name)}/{f}" for f in study_registry.FILES[name]]
+
+
+def study_report_files(product):
+    """The rendered table or figure of a study that the report shows."""
+    stem = f"{study_dir(STUDY_PRODUCTS[product])}/report/{product}"
+    return [f"{stem}.png", f"{stem}.pdf"] if product in FIGURES else [f"{stem}.csv", f"{stem}.md", f"{stem}.html"]
+
+
+def study_files(name):
+    """Everything of one study: its job's files and what the report shows of them."""
+    return study_outputs(name) + [f for p, s in STUDY_PRODUCTS.items() if s == name for f in study_report_files(p)]
+
+
+def study_targets():
+    """The files of the studies the configuration lists under ``studies:``."""
+    return [f for name in STUDIES for f in study_files(name)]
+
+
+def designed_study_inputs():
+    """The designed campaign's identification tables (study impact_resistance)."""
+    if not DESIGNED:
+        raise WorkflowError(f"study impact_resistance needs the designed campaign's settings {DESIGNED_FILE}")
+    return [t for role in ("designed", "heldout") for t in designed_tables(role)]
 
 
 def calibration_targets():

@@ -1,5 +1,6 @@
 # Figures 4-9 of the paper and the impact planner's maps (campaign.report.figures: one module per
-# figure, one thin script each), PNG for the report and PDF beside it.
+# figure, one thin script each), PNG for the report and PDF beside it. eq 8's validity map,
+# drawn from a study's data, is in studies.smk.
 
 
 rule fig4_arm_configurations:
@@ -177,24 +178,3 @@ rule planner_maps:
         "../envs/campaign.yaml"
     script:
         "../scripts/plan_maps.py"
-
-
-rule eq8_validity_figure:
-    input:
-        data=VALIDITY_CSV,
-    output:
-        png=report(f"{RESULTS}/figures/eq8_validity.png", caption="../report/eq8_validity.rst",
-                   category="Flexible base", subcategory="Figures", labels={"figure": "eq 8 validity", "format": "PNG"}),
-        pdf=f"{RESULTS}/figures/eq8_validity.pdf",
-    params:
-        code=figure_code("validity"),
-    priority: 1
-    log:
-        log_file("eq8_validity"),
-    resources:
-        runtime=5,
-        mem_mb=1000,
-    conda:
-        "../envs/campaign.yaml"
-    script:
-        "../scripts/eq8_validity.py"

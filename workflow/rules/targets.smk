@@ -1,8 +1,9 @@
 # Named targets. `snakemake` makes everything the configuration can make (rule all, in the
-# root Snakefile); `snakemake <product>` (fig4 ... fig9, plan_maps, table2 ... table4,
-# plan_rig_check) makes one product and runs only the jobs it needs (table2 alone runs no
-# flexible-base trial; fig5 runs the one job holding its trial); `trials` and `identification`
-# stop after those stages.
+# root Snakefile); `snakemake <product>` (fig4 ... fig9, plan_maps, table2 ... table4, and the
+# studies' table4_structures, eq8_validity, plan_rig_check when the configuration lists their
+# study under `studies:`) makes one product and runs only the jobs it needs (table2 alone runs
+# no flexible-base trial; fig5 runs the one job holding its trial); `trials` and
+# `identification` stop after those stages. `study_<name>` and `studies`: studies.smk.
 
 
 rule trials:

@@ -1,4 +1,4 @@
-"""Snakemake script of rule eq8_validity: the validity map of eq 8 from the benchmark's CSV."""
+"""Snakemake script of rule eq8_validity_figure: the validity map of eq 8 from the study's CSV."""
 
 from campaign.pipeline.joblog import job_log
 

@@ -1,5 +1,5 @@
 """Snakemake script of rule plan_rig_check_table: the impact planner checked on the rig
-(campaign.report.tables.rig_check_table) from the benchmark's CSV."""
+(campaign.report.tables.rig_check_table) from the study's CSV."""
 
 from campaign.pipeline.joblog import job_log
 

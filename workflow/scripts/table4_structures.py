@@ -1,5 +1,5 @@
-"""Snakemake script of rule table4_structures: Table 4 and Figure 9 under both named
-structures (campaign.report.tables.structures_table) from the benchmark's CSV."""
+"""Snakemake script of rule table4_structures_table: Table 4 and Figure 9 under both named
+structures (campaign.report.tables.structures_table) from the study's CSV."""
 
 from campaign.pipeline.joblog import job_log
 

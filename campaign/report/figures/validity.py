@@ -3,7 +3,7 @@
 Eq 8 treats the base as a free body during the contact (the structure's spring and damper
 transmit no impulse). That holds when the contact is short against the structure's
 periods; this figure shows, from a sweep of structure stiffnesses
-(``benchmarks/space_structure.py``, data ``benchmarks/eq8_validity.csv``), how far the
+(the study :mod:`campaign.studies.space_structure`, data ``eq8_validity.csv``), how far the
 identified m* departs from eq 8 as the contact duration T_c grows against the first-mode
 period T_1 (arm on top), with the band where they agree within a tolerance shaded and the
 largest ratio below which every point lies in it marked. The measured map and what it
