@@ -21,7 +21,7 @@ help:
 	@echo "make campaign   set up .venv if needed, then run the campaign ($(CAMPAIGN_CMD))"
 	@echo "make test       set up .venv if needed, then run the test suite (pytest)"
 	@echo "make test-slurm as root: the reduced campaign through a one-node SLURM cluster (tests/cluster/slurm.sh)"
-	@echo "make bench      run every benchmarks/bench_*.py (timings; see benchmarks/README.md)"
+	@echo "make bench      run every benchmarks/bench_*.py on one BLAS thread, each output also in benchmarks/out/ (timings; see benchmarks/README.md)"
 	@echo "make docs       build the user guide into docs/_build/html (Sphinx, warnings are errors)"
 	@echo "make install    only (re)install the project into .venv from $(LOCK)"
 	@echo "make install-cluster  the same plus the SLURM executor plugin (extra 'cluster')"
@@ -38,8 +38,16 @@ test: $(STAMP)
 test-slurm: $(CLUSTER_STAMP)
 	tests/cluster/slurm.sh $(SLURM_TEST_ARGS)
 
+# Timings of one core: BLAS pinned to one thread before numpy loads (each script pins it too,
+# for a run by hand); each script's output also goes to benchmarks/out/<script>.txt (git-ignored).
+# A script that misses its target exits 1, which stops the loop after printing its output.
+BENCH_ENV := OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
+
 bench: $(STAMP)
-	@set -e; for script in benchmarks/bench_*.py; do echo "== $$script"; $(PY) $$script; done
+	@mkdir -p benchmarks/out
+	@set -e; for script in benchmarks/bench_*.py; do \
+	  out=benchmarks/out/$$(basename $$script .py).txt; echo "== $$script (output: $$out)"; \
+	  status=0; $(BENCH_ENV) $(PY) $$script > $$out 2>&1 || status=$$?; cat $$out; test $$status -eq 0; done
 
 # The user guide (docs/): every warning, a broken cross-reference included, fails the build.
 docs: $(STAMP)

@@ -25,7 +25,7 @@ check alone (h5py + digest).
 Usage::
 
     python benchmarks/bench_archive.py                      # print the tables
-    python benchmarks/bench_archive.py --readme benchmarks/README.md   # also record them there
+    python benchmarks/bench_archive.py --readme benchmarks/out/summary.md   # also record them there
 
 The archive's budget is 50 ms to write one trial; the script exits with status 1 if
 ``write_trial`` misses it (median wall time) for any base.
@@ -33,9 +33,14 @@ The archive's budget is 50 ms to write one trial; the script exits with status 1
 
 from __future__ import annotations
 
+import os
+
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
 import argparse
 import datetime
-import os
 import platform
 import statistics
 import sys
@@ -51,6 +56,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from synthetic import synthetic_trial  # noqa: E402
 
 from campaign import __version__, archive  # noqa: E402
+from campaign.bench.common import blas_line  # noqa: E402
 
 HEADING = "## Archive I/O"
 BUDGET_MS = 50.0
@@ -160,6 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=15, help="timed calls per layout (after one warm-up)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
+    print(blas_line())
 
     writes, reads = measure(duration=args.duration, repeats=args.repeats)
     table = format_tables(writes, reads)
@@ -192,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
         f"Python {platform.python_version()}, xarray {version('xarray')}, h5netcdf {version('h5netcdf')}, "
         f"h5py {version('h5py')}, HDF5 {archive.h5py.version.hdf5_version}, campaign {__version__}; "
         f"{datetime.date.today().isoformat()}. Rerun: `.venv/bin/python benchmarks/bench_archive.py "
-        "--readme benchmarks/README.md`.",
+        "--readme benchmarks/out/summary.md`.",
     ])
     print(summary)
     if args.readme is not None:

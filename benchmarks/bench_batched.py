@@ -20,10 +20,17 @@ Usage::
 
 from __future__ import annotations
 
+import os
+
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
 import argparse
 import statistics
 import time
 
+from campaign.bench.common import blas_line
 from campaign.model.paper import gain_counts
 from campaign.rig import batch
 from campaign.rig.simulate import (
@@ -131,6 +138,7 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", action="store_true", help="also time 1 vs 2 threads on a 108-trial job")
     ap.add_argument("--profile", action="store_true", help="also split the batched integration's CPU by part")
     args = ap.parse_args(argv)
+    print(blas_line())
     print(f"{'job (36 trials)':<22}{'one-trial':>10}{'batched':>9}{'build':>7}{'integ.':>8}{'record':>8}"
           f"{'steps in batch':>16}{'ratio':>7}   [CPU ms per trial, median of {args.rounds}]")
     for base in args.bases:

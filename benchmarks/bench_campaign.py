@@ -20,7 +20,7 @@ Usage::
 
     python benchmarks/bench_campaign.py                          # reduced + full, job_unit sweep
     python benchmarks/bench_campaign.py --campaigns ci --units sweep,cell
-    python benchmarks/bench_campaign.py --readme benchmarks/README.md   # also record the summary
+    python benchmarks/bench_campaign.py --readme benchmarks/out/summary.md   # also record the summary
     python benchmarks/bench_campaign.py --repeats 3              # each run 3 times, the median shown
 
 With ``--repeats N`` each campaign runs N times, one after the other; the table shows the run
@@ -33,10 +33,15 @@ with status 1 if a run fails; missing a target is reported, not an error.
 
 from __future__ import annotations
 
+import os
+
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
 import argparse
 import datetime
 import json
-import os
 import platform
 import re
 import resource
@@ -50,7 +55,7 @@ from pathlib import Path
 
 import yaml
 
-from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS
+from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS, blas_line
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -227,6 +232,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="runs of each campaign; the median wall time is shown (default: %(default)s)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
+    print(blas_line())
     rows = []
     for name in args.campaigns.split(","):
         if name not in CONFIGS:
@@ -263,7 +269,7 @@ def main(argv: list[str] | None = None) -> int:
         table(rows),
         "Per-job overhead against per-trial cost (the measurement behind `job_unit`):\n\n" + granularity(rows),
         machine() + " Rerun: `.venv/bin/python benchmarks/bench_campaign.py"
-        + (f" --repeats {args.repeats}" if args.repeats > 1 else "") + " --readme benchmarks/README.md`.",
+        + (f" --repeats {args.repeats}" if args.repeats > 1 else "") + " --readme benchmarks/out/summary.md`.",
     ])
     print(body)
     if args.readme:

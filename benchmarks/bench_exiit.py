@@ -8,7 +8,7 @@ The scalar :func:`campaign.model.exiit.effective_mass` is timed too, for compari
 Usage::
 
     python benchmarks/bench_exiit.py                       # print the table
-    python benchmarks/bench_exiit.py --readme benchmarks/README.md   # also record it there
+    python benchmarks/bench_exiit.py --readme benchmarks/out/summary.md   # also record it there
 
 The target is at least 100,000 configurations per second on one core; the
 script exits with status 1 if the PUMA 560 batch at the largest size misses it.
@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import os
 
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+    os.environ[_var] = "1"
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
@@ -32,7 +33,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from campaign import __version__
-from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call  # noqa: E402
+from campaign.bench.common import blas_line, cpu_name, pin_to_one_cpu, time_call  # noqa: E402
 from campaign.model import exiit  # noqa: E402
 from campaign.model.robot import load_robot  # noqa: E402
 
@@ -108,6 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=7, help="timed calls per size (default: %(default)s)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
+    print(blas_line())
     sizes = [int(s) for s in args.sizes.split(",")]
     if args.repeats < 1 or any(s < 1 for s in sizes):
         parser.error("--sizes and --repeats must be positive")
@@ -133,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         f"Machine: {cpu_name()}; Python {platform.python_version()}, numpy {np.__version__}, "
         f"pin {pin.__version__}, campaign {__version__}; {datetime.date.today().isoformat()}. "
-        "Rerun: `make bench`; record: `.venv/bin/python benchmarks/bench_exiit.py --readme benchmarks/README.md`.",
+        "Rerun: `make bench`; record: `.venv/bin/python benchmarks/bench_exiit.py --readme benchmarks/out/summary.md`.",
     ])
     print(summary)
     if args.readme is not None:

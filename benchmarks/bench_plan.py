@@ -17,7 +17,7 @@ where the OS allows it), median of the repeats after one warm-up call, for:
 Usage::
 
     python benchmarks/bench_plan.py                                   # print the table
-    python benchmarks/bench_plan.py --readme benchmarks/README.md     # also record it there
+    python benchmarks/bench_plan.py --readme benchmarks/out/summary.md     # also record it there
 
 The target is at least 10,000 predictions per second on one core; the script exits with
 status 1 if the grid cases miss it.
@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import os
 
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+    os.environ[_var] = "1"
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
@@ -41,7 +42,7 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from campaign import __version__  # noqa: E402
-from campaign.bench.common import cpu_name, pin_to_one_cpu, time_call, write_section  # noqa: E402
+from campaign.bench.common import blas_line, cpu_name, pin_to_one_cpu, time_call, write_section  # noqa: E402
 from campaign.model.robot.ik import impact_point  # noqa: E402
 from campaign.plan.directions import horizontal_directions  # noqa: E402
 from campaign.plan.factory import build_planner  # noqa: E402
@@ -130,6 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=7, help="timed calls per case (default: %(default)s)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
+    print(blas_line())
     if args.repeats < 1:
         parser.error("--repeats must be positive")
     pinning = pin_to_one_cpu()
@@ -168,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         f"Machine: {cpu_name()}; Python {platform.python_version()}, numpy {np.__version__}, "
         f"pin {pin.__version__}, campaign {__version__}; {datetime.date.today().isoformat()}; the machine's "
-        "two cores were shared with other jobs, hence the spread. Record: `.venv/bin/python benchmarks/bench_plan.py --readme benchmarks/README.md`.",
+        "two cores were shared with other jobs, hence the spread. Record: `.venv/bin/python benchmarks/bench_plan.py --readme benchmarks/out/summary.md`.",
     ])
     print(summary)
     if args.readme is not None:

@@ -14,11 +14,18 @@ Usage::
 
 from __future__ import annotations
 
+import os
+
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
 import argparse
 import importlib
 import statistics
 import time
 
+from campaign.bench.common import blas_line
 from campaign.scene.description import make_scene
 
 sim = importlib.import_module("campaign.rig.simulate")   # the module (campaign.rig exports the function)
@@ -53,6 +60,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=10)
     ap.add_argument("--speed", type=float, default=2.0)
     args = ap.parse_args(argv)
+    print(blas_line())
     rows = []
     for base, config, gain in CASES:
         scene = make_scene(base=base, config=config, gain=gain, speed=args.speed)

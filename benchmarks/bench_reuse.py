@@ -13,15 +13,20 @@ Usage::
 
     python benchmarks/bench_reuse.py                         # one run
     python benchmarks/bench_reuse.py --repeats 3             # the median of 3 runs
-    python benchmarks/bench_reuse.py --readme benchmarks/README.md   # also record the summary
+    python benchmarks/bench_reuse.py --readme benchmarks/out/summary.md   # also record the summary
 
 Target: at most 25 s of wall time on 2 cores. Missing it is reported, not an error.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
+
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse
 import shutil
 import statistics
 import sys
@@ -29,6 +34,8 @@ import tempfile
 from pathlib import Path
 
 from bench_campaign import REPO, SNAKEMAKE, machine, run, timings
+
+from campaign.bench.common import blas_line
 
 HEADING = "## Reuse of the reference archive"
 TARGET = 25.0  # seconds, 2 cores
@@ -83,6 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cores", type=int, default=2, help="snakemake --cores (default: %(default)s)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
+    print(blas_line())
     runs = [bench_once(args.cores) for _ in range(max(1, args.repeats))]
     body = table(runs, args.cores)
     print(body)

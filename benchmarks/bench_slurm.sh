@@ -8,7 +8,7 @@
 # (tests/cluster/cluster.sh) and stops it on exit. Not part of `make bench` (needs root).
 #
 # Usage: benchmarks/bench_slurm.sh [repeats]     (default 2; prints a Markdown table)
-# Record: paste the table into benchmarks/README.md, section "Cluster profile".
+# Record: paste the table into docs/benchmarks.rst (Cluster profile) and docs/cluster.rst.
 set -euo pipefail
 
 REPO="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -16,10 +16,16 @@ with ``g++`` (about a minute). Nothing of it is part of the package.
 
 Usage::
 
-    python benchmarks/compiled_floor.py [--readme benchmarks/README.md]
+    python benchmarks/compiled_floor.py [--readme benchmarks/out/summary.md]
 """
 
 from __future__ import annotations
+
+import os
+
+# one BLAS thread per job, set before numpy loads: the timings are those of one core
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
 
 import argparse
 import statistics
@@ -32,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from campaign.bench.common import _md, machine_line, write_section
+from campaign.bench.common import _md, blas_line, machine_line, write_section
 from campaign.model.paper import gain_counts
 from campaign.model.robot import load_robot
 from campaign.rig.integrate import integrate_trial
@@ -145,6 +151,7 @@ def main(argv=None) -> int:
     ap.add_argument("--gain", default="high")
     ap.add_argument("--readme", help="write the summary under '## Compiled-loop floor' in this file")
     args = ap.parse_args(argv)
+    print(blas_line())
     robot = load_robot("puma560")
     binary, compile_s = build_floor()
     cpp, py = compiled_costs(binary, robot), python_costs(robot)
@@ -170,7 +177,7 @@ def main(argv=None) -> int:
         ]),
         "",
         f"g++ build of floor.cpp: {compile_s:.0f} s (0 = cached). " + machine_line(),
-        "Rerun: `.venv/bin/python benchmarks/compiled_floor.py --readme benchmarks/README.md`.",
+        "Rerun: `.venv/bin/python benchmarks/compiled_floor.py --readme benchmarks/out/summary.md`.",
     ]
     text = "\n".join(body)
     print(text)

@@ -1,7 +1,6 @@
 """Benchmarks of the simulated VES-II: work-precision, per-trial cost, stress.
 
-Library code behind ``benchmarks/work_precision.py``, ``benchmarks/stress.py`` and
-``campaign bench``; nothing here is used by the campaign itself.
+Library code behind ``campaign bench``; nothing here is used by the campaign itself.
 
 Work-precision (:func:`work_precision`)
     For representative scenes, every integration setting the rig supports

@@ -1,4 +1,5 @@
-"""What every benchmark shares: the targets, the machine line, timing, and writing a section of benchmarks/README.md."""
+"""What every benchmark shares: the targets, the machine and BLAS lines, timing, and writing a summary section
+(``benchmarks/out/``, which ``make bench`` makes)."""
 
 from __future__ import annotations
 
@@ -88,6 +89,16 @@ def machine_line() -> str:
             f"{datetime.date.today().isoformat()}.")
 
 
+#: the BLAS thread settings every benchmark pins to 1 before numpy loads (``make bench`` and
+#: the top of each script): its timings are those of one core
+BLAS_THREADS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def blas_line() -> str:
+    """One line saying how many BLAS threads this process runs (the benchmarks pin 1)."""
+    return "BLAS threads: " + ", ".join(f"{v}={os.environ.get(v, 'unset')}" for v in BLAS_THREADS) + "."
+
+
 def _rel(a: float, b: float) -> float:
     """|a - b| / |b| (absolute when b == 0; nan when either is not finite)."""
     a, b = float(a), float(b)
@@ -113,6 +124,7 @@ def _timed(fn: Callable[[], Any]) -> tuple[Any, float, float]:
 def write_section(readme: str | os.PathLike, heading: str, body: str) -> Path:
     """Replace (or append) the section ``heading`` of ``readme`` (a markdown file), atomically."""
     readme = Path(readme)
+    readme.parent.mkdir(parents=True, exist_ok=True)
     text = readme.read_text() if readme.is_file() else "# Benchmarks\n"
     section = f"{heading}\n\n{body.rstrip()}\n"
     lines = text.splitlines(keepends=True)

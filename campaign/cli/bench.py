@@ -5,9 +5,8 @@ the rig (and a naive fixed-step RK4) on representative scenes against a converge
 reference, prints the table and the verdict, and writes the table (markdown), the raw rows
 (JSON) and the log-log plot (PNG) to DIR. ``campaign bench stress [--reduced]`` runs the
 corners of the input space and the closed-form stress and prints the summary; it exits
-with status 1 if a case failed or blew up. The numbers are the same as those of
-``benchmarks/work_precision.py`` and ``benchmarks/stress.py`` (which also record them in
-``benchmarks/README.md``).
+with status 1 if a case failed or blew up. The recorded summaries are in the user guide's
+*Benchmarks* page (``docs/benchmarks.rst``).
 """
 
 from __future__ import annotations
