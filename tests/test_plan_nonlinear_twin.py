@@ -3,25 +3,11 @@ and away from it the sign of n matters."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
-
-
-def load(name):
-    sys.path.insert(0, str(BENCH))
-    try:
-        spec = importlib.util.spec_from_file_location(name, BENCH / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(BENCH))
-    return module
+from campaign.studies import plan_nonlinear_twin as twin
+from campaign.studies import plan_rig_check as prc
 
 
 def fitted_planner(speed, head_mass=None):
@@ -29,7 +15,6 @@ def fitted_planner(speed, head_mass=None):
     from campaign.plan.factory import build_planner
     from campaign.plan.directions import horizontal_directions
 
-    prc = load("plan_rig_check")
     params = None if head_mass is None else {"pendulum.head_mass": head_mass}
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     planner = build_planner(base="flexible", lambdas=table3, speed=speed, mass=prc.hammer_mass(params),
@@ -38,7 +23,6 @@ def fitted_planner(speed, head_mass=None):
 
 
 def test_twin_tends_to_the_planners_linear_prediction_at_small_amplitude():
-    twin = load("plan_nonlinear_twin")
     planner = fitted_planner(0.02)
     g = planner.gain_classes_.index("zero")
     for d in range(2):
@@ -47,7 +31,6 @@ def test_twin_tends_to_the_planners_linear_prediction_at_small_amplitude():
 
 
 def test_twin_separates_opposite_directions_the_planner_predicts_equal():
-    twin = load("plan_nonlinear_twin")
     planner = fitted_planner(2.0, head_mass=5.0)
     g = planner.gain_classes_.index("zero")
     P = planner.predictions_.structure_peak
@@ -57,7 +40,6 @@ def test_twin_separates_opposite_directions_the_planner_predicts_equal():
 
 
 def test_pair_difference_of_hand_made_values():
-    twin = load("plan_nonlinear_twin")
     values = {(1, "zero", 0): 1.0, (1, "zero", 1): 2.0, (1, "zero", 2): 1.1, (1, "zero", 3): 2.0,
               (2, "high", 1): 3.0}
     # pairs (0, 2): 1.0 against 1.1; (1, 3): equal; branch 2 has no opposite candidate

@@ -1,25 +1,14 @@
-"""The rig check's table: the benchmark's CSV rendered for the campaign report."""
+"""The impact planner checked on the rig (campaign.studies.plan_rig_check) and its table, the
+study's CSV rendered for the campaign report."""
 
 from __future__ import annotations
-
-import csv
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from campaign.report.tables import rig_check_table
-
-REPO = Path(__file__).resolve().parents[1]
-BENCH = REPO / "benchmarks"
-
-
-def load_benchmark():
-    spec = importlib.util.spec_from_file_location("plan_rig_check", BENCH / "plan_rig_check.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from campaign.studies import plan_rig_check as bench
+from campaign.studies.common import write_csv
 
 
 def summary(**over):
@@ -31,11 +20,11 @@ def summary(**over):
     return row
 
 
-def test_benchmark_csv_round_trips_into_the_report_table(tmp_path):
-    bench = load_benchmark()
+def test_study_csv_round_trips_into_the_report_table(tmp_path):
     path = tmp_path / "rig.csv"
-    bench.write_csv(path, [summary(), summary(base="fixed", structure="", frequency=None,
-                                          pred_range=(50.0, 60.0), meas_range=(49.0, 58.0), spearman=0.5)])
+    write_csv(path, bench.csv_rows([summary(), summary(base="fixed", structure="", frequency=None,
+                                                       pred_range=(50.0, 60.0), meas_range=(49.0, 58.0),
+                                                       spearman=0.5)]), bench.CSV_COLUMNS)
     assert [p.name for p in tmp_path.iterdir()] == ["rig.csv"]          # no temporary left behind
     t = rig_check_table(path)
     flex, fixed = t.rows
@@ -50,31 +39,12 @@ def test_benchmark_csv_round_trips_into_the_report_table(tmp_path):
 
 def test_empty_csv_is_refused_naming_the_file(tmp_path):
     path = tmp_path / "rig.csv"
-    path.write_text(",".join(load_benchmark().CSV_COLUMNS) + "\n")
+    path.write_text(",".join(bench.CSV_COLUMNS) + "\n")
     with pytest.raises(ValueError, match="rig.csv: no rows"):
         rig_check_table(path)
 
 
-def test_committed_rig_check_covers_both_points_every_base_and_both_objects():
-    with open(BENCH / "plan_rig_check.csv", newline="") as fh:
-        src = list(csv.DictReader(fh))
-    cells = {(r["point"], r["base"], r["structure"]) for r in src}
-    assert cells == {(p, b, s) for p in ("config 1 wrist centre", "side point")
-                     for b, s in (("fixed", ""), ("flexible", "space_class"), ("flexible", "stiff_mast"))}
-    assert len({r["object_kg"] for r in src}) == 2
-    # every base of every point has simulated candidates, so each correlation is a number
-    assert all(int(r["candidates"]) >= 8 for r in src)
-    t = rig_check_table(BENCH / "plan_rig_check.csv")
-    assert all(-1.0 <= r["spearman"] <= 1.0 and 0.0 < r["best_over_worst"] <= 1.0 for r in t.rows)
-    # the flexible rows also rank by eq 8's release alone (without the post-contact term)
-    for r in t.rows:
-        flexible = r["base"].startswith("flexible")
-        assert (r["spearman_release"] is not None) == flexible
-        assert not flexible or -1.0 <= r["spearman_release"] <= 1.0
-
-
 def test_rank_scores_of_hand_made_candidates():
-    bench = load_benchmark()
     s = bench.rank_scores([1.0, 2.0, 3.0, 4.0], [0.2, 0.3, 0.5, 0.8])
     assert s["spearman"] == pytest.approx(1.0) and s["best_over_worst"] == pytest.approx(0.25)
     s = bench.rank_scores([4.0, 3.0, 2.0, 1.0], [0.2, 0.3, 0.5, 0.8])
@@ -90,7 +60,6 @@ def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
     from campaign.plan.factory import build_planner
     from campaign.plan.directions import horizontal_directions
 
-    bench = load_benchmark()
     point = bench.contact_points()["config 1 wrist centre"]
     dirs = horizontal_directions(2)
     rows = bench.check_point("c1", point, directions=dirs, speed=2.0, gains=("zero", "high"),
@@ -124,13 +93,11 @@ def test_sign_check_reports_the_measured_difference_of_opposite_directions():
     from campaign.model.robot.ik import position_branches
     from campaign.plan.directions import horizontal_directions
 
-    bench = load_benchmark()
     dirs = horizontal_directions(2)
     settings = (("no gravity", {"gravity": 0.0}),)
-    lines = bench.sign_asymmetry(1.0, dirs, speeds=(), gains=("zero",), settings=settings)
-    assert len(lines) == 3 and lines[2].startswith("| 1 | no gravity | ")
-    diff, excursion = lines[2].strip("| ").split(" | ")[2:4]
-    # independently: each branch's two trials, the peak base displacement and the joints' excursion
+    rows = bench.sign_asymmetry(1.0, dirs, speeds=(), gains=("zero",), settings=settings)
+    assert [(r["speed_m_s"], r["rig"], r["gain"]) for r in rows] == [(1.0, "no gravity", "zero")]
+    diff, excursion = rows[0]["largest_pm_n_difference"], rows[0]["largest_joint_excursion_rad"]
     params = bench.with_structure({"gravity": 0.0}, "space_class")
     point = bench.contact_points()["config 1 wrist centre"]
     want_diff, want_exc = [], []
@@ -147,5 +114,5 @@ def test_sign_check_reports_the_measured_difference_of_opposite_directions():
         if len(peaks) == 2:
             want_diff.append(abs(peaks[0] / peaks[1] - 1))
     assert want_diff, "no branch struck from both sides"
-    assert diff == f"{100 * max(want_diff):.1f} %"
-    assert excursion == f"{np.degrees(max(want_exc)):.0f} deg"
+    assert diff == pytest.approx(max(want_diff), rel=1e-12)
+    assert excursion == pytest.approx(max(want_exc), rel=1e-12)
