@@ -24,6 +24,7 @@ STAGE_PAGES = {
     "cluster": "Running on a cluster",
     "calibration": "Calibration and validation",
     "planner": "The impact planner",
+    "studies": "Studies",
     "benchmarks": "Benchmarks",
 }
 

@@ -1,7 +1,7 @@
 """The reduced numerical-stability stress set (issue 8): every corner either passes its
 invariants or is refused before simulating with a message naming the cause.
 
-The full grid is ``benchmarks/stress.py`` (``campaign bench stress``); this is its reduced
+The full grid is ``campaign bench stress``; this is its reduced
 set (``campaign.bench.stress_cases(reduced=True)``), plus the closed-form stress; a refusal must name its cause (``REFUSAL_CAUSE``).
 """
 

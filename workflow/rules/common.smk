@@ -420,7 +420,7 @@ STUDY_PRODUCTS = {"table4_structures": "space_structure", "eq8_validity": "space
 
 def study_dir(name):
     """Folder of one study's files: ``<results_root>/studies/<study>[/quick]``."""
-    return f"{config['results_root']}/studies/{name}" + ("/quick" if STUDIES_QUICK else "")
+    return str(Path(config["results_root"], "studies", name, *(["quick"] if STUDIES_QUICK else [])))
 
 
 def study_outputs(name):

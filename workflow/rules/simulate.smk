@@ -3,7 +3,7 @@
 # campaign.archive.write_trial). A job integrates its trials together, in lock-step, through
 # Pinocchio's batched ABA (campaign.rig.batch); `threads:` is the OpenMP threads of those
 # calls: one, since Snakemake already runs jobs side by side (a profile giving a job more
-# cores may raise it; benchmarks/README.md measures 1 against 2). Absent when
+# cores may raise it; docs/benchmarks.rst, batched rig, measures 1 against 2). Absent when
 # `simulate: false`: the trials then come from `reuse_archive` as plain source files.
 #
 # A rerun is triggered by the rig or paper file (inputs) and by this unit's gain counts,
