@@ -96,7 +96,7 @@ def test_quick_study_writes_both_structures_and_the_map(tmp_path):
 
 
 def test_base_fit_residuals_are_eq8_on_the_space_class_base_over_the_paper():
-    """Part E without the fit: the space-class base's own residuals against the paper's eq 8 column."""
+    """Part D without the fit: the space-class base's own residuals against the paper's eq 8 column."""
     (row,) = study.base_fit(fit=False)
     assert row["base"] == "space_class" and row["mass_kg"] > 0
     assert set(row) >= {f"residual_{c}" for c in ("1-low", "1-high", "2-low", "2-high")}

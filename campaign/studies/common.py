@@ -39,7 +39,7 @@ PASSIVE = {"gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0}
 CELLS = ((1, "low"), (1, "high"), (2, "low"), (2, "high"))
 #: the reference campaign's impact speeds [m/s]
 SPEEDS = (1.5, 2.5)
-#: the campaign's Figure 9 trials (config/*.yaml figures.fig9) [m/s]
+#: the campaign's Figure 9 trials (``figures.fig9`` of the configuration) [m/s]
 FIG9_SPEED = 2.5
 
 #: a study's progress line printer (the workflow's job log collects what it prints)

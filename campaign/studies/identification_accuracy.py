@@ -4,7 +4,7 @@ Simulates the fixed-base sweep (configurations 1-3 x gain sets zero, low, high x
 speeds 1.0-2.5 m/s x repeats, default scene) at the paper's 50 Hz joint-encoder rate and at
 1 kHz, identifies every trial with several :class:`campaign.identify.IdentifyOptions`
 variants, and scores m* (eq 10) and e (eq 12) against eq 10 / 12 on the truth's edge
-velocities (``accuracy.csv``: median, 90th percentile and worst |relative error| per rate,
+velocities (``accuracy.csv``: median, 90th percentile and worst absolute relative error per rate,
 gain set and variant). The ``impulse`` variant (eq 11's impulsive-limit m*) is scored
 against its own truth (:func:`campaign.studies.common.truth_m_impulse`); ``gap.csv`` gives
 how far eq 10's target sits from it on the rig's contacts, and ``ideal.csv`` the worst error

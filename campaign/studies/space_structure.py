@@ -14,7 +14,7 @@ B. Figure 9's Low-vs-High reduction of the peak base displacement per structure,
 C. the validity map of eq 8: identified m* / eq 8 against the contact duration over the
    first-mode period, over beam stiffnesses of both structures, for the Table 4 cells and a
    passive arm (lambda = 0 exactly) (``eq8_validity.csv``, the report's figure);
-E. the base the paper's eq 8 column implies: the emulated base's inertial parameters fitted
+D. the base the paper's eq 8 column implies: the emulated base's inertial parameters fitted
    to that column (``base_fit.csv``).
 """
 
@@ -79,7 +79,7 @@ class Settings:
     #: hammer must stay lighter than the arm's free m*) and speeds
     head_scales: tuple = (1.0, 3.0, 6.0)
     fig9_speeds: tuple = (1.0, 2.5)
-    #: fit the base to the paper's eq 8 column (part E)
+    #: fit the base to the paper's eq 8 column (part D)
     fit_base: bool = True
 
     @classmethod
@@ -223,7 +223,7 @@ def _paper_eq8_model():
 
 
 def base_fit(*, fit: bool = True) -> list[dict]:
-    """Part E: the emulated base's inertial parameters fitted to the paper's eq 8 column of
+    """Part D: the emulated base's inertial parameters fitted to the paper's eq 8 column of
     Table 4 (its model's output with its Table 3 lambda; not the held-out experiment column),
     in log ratio over FIT_CELLS: (a) mass and bending inertia at the space-class base's centre
     of mass, torsional inertia and mount; (b) mass, bending and torsional inertia and the
