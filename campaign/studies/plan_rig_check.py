@@ -3,7 +3,7 @@
 At each contact point every candidate of the planner (IK branch x gain set x horizontal
 impact direction) is simulated on the VES-II rig at one impact speed; the rig's peak contact
 force (fixed base, simulator truth ``f_contact``) and peak base displacement (flexible base,
-truth ``base_position``) are set beside the planner's predictions (:mod:`campaign.plan.planner`:
+truth ``base_position``) are set beside the planner's predictions (:mod:`campaign.plan.prediction`:
 the contact as a pulse, :mod:`campaign.plan.compression`, :mod:`campaign.plan.post_contact`),
 beside the same with the impulse at once, and beside eq 8's release alone. Gain sets zero,
 low and high carry the paper's Table 3 lambda of their class. Objects: the rig's hammer and
@@ -32,7 +32,8 @@ from ..model.paper import configuration_q, impact_direction, load_paper
 from ..model.robot import load_robot
 from ..model.robot.ik import impact_point, position_branches
 from ..plan.factory import build_planner
-from ..plan.planner import horizontal_directions, pose_terms, predict
+from ..plan.directions import horizontal_directions
+from ..plan.prediction import pose_terms, predict
 from ..rig.beam import Beam
 from ..rig.contact import Contact, pulse_shape
 from ..rig.pendulum import Pendulum
