@@ -93,7 +93,7 @@ def main(argv=None) -> int:
               + f" | {v['space class'] / v['stiff mast']:.2f} | {v['space class, per tick'] / v['stiff mast']:.2f}"
               f" | {100 * v['closed form']:.0f} % |")
     total = {n: sum(v[n] for v in rows.values()) for n in names}
-    print(f"| all four | " + " | ".join(f"{1e3 * total[n]:.0f}" for n in names)
+    print("| all four | " + " | ".join(f"{1e3 * total[n]:.0f}" for n in names)
           + f" | {total['space class'] / total['stiff mast']:.2f} | "
           f"{total['space class, per tick'] / total['stiff mast']:.2f} | |")
     print(machine_line())

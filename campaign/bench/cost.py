@@ -16,7 +16,7 @@ from .. import archive
 from ..core.vocabulary import bases, gain_sets
 from ..rig import simulate
 from ..scene.description import make_scene
-from ..studies.common import truth_m_impulse  # noqa: F401  (campaign.bench names it too)
+from ..studies.closed_forms import truth_m_impulse  # noqa: F401  (campaign.bench names it too)
 from .common import (
     BASELINE_AT_TARGETS,
     H5PY_WRITE_AT_TARGETS,

@@ -24,7 +24,7 @@ from ..model.robot.floating import base_body_of
 from ..rig.beam import Beam
 from ..rig.pendulum import Pendulum
 from ..scene.description import make_scene
-from ..studies.common import impulsive_base_speed
+from ..studies.closed_forms import impulsive_base_speed
 from .calibration import sweep_records
 
 __all__ = ["validate", "assess_held_out", "campaign_report", "impulsive_base_speed", "TABLE4_TOLERANCE", "TABLE4_ORDER",

@@ -2,7 +2,8 @@
 report show, each run by the workflow (``snakemake study_<name>``, ``workflow/rules/studies.smk``)
 into ``results/studies/<name>/`` as CSV files.
 
-``common``                   what the studies share: one identified trial, eq 7 / eq 8, lambda, CSV files
+``common``                   what the studies share: one identified trial, lambda, CSV files
+``closed_forms``             eq 7 / eq 8 on a trial and their impulsive limits (no fitting libraries)
 ``space_structure``          Table 4 and Figure 9 under both named structures; eq 8's validity map
 ``flexible_validation``      why the held-out Table 4 and Figure 9 comparisons miss
 ``plan_rig_check``           the impact planner's candidates simulated on the rig

@@ -35,6 +35,7 @@ from ..model.robot.floating import attach_to_floating_base, base_body_of
 from ..rig.beam import Beam
 from ..rig.controller import equivalent_gains
 from ..scene.description import load_rig, make_scene
+from .closed_forms import eq7, eq8, impulsive_base_velocity
 from .common import (
     CELLS,
     FIG9_SPEED,
@@ -42,10 +43,7 @@ from .common import (
     SPEEDS,
     STIFF_MAST,
     Log,
-    eq7,
-    eq8,
     identified_lambda,
-    impulsive_base_velocity,
     lambda_rows,
     quiet,
     reduction,

@@ -6,7 +6,7 @@ speeds 1.0-2.5 m/s x repeats, default scene) at the paper's 50 Hz joint-encoder 
 variants, and scores m* (eq 10) and e (eq 12) against eq 10 / 12 on the truth's edge
 velocities (``accuracy.csv``: median, 90th percentile and worst absolute relative error per rate,
 gain set and variant). The ``impulse`` variant (eq 11's impulsive-limit m*) is scored
-against its own truth (:func:`campaign.studies.common.truth_m_impulse`); ``gap.csv`` gives
+against its own truth (:func:`campaign.studies.closed_forms.truth_m_impulse`); ``gap.csv`` gives
 how far eq 10's target sits from it on the rig's contacts, and ``ideal.csv`` the worst error
 on the ideal scene (the Ex-IIT's assumptions, a ~1 ms contact).
 
@@ -29,7 +29,8 @@ from ..identify import IdentifyOptions, identify_trial
 from ..model.robot import load_robot
 from ..rig.simulate import simulate
 from ..scene.description import make_scene
-from .common import Log, quiet, truth_m_impulse, truth_values, write_csv
+from .closed_forms import truth_m_impulse
+from .common import Log, quiet, truth_values, write_csv
 
 __all__ = ["Settings", "VARIANTS", "GAINS", "simulate_sweep", "score", "run"]
 

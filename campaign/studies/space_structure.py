@@ -32,16 +32,14 @@ from ..model.robot import load_robot
 from ..model.robot.floating import BaseBody, attach_to_floating_base
 from ..rig.beam import Beam
 from ..scene.description import load_rig, make_scene
+from .closed_forms import eq7, eq8, impulsive_base_velocity
 from .common import (
     CELLS,
     FIG9_SPEED,
     PASSIVE,
     SPEEDS,
     Log,
-    eq7,
-    eq8,
     identified_lambda,
-    impulsive_base_velocity,
     lambda_rows,
     quiet,
     reduction,
