@@ -222,7 +222,7 @@ def _coulomb_fit(robot, rows):
                                        e=col("e"), m_b=col("hammer_mass"))
 
 
-def _impedance_arrays(robot, rows, rig):
+def impedance_arrays(robot, rows, rig):
     """Per-trial inputs of :class:`campaign.joints.impedance.ImpedanceFit`: poses, directions,
     speeds, restitutions, hammer masses, measured contact durations and servo gains."""
 
@@ -237,7 +237,7 @@ def _impedance_arrays(robot, rows, rig):
 def _impedance_fit(robot, rows, rig):
     """:class:`campaign.joints.impedance.ImpedanceFit` on trials, with their mean measured force pulse."""
 
-    a = _impedance_arrays(robot, rows, rig)
+    a = impedance_arrays(robot, rows, rig)
     shape = measured_pulse_shape([r["path"] for r in rows], [r["contact_start"] for r in rows],
                                  [r["contact_end"] for r in rows])
     return ImpedanceFit(robot).fit(a["Q"], a["D"], a["m"], speed=a["speed"], e=a["e"], m_b=a["m_b"],
@@ -248,7 +248,7 @@ def _impedance_fit(robot, rows, rig):
 def _impedance_predict(est, robot, rows, rig):
     """The model's m* of each trial from what a user has before striking: pose, direction,
     speed, hammer mass and the gain set (not the trial's own contact or restitution)."""
-    a = _impedance_arrays(robot, rows, rig)
+    a = impedance_arrays(robot, rows, rig)
     return est.predict(a["Q"], a["D"], speed=a["speed"], m_b=a["m_b"], stiffness=a["stiffness"],
                        damping=a["damping"])
 

@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from ..core.yamlfile import PROJECT_DIR
-from ..design.designed_campaign import _impedance_arrays
+from ..design.designed_campaign import impedance_arrays
 from ..identify.table import read_identification
 from ..joints.impedance import ImpedanceFit, apparent_mass, half_sine_shape, measured_pulse_shape, pulse_compliance
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit, design_arrays
@@ -121,10 +121,10 @@ def ablation(folder) -> list[dict]:
     its ablations, each fitted once on every designed trial."""
     robot = load_robot("puma560")
     des_rows = _rows(folder, "designed", tuple(g for gs in CLASSES.values() for g in gs))
-    des = _impedance_arrays(robot, des_rows, None)
+    des = impedance_arrays(robot, des_rows, None)
     measured = measured_pulse_shape([r["path"] for r in des_rows], [r["contact_start"] for r in des_rows],
                                     [r["contact_end"] for r in des_rows])
-    held = {name: _impedance_arrays(robot, _rows(folder, "heldout", gs), None) for name, gs in CLASSES.items()}
+    held = {name: impedance_arrays(robot, _rows(folder, "heldout", gs), None) for name, gs in CLASSES.items()}
     variants = [("damping only, half-sine pulse", _no_coulomb, half_sine_shape(40), False),
                 ("damping + servo, half-sine pulse", _no_coulomb, half_sine_shape(40), True),
                 ("damping + servo, measured pulse", _no_coulomb, measured, True),
