@@ -21,7 +21,7 @@ from .channels import (
     base_geometry,
 )
 from .contact import _ContactInput, detect_contact
-from .ft_momentum import _ft_tip_velocity
+from .ft_momentum import ft_tip_velocity
 from .hammer import _contact_impulse, _hammer_fit
 from .joint_dynamics import _joint_dynamics_fit
 from .options import (
@@ -235,7 +235,7 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
         if flexible:
             method_note = "flexible base: the F/T sensor rides on the moving platform (encoders used)"
         else:
-            v_ft, v_ft_post, method_note = _ft_tip_velocity(measured, robot, n, c, tj, Q, opt, where, info=info_ft)
+            v_ft, v_ft_post, method_note = ft_tip_velocity(measured, robot, n, c, tj, Q, opt, where, info=info_ft)
             if not method_note:
                 method = want
     va_rel, va_post_rel, n_pre, n_con, n_post, why = _arm_fit(tw, s_arm, c.start, c.end, cin, post_window, opt,
