@@ -23,7 +23,7 @@ from .channels import (
 from .contact import _ContactInput, detect_contact
 from .ft_momentum import ft_tip_velocity
 from .hammer import _contact_impulse, _hammer_fit
-from .joint_dynamics import _joint_dynamics_fit
+from .joint_dynamics import joint_dynamics_fit
 from .options import (
     BASE_POSE_CHANNELS,
     FLEXIBLE_CONSTANTS,
@@ -247,8 +247,8 @@ def identify_trial(measured: xr.Dataset, *, robot=None, meta: Mapping | None = N
     # linearly through J(q_s) (same model, same windows)
     delta_lin = nan
     if joint_model and method != "ft" and not why:
-        va_rel, va_post_rel = _joint_dynamics_fit(robot, n, tw, Q[win], c, cin, servo[0], servo[1], post_window, opt,
-                                                  info=info_enc)
+        va_rel, va_post_rel = joint_dynamics_fit(robot, n, tw, Q[win], c, cin, servo[0], servo[1], post_window, opt,
+                                                 info=info_enc)
         if impulse_estimator:
             delta_lin = info_enc.get("v_post_start_jacobian", nan) - va_rel
     elif impulse_estimator and method != "ft" and not why:
