@@ -266,7 +266,7 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
     import xarray as xr
 
     from campaign.identify import Contact, IdentifyOptions
-    from campaign.identify.ft_momentum import _ft_tip_velocity
+    from campaign.identify.ft_momentum import ft_tip_velocity
 
     model = puma.model.copy()
     model.gravity.linear = np.array([0.0, 0.0, -9.81])
@@ -311,7 +311,7 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
          "f_piezo": (("t_force",), force(tf))},
         coords={"t_ft": tft, "t_force": tf, "t_joint": tj})
     c = Contact(t_s, t_e, 60.0, 60.0 * 2 * T / np.pi, 0.0, 0.0, 0.5, 1, ((t_s, t_e),), False, True)
-    v_a, v_post, why = _ft_tip_velocity(ds, puma, n, c, tj, motion(tj)[0], IdentifyOptions(), "synthetic")
+    v_a, v_post, why = ft_tip_velocity(ds, puma, n, c, tj, motion(tj)[0], IdentifyOptions(), "synthetic")
     assert why == ""
     pin.computeJointJacobians(model, data, motion(np.array([t_e]))[0][0])
     J = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)[:3]
@@ -389,11 +389,11 @@ def test_combined_arm_velocity_runs_on_a_rig_trial(puma):
 
 def test_cross_gives_numpy_cross_bit_for_bit():
     """The F/T momentum balance's cross product must not move an identified number."""
-    from campaign.identify.ft_momentum import _cross
+    from campaign.identify.ft_momentum import cross
 
     rng = np.random.default_rng(7)
     for _ in range(200):
         a, b = rng.normal(size=3) * 10.0 ** rng.integers(-6, 6), rng.normal(size=3)
-        assert np.array_equal(_cross(a, b), np.cross(a, b))
+        assert np.array_equal(cross(a, b), np.cross(a, b))
     c, A = rng.normal(size=3), rng.normal(size=(3, 6))
-    assert np.array_equal(_cross(c[:, None], A), np.cross(c[:, None], A, axis=0))
+    assert np.array_equal(cross(c[:, None], A), np.cross(c[:, None], A, axis=0))

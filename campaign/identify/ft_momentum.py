@@ -3,6 +3,8 @@ and the piezo force (user guide, *Identification*, step 3)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pinocchio as pin
 
@@ -17,11 +19,21 @@ from .options import FT_CHANNELS, IdentifyOptions
 xr = LazyModule("xarray")
 
 
-def _cross(a, b) -> np.ndarray:
-    """``a x b`` of 3-vectors, or column by column of stacks (3, k) broadcast against each
-    other: numpy.cross's products and differences in its order (the same numbers), without
-    its ~30 us of axis handling per call (the F/T momentum balance calls it three times per
-    F/T sample)."""
+def cross(a, b) -> np.ndarray:
+    """``a x b`` of 3-vectors, or column by column of stacks (3, k) broadcast against each other.
+
+    numpy.cross's products and differences in its order (the same numbers), without its
+    ~30 us of axis handling per call (the F/T momentum balance calls it three times per
+    F/T sample).
+
+    Parameters
+    ----------
+    a, b : array_like, shape (3,) or (3, k)
+
+    Returns
+    -------
+    ndarray, shape (3,) or (3, k)
+    """
     a0, a1, a2 = a
     b0, b1, b2 = b
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
@@ -40,7 +52,7 @@ def _momentum_map(model, data, q, frame_id: int):
     Ag = np.array(pin.computeCentroidalMap(model, data, q))
     com = np.array(data.com[0])
     A = Ag.copy()
-    A[3:] += _cross(com[:, None], Ag[:3])   # L_O = L_G + c x P
+    A[3:] += cross(com[:, None], Ag[:3])   # L_O = L_G + c x P
     pin.updateFramePlacements(model, data)
     p = np.array(data.oMf[frame_id].translation)
     Jt = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
@@ -55,21 +67,137 @@ def _zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
     return cum[j] + tau[j] * (t - ts[j])[:, None]
 
 
-def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: np.ndarray, Q: np.ndarray,
-                     opt: IdentifyOptions, where: str, info: dict | None = None):
+
+@dataclasses.dataclass(frozen=True)
+class _FTRecord:
+    """The F/T channels of a trial, checked usable around the contact.
+
+    Attributes
+    ----------
+    t : ndarray, shape (T,)
+        The F/T clock [s].
+    W : ndarray, shape (T, 6)
+        Force [N] and torque [N m] readings, base axes.
+    W_rest, sig : ndarray, shape (6,)
+        Mean and standard deviation of the readings over the rest window before the contact.
+    pre : ndarray of bool
+        The joint samples of the pre-contact window (the encoders' start state).
+    """
+
+    t: np.ndarray
+    W: np.ndarray
+    W_rest: np.ndarray
+    sig: np.ndarray
+    pre: np.ndarray
+
+
+@dataclasses.dataclass(frozen=True)
+class _Balance:
+    """The momentum balance's inputs on the F/T grid (the samples from the last before the
+    contact start to the first at or after its end).
+
+    Attributes
+    ----------
+    grid : ndarray, shape (K,)
+        F/T sample times [s].
+    dW : ndarray, shape (K, 6)
+        Reading change from rest.
+    Ig : ndarray, shape (K,)
+        Accumulated piezo impulse [N s].
+    mg : ndarray, shape (3,)
+        The arm's weight as the sensor reads it at rest (gravity's size and sign) [N].
+    held : tuple of ndarray or None
+        The servo torque change since the grid's start, integrated exactly (zero-order
+        hold) and as each sample reads it, ``(Tcum, tau_at)``; None without a usable servo channel.
+    rows : slice
+        The wrench rows the velocity is solved from (``ft_rows``).
+    wrow : ndarray
+        Their weights, the inverse rest scatter (with a floor).
+    """
+
+    grid: np.ndarray
+    dW: np.ndarray
+    Ig: np.ndarray
+    mg: np.ndarray
+    held: tuple | None
+    rows: slice
+    wrow: np.ndarray
+
+
+def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: np.ndarray, Q: np.ndarray,
+                    opt: IdentifyOptions, where: str, info: dict | None = None) -> tuple[float, float, str]:
     """Tip velocities along n at the contact edges from the arm's momentum balance.
 
     ``dh/dt = (contact wrench) + (gravity wrench change) - (F/T reading change)`` on the
-    F/T clock (user guide, *Identification*, step 3). Returns ``(v_a, v'_a, "")``, or
-    ``(nan, nan, why)`` when the F/T channels cannot be used (the caller falls back to
-    the encoders and records why). ``info`` receives ``sd_delta`` (the F/T noise's
-    standard deviation of ``v'_a - v_a``) and ``v_post_start_jacobian``, the end
-    velocities mapped by the start pose's Jacobian, ``n . J(q_s) v(t_e)``
-    (``m_eff_estimator="impulse"``).
+    F/T clock (user guide, *Identification*, step 3): the momentum ``h = A(q) v`` starts
+    from the encoders' pre-contact state and is integrated over the contact; each step's
+    joint velocities are solved from it.
+
+    Parameters
+    ----------
+    measured : xarray.Dataset or campaign.scene.schema.GroupArrays
+        The trial's ``measured`` group (channels ``ft_force``, ``ft_torque``, ``f_piezo``,
+        optionally ``tau_cmd``).
+    robot : campaign.model.robot.Robot
+    n : ndarray, shape (3,)
+        Unit impact direction, base frame.
+    c : Contact
+    tj, Q : ndarray, shapes (N,), (N, nv)
+        Joint encoder samples.
+    opt : IdentifyOptions
+    where : str
+        Name of the trial in error messages.
+    info : dict, optional
+        Receives ``sd_delta`` (the F/T noise's standard deviation of ``v'_a - v_a``) and
+        ``v_post_start_jacobian``, the end velocities mapped by the start pose's Jacobian,
+        ``n . J(q_s) v(t_e)`` (``m_eff_estimator="impulse"``).
+
+    Returns
+    -------
+    v_a, v_a_post : float
+        Tip velocities along n at the contact start and end [m/s] (nan when the F/T
+        channels cannot be used).
+    why : str
+        Why the F/T channels cannot be used ("" when they can; the caller falls back to the
+        encoders and records why).
+
+    Raises
+    ------
+    InputError
+        The F/T channels have the wrong dims or non-finite samples.
     """
     nan = float("nan")
+    ft, why = _ft_record(measured, c, tj, opt, where)
+    if why:
+        return nan, nan, why
+    model = robot.model
+    data = model.createData()
+    # pre-contact state from the encoders: a line per joint over the pre window
+    x = tj[ft.pre] - c.start
+    qs, qd = np.empty(model.nv), np.empty(model.nv)
+    for i in range(model.nv):
+        qs[i], qd[i] = np.polynomial.polynomial.polyfit(x, Q[ft.pre, i], 1)
+    _, _, Jt, com0 = _momentum_map(model, data, qs, robot.impact_frame_id)
+    v_a = float(n @ Jt @ qd)
+    Jn_s = n @ Jt              # the start pose's Jacobian (m_eff_estimator="impulse")
+
+    bal = _balance_inputs(measured, ft, c, opt, where)
+    q0 = qs + qd * (bal.grid[0] - c.start)
+    u, u_lin, A, Jt = _momentum_balance(model, data, robot.impact_frame_id, n, Jn_s, q0, qd, com0, bal)
+    v_post = float(np.interp(c.end, bal.grid, u))
+    if info is not None:
+        info["v_post_start_jacobian"] = float(np.interp(c.end, bal.grid, u_lin))
+        info["sd_delta"] = _noise_sd(n, A, Jt, ft.sig, bal)
+    return v_a, v_post, ""
+
+
+def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOptions,
+               where: str) -> tuple[_FTRecord | None, str]:
+    """The F/T channels checked usable for the momentum balance, or ``(None, why)`` not:
+    missing, too few samples at rest or over the contact, a record that does not cover it,
+    too few joint samples before it, or a reading that does not respond to it."""
     if not all(name in measured.variables for name in FT_CHANNELS):
-        return nan, nan, "no F/T channels (ft_force, ft_torque)"
+        return None, "no F/T channels (ft_force, ft_torque)"
     _check_channels(measured, FT_CHANNELS, where)
     tft = _time(measured, "t_ft", where)
     W = np.hstack([np.asarray(measured["ft_force"].values, float), np.asarray(measured["ft_torque"].values, float)])
@@ -77,16 +205,16 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
         raise InputError(f"{where}: F/T channels have non-finite samples")
     rest = (tft <= c.start - opt.ft_guard) & (tft >= c.start - opt.ft_guard - opt.ft_rest_window)
     if rest.sum() < 5:
-        return nan, nan, f"only {int(rest.sum())} F/T samples in the {opt.ft_rest_window:g} s before the contact"
+        return None, f"only {int(rest.sum())} F/T samples in the {opt.ft_rest_window:g} s before the contact"
     if not (tft[0] < c.start and tft[-1] >= c.end):
-        return nan, nan, "the F/T record does not cover the contact"
+        return None, "the F/T record does not cover the contact"
     n_in = int(((tft >= c.start) & (tft <= c.end)).sum())
     if n_in < opt.ft_min_samples:
         # a contact of a few F/T samples is not resolved by trapezoids (ideal scene: 1 ms)
-        return nan, nan, f"the contact spans only {n_in} F/T samples (need {opt.ft_min_samples})"
+        return None, f"the contact spans only {n_in} F/T samples (need {opt.ft_min_samples})"
     pre = (tj < c.start) & (tj >= c.start - opt.joint_pre_window)
     if pre.sum() < 2:
-        return nan, nan, "fewer than 2 joint samples before the contact"
+        return None, "fewer than 2 joint samples before the contact"
     W_rest = W[rest].mean(axis=0)
     sig = W[rest].std(axis=0)
     during = (tft >= c.start) & (tft <= c.end)
@@ -94,21 +222,14 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
     # on a fixed base the mounting carries the joint-1 reaction: tens of per cent of the
     # contact force; a channel that does not move is not a sensor reading (e.g. zeros)
     if not dF > max(5.0 * sig[:3].max(), 0.01 * c.peak):
-        return nan, nan, (f"the F/T force does not respond to the contact (change {dF:.3g} N, "
-                          f"noise {sig[:3].max():.3g} N, contact peak {c.peak:.3g} N)")
+        return None, (f"the F/T force does not respond to the contact (change {dF:.3g} N, "
+                      f"noise {sig[:3].max():.3g} N, contact peak {c.peak:.3g} N)")
+    return _FTRecord(t=tft, W=W, W_rest=W_rest, sig=sig, pre=pre), ""
 
-    model = robot.model
-    data = model.createData()
-    # pre-contact state from the encoders: a line per joint over the pre window
-    x = tj[pre] - c.start
-    qs, qd = np.empty(model.nv), np.empty(model.nv)
-    for i in range(model.nv):
-        qs[i], qd[i] = np.polynomial.polynomial.polyfit(x, Q[pre, i], 1)
-    A, p, Jt, com0 = _momentum_map(model, data, qs, robot.impact_frame_id)
-    v_a = float(n @ Jt @ qd)
-    Jn_s = n @ Jt              # the start pose's Jacobian (m_eff_estimator="impulse")
 
-    # contact impulse along n from the piezo (baseline-corrected, clipped at 0), cumulative
+def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: Contact, opt: IdentifyOptions, where: str) -> _Balance:
+    """The F/T grid over the contact with the reading change, the accumulated piezo impulse
+    along n (baseline-corrected, clipped at 0) and the held servo torque on it."""
     tf = _time(measured, "t_force", where)
     r = np.asarray(measured["f_piezo"].values, float) - c.baseline
     inside = (tf > c.start) & (tf < c.end)
@@ -116,41 +237,64 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
     rr = np.concatenate([[0.0], np.clip(r[inside], 0.0, None), [0.0]])
     I = np.concatenate([[0.0], np.cumsum(0.5 * (rr[1:] + rr[:-1]) * np.diff(tt))])
 
-    k0 = int(np.searchsorted(tft, c.start)) - 1          # last F/T sample before the start
-    k1 = int(np.searchsorted(tft, c.end))                # first F/T sample at/after the end
-    grid = tft[k0:k1 + 1]
-    dW = W[k0:k1 + 1] - W_rest
+    k0 = int(np.searchsorted(ft.t, c.start)) - 1          # last F/T sample before the start
+    k1 = int(np.searchsorted(ft.t, c.end))                # first F/T sample at/after the end
+    grid = ft.t[k0:k1 + 1]
+    dW = ft.W[k0:k1 + 1] - ft.W_rest
     Ig = np.interp(grid, tt, I, left=0.0, right=I[-1])
-    mg = W_rest[:3]        # the arm's weight as the sensor reads it at rest (gravity's size and sign)
-    # servo torques are held between ticks, and each tick steps the reading by -A H^-1 dtau;
-    # a trapezoid across those steps is off by half a tick per step (1-3 % of h at High
-    # gains), so the held part is integrated exactly and only the rest by trapezoids
-    servo = "tau_cmd" in measured.variables and tuple(measured["tau_cmd"].dims) == ("t_servo", "joint")
-    if servo:
-        ts = _time(measured, "t_servo", where)
-        tau = np.asarray(measured["tau_cmd"].values, float)
-        servo = bool(np.all(np.isfinite(tau)) and ts[0] <= grid[0])
-    if servo:
-        tau0 = tau[int(np.searchsorted(ts, grid[0], side="right")) - 1]
-        Tcum = _zoh_integral(ts, tau - tau0, grid)
-        # a sample on a tick reads the new torque (the command written at the tick)
-        tau_at = tau[np.clip(np.searchsorted(ts, grid + 1e-9 * (grid[1] - grid[0]), side="right") - 1, 0, None)] - tau0
     rows = {"all": slice(0, 6), "linear": slice(0, 3), "angular": slice(3, 6)}[opt.ft_rows]
-    wrow = 1.0 / np.maximum(sig, np.array([1e-3] * 3 + [1e-4] * 3))[rows]
+    wrow = 1.0 / np.maximum(ft.sig, np.array([1e-3] * 3 + [1e-4] * 3))[rows]
+    return _Balance(grid=grid, dW=dW, Ig=Ig, mg=ft.W_rest[:3], held=_held_servo_torque(measured, grid, where),
+                    rows=rows, wrow=wrow)
 
-    def wtau(Ak, Hk, dtau):
-        return -Ak @ np.linalg.solve(Hk, dtau)
 
-    q = qs + qd * (grid[0] - c.start)
+def _held_servo_torque(measured: xr.Dataset, grid: np.ndarray, where: str) -> tuple | None:
+    """``(Tcum, tau_at)``: the servo torque change since ``grid[0]`` integrated exactly to
+    each grid time, and as each sample reads it; None without a finite ``tau_cmd`` that
+    starts by ``grid[0]``.
+
+    Servo torques are held between ticks, and each tick steps the reading by -A H^-1 dtau;
+    a trapezoid across those steps is off by half a tick per step (1-3 % of h at High
+    gains), so the held part is integrated exactly and only the rest by trapezoids.
+    """
+    if not ("tau_cmd" in measured.variables and tuple(measured["tau_cmd"].dims) == ("t_servo", "joint")):
+        return None
+    ts = _time(measured, "t_servo", where)
+    tau = np.asarray(measured["tau_cmd"].values, float)
+    if not bool(np.all(np.isfinite(tau)) and ts[0] <= grid[0]):
+        return None
+    tau0 = tau[int(np.searchsorted(ts, grid[0], side="right")) - 1]
+    Tcum = _zoh_integral(ts, tau - tau0, grid)
+    # a sample on a tick reads the new torque (the command written at the tick)
+    tau_at = tau[np.clip(np.searchsorted(ts, grid + 1e-9 * (grid[1] - grid[0]), side="right") - 1, 0, None)] - tau0
+    return Tcum, tau_at
+
+
+def _servo_wrench(A: np.ndarray, H: np.ndarray, dtau: np.ndarray) -> np.ndarray:
+    """The reading change a servo torque change ``dtau`` causes: ``-A H^-1 dtau``."""
+    return -A @ np.linalg.solve(H, dtau)
+
+
+def _momentum_balance(model, data, frame_id: int, n: np.ndarray, Jn_s: np.ndarray, q: np.ndarray, qd: np.ndarray,
+                      com0: np.ndarray, bal: _Balance):
+    """Integrate the arm's momentum over the F/T grid from the state ``(q, qd)`` at its start.
+
+    Returns ``(u, u_lin, A, Jt)``: the tip velocity along n at each grid time, the same
+    through the start pose's Jacobian ``Jn_s``, and the momentum map and tip Jacobian at
+    the grid's end.
+    """
+    grid, dW, Ig, rows, wrow = bal.grid, bal.dW, bal.Ig, bal.rows, bal.wrow
+    servo = bal.held is not None
+    Tcum, tau_at = bal.held if servo else (None, None)
     v = qd.copy()
-    A, p, Jt, com = _momentum_map(model, data, q, robot.impact_frame_id)
+    A, p, Jt, com = _momentum_map(model, data, q, frame_id)
     h = A @ v
     H = pin.crba(model, data, q)
     u = np.empty(grid.size)
     u[0] = n @ Jt @ v
     u_lin = np.empty(grid.size)
     u_lin[0] = Jn_s @ v
-    prev_smooth = dW[0] - (wtau(A, H, tau_at[0]) if servo else 0.0)
+    prev_smooth = dW[0] - (_servo_wrench(A, H, tau_at[0]) if servo else 0.0)
     v_prev = v
     for k in range(1, grid.size):
         dt = grid[k] - grid[k - 1]
@@ -162,13 +306,14 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
         p0, com_prev = p, com
         q = q + (1.5 * v - 0.5 * v_prev) * dt
         A_prev, H_prev = A, H
-        A, p, Jt, com = _momentum_map(model, data, q, robot.impact_frame_id)
-        dh = np.concatenate([n * dI, _cross(0.5 * (p0 + p), n) * dI])
-        dh[3:] += _cross(0.5 * (com_prev + com) - com0, mg) * dt
+        A, p, Jt, com = _momentum_map(model, data, q, frame_id)
+        dh = np.concatenate([n * dI, cross(0.5 * (p0 + p), n) * dI])
+        dh[3:] += cross(0.5 * (com_prev + com) - com0, bal.mg) * dt
         if servo:
             H = pin.crba(model, data, q)
-            smooth = dW[k] - wtau(A, H, tau_at[k])
-            dh -= 0.5 * (smooth + prev_smooth) * dt + wtau(0.5 * (A_prev + A), 0.5 * (H_prev + H), Tcum[k] - Tcum[k - 1])
+            smooth = dW[k] - _servo_wrench(A, H, tau_at[k])
+            dh -= (0.5 * (smooth + prev_smooth) * dt
+                   + _servo_wrench(0.5 * (A_prev + A), 0.5 * (H_prev + H), Tcum[k] - Tcum[k - 1]))
             prev_smooth = smooth
         else:
             dh -= 0.5 * (dW[k] + dW[k - 1]) * dt
@@ -178,13 +323,14 @@ def _ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj:
         v = np.linalg.lstsq(Aw, h[rows] * wrow, rcond=None)[0]
         u[k] = n @ Jt @ v
         u_lin[k] = Jn_s @ v
-    v_post = float(np.interp(c.end, grid, u))
-    if info is not None:
-        info["v_post_start_jacobian"] = float(np.interp(c.end, grid, u_lin))
-        # the F/T noise (the rest window's scatter per row) integrated over the contact:
-        # a random walk of var sig^2 dt^2 per sample in h, mapped to the tip like v
-        dt = float(np.median(np.diff(grid)))
-        Aw = A[rows] * wrow[:, None]
-        gtip = (n @ Jt) @ np.linalg.pinv(Aw) * wrow
-        info["sd_delta"] = float(np.sqrt(np.sum((gtip * sig[rows]) ** 2) * dt * dt * (grid.size - 1)))
-    return v_a, v_post, ""
+    return u, u_lin, A, Jt
+
+
+def _noise_sd(n: np.ndarray, A: np.ndarray, Jt: np.ndarray, sig: np.ndarray, bal: _Balance) -> float:
+    """Standard deviation of ``v'_a - v_a`` from the F/T noise (the rest window's scatter
+    per row) integrated over the contact: a random walk of var sig^2 dt^2 per sample in h,
+    mapped to the tip like v."""
+    dt = float(np.median(np.diff(bal.grid)))
+    Aw = A[bal.rows] * bal.wrow[:, None]
+    gtip = (n @ Jt) @ np.linalg.pinv(Aw) * bal.wrow
+    return float(np.sqrt(np.sum((gtip * sig[bal.rows]) ** 2) * dt * dt * (bal.grid.size - 1)))

@@ -89,6 +89,38 @@ def sensitivity_matrix(H, Jn, lam) -> np.ndarray:
     return lam[None, :] * x**2 / s[:, None]
 
 
+def _checked_trials(Q, m_eff, sample_weight, nv: int):
+    """``(Q, m_eff, weights)`` as float arrays, checked: shapes, finite, m* and weights > 0."""
+    Q = np.asarray(Q, float)
+    m = np.asarray(m_eff, float)
+    if Q.ndim != 2 or Q.shape[1] != nv:
+        raise InputError(f"Q must have shape (N, {nv}) (DH radians), got {Q.shape}")
+    if m.shape != (Q.shape[0],):
+        raise InputError(f"m_eff must have shape ({Q.shape[0]},), got {m.shape}")
+    if Q.shape[0] == 0:
+        raise InputError("no trials to fit lambda to")
+    bad = ~(np.isfinite(m) & (m > 0))
+    if bad.any():
+        raise InputError(f"m_eff must be finite and > 0 kg; bad values {m[bad].tolist()} at rows "
+                         f"{np.flatnonzero(bad).tolist()}")
+    if not np.all(np.isfinite(Q)):
+        raise InputError("Q has non-finite joint angles")
+    w = np.ones(Q.shape[0]) if sample_weight is None else np.asarray(sample_weight, float)
+    if w.shape != (Q.shape[0],) or not np.all(np.isfinite(w) & (w > 0)):
+        raise InputError("sample_weight must hold one finite weight > 0 per trial")
+    return Q, m, w
+
+
+def _configurations(Q: np.ndarray, directions: np.ndarray):
+    """The distinct configurations, pose and direction (strata of the bootstrap, rows of the
+    sensitivity matrix): ``(poses, directions, group of each trial)``."""
+    nv = Q.shape[1]
+    keys = np.round(np.hstack([Q, directions]), 9)
+    cells, groups = np.unique(keys, axis=0, return_inverse=True)
+    groups = np.ravel(groups)
+    return cells[:, :nv], cells[:, nv:], groups
+
+
 class LambdaFit(Params):
     """Fit the Virtual Rotor Inertia lambda to identified effective masses (eq 11, 15).
 
@@ -273,37 +305,29 @@ class LambdaFit(Params):
         """
         robot, n = self._setup()
         nv = robot.nv
-        Q = np.asarray(Q, float)
-        m = np.asarray(m_eff, float)
-        if Q.ndim != 2 or Q.shape[1] != nv:
-            raise InputError(f"Q must have shape (N, {nv}) (DH radians), got {Q.shape}")
-        if m.shape != (Q.shape[0],):
-            raise InputError(f"m_eff must have shape ({Q.shape[0]},), got {m.shape}")
-        if Q.shape[0] == 0:
-            raise InputError("no trials to fit lambda to")
-        bad = ~(np.isfinite(m) & (m > 0))
-        if bad.any():
-            raise InputError(f"m_eff must be finite and > 0 kg; bad values {m[bad].tolist()} at rows "
-                             f"{np.flatnonzero(bad).tolist()}")
-        if not np.all(np.isfinite(Q)):
-            raise InputError("Q has non-finite joint angles")
-        w = np.ones(Q.shape[0]) if sample_weight is None else np.asarray(sample_weight, float)
-        if w.shape != (Q.shape[0],) or not np.all(np.isfinite(w) & (w > 0)):
-            raise InputError("sample_weight must hold one finite weight > 0 per trial")
+        Q, m, w = _checked_trials(Q, m_eff, sample_weight, nv)
         Nd = self._directions(directions, Q.shape[0], n)
         H, Jn = design_arrays(robot, Q, Nd)
         y = np.log(m)
         n_par = nv if self.structure == "diagonal" else nv * (nv + 1) // 2
-
-        # distinct configurations: pose and direction (strata of the bootstrap, rows of the
-        # sensitivity matrix)
-        keys = np.round(np.hstack([Q, Nd]), 9)
-        cells, groups = np.unique(keys, axis=0, return_inverse=True)
-        groups = np.ravel(groups)
-        configs, cdirs = cells[:, :nv], cells[:, nv:]
+        configs, cdirs, groups = _configurations(Q, Nd)
         self.configurations_ = configs
         self.directions_ = cdirs
+        theta = self._least_squares(robot, H, Jn, y, w)
+        self.n_trials_ = int(Q.shape[0])
+        self.n_configurations_ = int(configs.shape[0])
+        self.robot_ = robot
+        self.direction_ = n
+        self._sensitivity(robot, configs, cdirs)
+        self._bootstrap(H, Jn, y, w, groups, theta)
+        self._assess(n_par, nv)
+        return self
 
+    # -- the steps of fit ------------------------------------------------------------------
+    def _least_squares(self, robot, H, Jn, y, w) -> np.ndarray:
+        """Fit ``ln m*`` of eq 11 from the starts of :meth:`_starts`; sets ``lambda_``,
+        ``lambda_matrix_``, the residuals and ``success_``, returns the parameters."""
+        nv = robot.nv
         res = self._fit_once(H, Jn, y, w, self._starts(robot, nv))
         theta = res.x
         lam_m = self._unpack(theta, nv)
@@ -313,13 +337,14 @@ class LambdaFit(Params):
         _, s = _solve(H, Jn, lam_m)
         self.residuals_ = -np.log(s) - y
         self.rms_log_residual_ = float(np.sqrt(np.mean(self.residuals_**2)))
-        self.n_trials_ = int(Q.shape[0])
-        self.n_configurations_ = int(configs.shape[0])
-        self.robot_ = robot
-        self.direction_ = n
         self.success_ = bool(res.success)
+        return theta
 
-        # sensitivity d ln m*/d ln lambda at the solution, per distinct configuration
+    def _sensitivity(self, robot, configs, cdirs) -> None:
+        """``sensitivity_``, d ln m*/d ln lambda at the solution per distinct configuration,
+        and its ``condition_number_``."""
+        nv = robot.nv
+        lam_m = self.lambda_matrix_
         Hc, Jc = design_arrays(robot, configs, cdirs)
         xc, sc = _solve(Hc, Jc, lam_m)
         if self.structure == "diagonal":
@@ -333,36 +358,36 @@ class LambdaFit(Params):
         rank_ok = S.shape[0] >= S.shape[1] and sv.size and sv[-1] > 1e-12 * max(sv[0], 1e-300)
         self.condition_number_ = float(sv[0] / sv[-1]) if rank_ok else float("inf")
 
-        # bootstrap over trials, stratified by configuration
+    def _bootstrap(self, H, Jn, y, w, groups, theta) -> None:
+        """``lambda_ci_`` and ``lambda_boot_`` from a bootstrap over trials, stratified by
+        configuration (``groups``: each trial's), each resample fitted from ``theta``."""
         B = int(self.n_bootstrap)
         shape = self.lambda_.shape
-        if B > 0:
-            rng = self.random_state if isinstance(self.random_state, np.random.Generator) \
-                else np.random.default_rng(self.random_state)
-            members = [np.flatnonzero(groups == g) for g in range(configs.shape[0])]
-            boot = np.empty((B,) + shape)
-            # a resample drawn again (same trials in the same order) has the same fit: with few
-            # trials per configuration (2 in the reduced campaign: 64 orderings for 3 poses)
-            # many of the B draws repeat one already fitted
-            fitted: dict[bytes, np.ndarray] = {}
-            for b in range(B):
-                idx = np.concatenate([rng.choice(mb, size=mb.size, replace=True) for mb in members])
-                key = idx.tobytes()
-                if key not in fitted:
-                    rb = self._fit_once(H[idx], Jn[idx], y[idx], w[idx], [theta])
-                    Lb = self._unpack(rb.x, nv)
-                    Lb = 0.5 * (Lb + Lb.T)
-                    fitted[key] = np.diag(Lb) if self.structure == "diagonal" else Lb
-                boot[b] = fitted[key]
-            alpha = (1 - self.ci) / 2
-            self.lambda_ci_ = np.quantile(boot, [alpha, 1 - alpha], axis=0)
-            self.lambda_boot_ = boot
-        else:
+        if B == 0:
             self.lambda_ci_ = np.full((2,) + shape, np.nan)
             self.lambda_boot_ = np.empty((0,) + shape)
-
-        self._assess(n_par, nv)
-        return self
+            return
+        nv = Jn.shape[1]
+        rng = self.random_state if isinstance(self.random_state, np.random.Generator) \
+            else np.random.default_rng(self.random_state)
+        members = [np.flatnonzero(groups == g) for g in range(self.n_configurations_)]
+        boot = np.empty((B,) + shape)
+        # a resample drawn again (same trials in the same order) has the same fit: with few
+        # trials per configuration (2 in the reduced campaign: 64 orderings for 3 poses)
+        # many of the B draws repeat one already fitted
+        fitted: dict[bytes, np.ndarray] = {}
+        for b in range(B):
+            idx = np.concatenate([rng.choice(mb, size=mb.size, replace=True) for mb in members])
+            key = idx.tobytes()
+            if key not in fitted:
+                rb = self._fit_once(H[idx], Jn[idx], y[idx], w[idx], [theta])
+                Lb = self._unpack(rb.x, nv)
+                Lb = 0.5 * (Lb + Lb.T)
+                fitted[key] = np.diag(Lb) if self.structure == "diagonal" else Lb
+            boot[b] = fitted[key]
+        alpha = (1 - self.ci) / 2
+        self.lambda_ci_ = np.quantile(boot, [alpha, 1 - alpha], axis=0)
+        self.lambda_boot_ = boot
 
     def _assess(self, n_par: int, nv: int) -> None:
         """Identifiability findings per component; warns."""
