@@ -36,13 +36,13 @@ M_EFF_ESTIMATORS = ("eq10", "impulse")
 FT_CHANNELS = {"ft_force": ("t_ft", "axis"), "ft_torque": ("t_ft", "axis")}
 
 #: measured accuracy of the default identification against the simulator truth (user guide,
-#: *Identification*, "Measured accuracy"; reproduce with benchmarks/identification_accuracy.py)
+#: *Identification*, "Measured accuracy"; reproduce with ``snakemake study_identification_accuracy``)
 ACCURACY_NOTE = """\
 |relative error| of m* (eq 10) and e (eq 12) against eq 10/12 on the simulator's true edge
 velocities, default options (arm_velocity="auto", arm_model="joint", power-law contact
-edges, pendulum ODE fit), campaign.rig of the working tree on 2026-11-21, fixed base,
+edges, pendulum ODE fit), the campaign's rig, fixed base,
 configurations 1-3 x 1.0/1.5/2.0/2.5 m/s x 2 repeats per gain (random contact phase, sensor
-noise and quantisation), median / 90th percentile / worst (benchmarks/identification_accuracy.py):
+noise and quantisation), median / 90th percentile / worst (snakemake study_identification_accuracy):
 
   joint encoders at 50 Hz (the paper's 20 ms): F/T momentum method
     Zero  m* 0.34 / 0.98 / 1.5 %   e 0.05 / 0.12 / 0.27 %
