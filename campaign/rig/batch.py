@@ -37,8 +37,9 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.errors import SimulationError
-from .integrate import _END_SCALE, EDGE_SUBSTEPS, Lane, trial_steps
+from .integrate import Lane, trial_steps
 from .simulate import build, integration_args, record_arrays
+from .trial_run import _END_SCALE, EDGE_SUBSTEPS
 
 __all__ = ["integrate_batch", "simulate_batch"]
 
