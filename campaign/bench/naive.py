@@ -45,18 +45,26 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     if scene.base != "fixed":
         raise InputError("the naive RK4 baseline is defined for fixed-base scenes only")
     rig = build(scene)
+    min_post = float(getattr(rig, "min_post", scene.p("trial.min_post_contact")))
+    if duration is None:
+        duration = rig.t_contact + min_post
+    values = _naive_steps(rig, speed=float(scene.speed), catch_delay=float(scene.p("pendulum.catch_delay")),
+                          step=step, n_steps=int(round(duration / step)))
+    fields = {f.name for f in dataclasses.fields(Trajectory)}
+    missing = fields - set(values)
+    if missing:  # the rig's Trajectory grew: fill what a fixed base does not need
+        values.update({k: None for k in missing})
+    return rig, Trajectory(**{k: v for k, v in values.items() if k in fields})
+
+
+def _naive_steps(rig, *, speed: float, catch_delay: float, step: float, n_steps: int) -> dict:
+    """The naive baseline's ``n_steps`` RK4 steps of ``step`` from ``t = 0`` (the swing
+    included), as :func:`naive_rk4` describes them; returns the :class:`Trajectory`'s values."""
     plant, pid = rig.plant, rig.pid
     nv = plant.nv
     iv, ith, ithd, iP = plant.i_v, plant.i_th, plant.i_thd, plant.i_P
     arm_q = getattr(plant, "arm_q", slice(0, nv))
-    T = rig.servo_period
-    speed = float(scene.speed)
-    min_post = float(getattr(rig, "min_post", scene.p("trial.min_post_contact")))
-    if duration is None:
-        duration = rig.t_contact + min_post
-    n_steps = int(round(duration / step))
-    per_tick = T / step
-    catch_delay = float(scene.p("pendulum.catch_delay"))
+    per_tick = rig.servo_period / step
     sticky = np.asarray(plant.sticky, dtype=bool)
     r = plant.pend.radius
 
@@ -128,17 +136,12 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     n_rhs += 1
     if not contacts or contacts[0][1] is None:
         raise SimulationError("naive RK4: the contact had not ended by the end of the trial")
-    values = dict(
+    return dict(
         t=ts, x=xs, xd=xds, servo_t=np.asarray(servo_t), servo_tau=np.asarray(servo_tau), t_contact=0.0,
         contacts=[tuple(c) for c in contacts], v_a_pre=0.0, v_b_pre=pre_vb, v_a_post=post["v_a"],
         v_b_post=post["v_b"], impulse=post["P"], t_end=float(ts[-1]), t_static=None, settled=False,
         n_steps=n_steps, n_rhs=n_rhs, n_events=0, tau_static=tau_static, x0=x0,
     )
-    fields = {f.name for f in dataclasses.fields(Trajectory)}
-    missing = fields - set(values)
-    if missing:  # the rig's Trajectory grew: fill what a fixed base does not need
-        values.update({k: None for k in missing})
-    return rig, Trajectory(**{k: v for k, v in values.items() if k in fields})
 
 
 def naive_trial(scene, *, step: float = 1e-4, duration: float | None = None):

@@ -89,19 +89,44 @@ def stress_cases(*, reduced: bool = False, flexible: bool = True) -> list[Stress
     and at the joint limits; gains 0 to 1000x High; contact stiffness 0.01x to 1000x; speeds
     0.01 to 10 m/s; hammer mass 0.01x to 100x m*; servo 100 Hz to 10 kHz; soft and stiff
     beams; coarse integration overrides; and some crossings of those corners."""
-    C = StressCase
     k0 = float(_rig_value("contact.stiffness"))
     ei0 = float(_rig_value("flexible.beam_EI"))
-    z = dict(config=1, gain="zero", speed=1.5)
-    h = dict(config=1, gain="high", speed=1.5)
+    full = [*_pose_cases(), *_gain_cases(), *_contact_cases(k0), *_speed_cases(), *_hammer_cases(),
+            *_servo_cases(), *_crossing_cases(k0), *_integration_cases(k0)]
+    if flexible:
+        full += _beam_cases(ei0)
+        # the beam corners (EI multiples, the loop's rate, bandwidth and latency limits) are
+        # set around the stiff mast's ~4.4 Hz first mode: each runs on that named structure
+        full = [dataclasses.replace(c, kwargs=dict(c.kwargs, params={"flexible.structure": "stiff_mast",
+                                                                        **c.kwargs.get("params", {})}))
+                if c.axis == "beam" else c for c in full]
+    if not reduced:
+        return full
+    return [c for c in full if c.label in _REDUCED_LABELS]
 
-    def pose(q, gain="zero", speed=1.5):
-        return dict(config=0, q_paper_deg=tuple(float(x) for x in q), gain=gain, speed=speed)
 
+#: the labels of the reduced suite's cases (``stress_cases(reduced=True)``)
+_REDUCED_LABELS = frozenset({
+    "stretched (0, 172, 0.0), zero", "stretched (0, 172, 0.5), high", "q3 at -135 deg limit",
+    "q3 0.01 deg beyond +135 limit", "paper configuration 3, high",
+    "10x High", "1000x High", "stiffness 0.01x, zero", "stiffness 1000x, high", "0.01 m/s, zero",
+    "10 m/s, zero", "m_b = 0.01x m*, configuration 1", "m_b = 100x m*, configuration 2", "100 Hz, high",
+    "3000 Hz, high", "ideal contact, substeps_contact=1", "ideal scene, configuration 2, 2.5 m/s",
+    "no friction, no gravity, Zero gains", "EI 100x, ideal", "EI 10000x, loop", "VES bandwidth 300 Hz",
+    "flexible ideal coupling, configuration 2, High", "exact singularity (q1*, q2*, q3*): n leaves the range, zero",
+})
+
+
+def _pose(q, gain="zero", speed=1.5) -> dict:
+    """``make_scene`` keywords of an arbitrary pose ``q`` [deg, paper angles]."""
+    return dict(config=0, q_paper_deg=tuple(float(x) for x in q), gain=gain, speed=speed)
+
+
+def _pose_cases() -> list[StressCase]:
+    """The paper's configurations, the stretched arm towards its singularity, the joint limits."""
+    C, pose = StressCase, _pose
     qs = tuple(round(x, 9) for x in singular_pose())
-
-    full = [
-        # -- poses ------------------------------------------------------------------------
+    return [
         *[C("pose", f"paper configuration {c}, {g}", dict(config=c, gain=g, speed=1.5))
           for c in (1, 2, 3) for g in ("zero", "high")],
         *[C("pose", f"stretched (0, 172, {q3}), {g}", pose((0.0, 172.0, q3), g))
@@ -117,14 +142,28 @@ def stress_cases(*, reduced: bool = False, flexible: bool = True) -> list[Stress
         C("pose", "q2 at -45 deg limit", pose((0.0, -45.0, 90.0))),
         C("pose", "q3 at -135 deg limit", pose((0.0, 150.0, -135.0))),
         C("pose", "q3 0.01 deg beyond +135 limit", pose((0.0, 135.0, 135.01))),
-        # -- gains --------------------------------------------------------------------------
+    ]
+
+
+def _gain_cases() -> list[StressCase]:
+    """Low, 0.1x to 1000x High, P or D alone."""
+    C = StressCase
+    h = dict(config=1, gain="high", speed=1.5)
+    return [
         C("gains", "Low", dict(config=1, gain="low", speed=1.5)),
         *[C("gains", f"{k:g}x High", dict(h, gains_counts=_x(PAPER_HIGH, k))) for k in (0.1, 3, 10, 100, 1000)],
         C("gains", "1000x High, configuration 2", dict(config=2, gain="high", speed=1.5,
                                                         gains_counts=_x(PAPER_HIGH, 1000))),
         C("gains", "P only 10x High", dict(h, gains_counts=(PAPER_HIGH[0] * 10, 0.0, 0.0))),
         C("gains", "D only 100x High", dict(h, gains_counts=(0.0, PAPER_HIGH[1] * 100, 0.0))),
-        # -- contact stiffness --------------------------------------------------------------
+    ]
+
+
+def _contact_cases(k0: float) -> list[StressCase]:
+    """Contact stiffness 0.01x to 1000x the rig's ``k0``, a linear contact, restitution's ends."""
+    C = StressCase
+    z = dict(config=1, gain="zero", speed=1.5)
+    return [
         *[C("contact", f"stiffness {m:g}x, {g}", dict(config=1, gain=g, speed=1.5,
                                                        params={"contact.stiffness": k0 * m}))
           for m in (0.01, 0.1, 10, 100, 1000) for g in ("zero", "high")],
@@ -132,26 +171,51 @@ def stress_cases(*, reduced: bool = False, flexible: bool = True) -> list[Stress
             "contact.stiffness": k0 * 1000, "contact.exponent": 1.0})),
         C("contact", "restitution 0.05", dict(z, params={"contact.restitution": 0.05})),
         C("contact", "restitution 1.0 (elastic)", dict(z, params={"contact.restitution": 1.0})),
-        # -- speeds -------------------------------------------------------------------------
-        *[C("speed", f"{v:g} m/s, {g}", dict(config=1, gain=g, speed=v))
-          for v in (0.01, 0.1, 0.5, 2.5, 3.0, 5.0, 10.0) for g in ("zero", "high")],
-        # -- hammer mass --------------------------------------------------------------------
+    ]
+
+
+def _speed_cases() -> list[StressCase]:
+    """Hammer speeds 0.01 to 10 m/s."""
+    return [StressCase("speed", f"{v:g} m/s, {g}", dict(config=1, gain=g, speed=v))
+            for v in (0.01, 0.1, 0.5, 2.5, 3.0, 5.0, 10.0) for g in ("zero", "high")]
+
+
+def _hammer_cases() -> list[StressCase]:
+    """Hammer masses 0.01x to 100x the pose's m*."""
+    C = StressCase
+    return [
         *[C("hammer", f"m_b = {m:g}x m*, configuration {c}", dict(config=c, gain="zero", speed=1.5),
             hammer_x_meff=m) for m in (0.01, 0.1, 1.0, 10.0, 100.0) for c in (1, 2)],
         C("hammer", "m_b = 100x m*, 2.5 m/s, High", dict(config=1, gain="high", speed=2.5), hammer_x_meff=100.0),
-        # -- servo rate ---------------------------------------------------------------------
+    ]
+
+
+def _servo_cases() -> list[StressCase]:
+    """Servo rates 100 Hz to 10 kHz."""
+    C = StressCase
+    z = dict(config=1, gain="zero", speed=1.5)
+    h = dict(config=1, gain="high", speed=1.5)
+    return [
         *[C("servo", f"{r:g} Hz, {g}", dict(config=1, gain=g, speed=1.5, params={"controller.servo_rate": r}))
           for r in (100.0, 300.0, 3000.0, 10000.0) for g in ("low", "high")],
         C("servo", "100 Hz, zero", dict(z, params={"controller.servo_rate": 100.0})),
         C("servo", "10 kHz, 10x High", dict(h, gains_counts=_x(PAPER_HIGH, 10),
                                             params={"controller.servo_rate": 10000.0})),
-        # -- crossings --------------------------------------------------------------------------
+    ]
+
+
+def _crossing_cases(k0: float) -> list[StressCase]:
+    """Crossings of the corners: soft or stiff contacts with slow or heavy hammers, the ideal
+    scene, no gravity, no friction."""
+    C = StressCase
+    z = dict(config=1, gain="zero", speed=1.5)
+    return [
         C("cross", "stiffness 0.01x at 0.01 m/s", dict(config=1, gain="zero", speed=0.01,
                                                         params={"contact.stiffness": k0 * 0.01})),
         C("cross", "stiffness 1000x, High, 2.5 m/s", dict(config=1, gain="high", speed=2.5,
                                                            params={"contact.stiffness": k0 * 1000})),
         C("cross", "m_b = 0.01x m* at 0.01 m/s", dict(config=1, gain="zero", speed=0.01), hammer_x_meff=0.01),
-        C("cross", "stretched (0, 172, 0.1), 1000x stiffness", pose((0.0, 172.0, 0.1)) | {
+        C("cross", "stretched (0, 172, 0.1), 1000x stiffness", _pose((0.0, 172.0, 0.1)) | {
             "params": {"contact.stiffness": k0 * 1000}}),
         C("cross", "ideal scene, stiffness 1000x", dict(config=1, scene="ideal", speed=1.5, params={
             "contact.stiffness": 4.0e9})),
@@ -159,51 +223,46 @@ def stress_cases(*, reduced: bool = False, flexible: bool = True) -> list[Stress
         C("cross", "zero gravity, Zero gains (passive)", dict(z, params={"gravity": 0.0})),
         C("cross", "no friction, no gravity, Zero gains", dict(z, params={
             "gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0})),
-        # -- integration overrides ----------------------------------------------------------
+    ]
+
+
+def _integration_cases(k0: float) -> list[StressCase]:
+    """Coarse integration overrides."""
+    C = StressCase
+    return [
         *[C("integration", f"ideal contact, substeps_contact={s}", dict(config=1, scene="ideal", speed=1.5),
             integration={"substeps_contact": s}) for s in (1, 2, 4, 8)],
         C("integration", "default contact, substeps_free=1, substeps_contact=1, 2.5 m/s, 100x stiffness",
           dict(config=1, gain="zero", speed=2.5, params={"contact.stiffness": k0 * 100}),
           integration={"substeps_contact": 1}),
     ]
-    if flexible:
-        fl = dict(base="flexible", config=2, gain="high", speed=1.5)
-        full += [
-            C("beam", "flexible loop, configuration 2, High", dict(fl)),
-            C("beam", "flexible ideal coupling, configuration 2, High", dict(fl, params={"ves.mode": "ideal"})),
-            *[C("beam", f"EI {m:g}x, {mode}", dict(fl, params={"flexible.beam_EI": ei0 * m, "ves.mode": mode}))
-              for m in (1e-4, 1e-2, 1e2, 1e4) for mode in ("loop", "ideal")],
-            C("beam", "beam length 2 m (stiff), loop", dict(fl, params={"flexible.beam_length": 2.0})),
-            C("beam", "beam length 200 m (soft), loop", dict(fl, params={"flexible.beam_length": 200.0})),
-            C("beam", "damping ratio 0, ideal coupling", dict(fl, params={"flexible.damping_ratio": 0.0,
-                                                                           "ves.mode": "ideal"})),
-            C("beam", "VES rate 100 Hz", dict(fl, params={"ves.rate": 100.0})),
-            C("beam", "VES bandwidth 100 Hz", dict(fl, params={"ves.bandwidth": 100.0})),
-            C("beam", "VES bandwidth 300 Hz", dict(fl, params={"ves.bandwidth": 300.0})),
-            C("beam", "VES latency 1 s", dict(fl, params={"ves.latency": 1.0})),
-            C("beam", "VES latency 0", dict(fl, params={"ves.latency": 0.0})),
-            C("beam", "flexible ideal scene, zero gravity (passive)", dict(
-                base="flexible", config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
-            C("beam", "flexible, stretched (0, 172, 0.5), High", dict(
-                base="flexible", config=0, q_paper_deg=(0.0, 172.0, 0.5), gain="high", speed=1.5)),
-        ]
-        # the beam corners (EI multiples, the loop's rate, bandwidth and latency limits) are
-        # set around the stiff mast's ~4.4 Hz first mode: each runs on that named structure
-        full = [dataclasses.replace(c, kwargs=dict(c.kwargs, params={"flexible.structure": "stiff_mast",
-                                                                        **c.kwargs.get("params", {})}))
-                if c.axis == "beam" else c for c in full]
-    if not reduced:
-        return full
-    keep = {
-        "stretched (0, 172, 0.0), zero", "stretched (0, 172, 0.5), high", "q3 at -135 deg limit",
-        "q3 0.01 deg beyond +135 limit", "paper configuration 3, high",
-        "10x High", "1000x High", "stiffness 0.01x, zero", "stiffness 1000x, high", "0.01 m/s, zero",
-        "10 m/s, zero", "m_b = 0.01x m*, configuration 1", "m_b = 100x m*, configuration 2", "100 Hz, high",
-        "3000 Hz, high", "ideal contact, substeps_contact=1", "ideal scene, configuration 2, 2.5 m/s",
-        "no friction, no gravity, Zero gains", "EI 100x, ideal", "EI 10000x, loop", "VES bandwidth 300 Hz",
-        "flexible ideal coupling, configuration 2, High", "exact singularity (q1*, q2*, q3*): n leaves the range, zero",
-    }
-    return [c for c in full if c.label in keep]
+
+
+def _beam_cases(ei0: float) -> list[StressCase]:
+    """Flexible bases: the loop and the ideal coupling, soft and stiff beams (EI 1e-4x to
+    1e4x the rig's ``ei0``, 2 m to 200 m), no damping, the VES loop's rate, bandwidth and
+    latency, a stretched pose."""
+    C = StressCase
+    fl = dict(base="flexible", config=2, gain="high", speed=1.5)
+    return [
+        C("beam", "flexible loop, configuration 2, High", dict(fl)),
+        C("beam", "flexible ideal coupling, configuration 2, High", dict(fl, params={"ves.mode": "ideal"})),
+        *[C("beam", f"EI {m:g}x, {mode}", dict(fl, params={"flexible.beam_EI": ei0 * m, "ves.mode": mode}))
+          for m in (1e-4, 1e-2, 1e2, 1e4) for mode in ("loop", "ideal")],
+        C("beam", "beam length 2 m (stiff), loop", dict(fl, params={"flexible.beam_length": 2.0})),
+        C("beam", "beam length 200 m (soft), loop", dict(fl, params={"flexible.beam_length": 200.0})),
+        C("beam", "damping ratio 0, ideal coupling", dict(fl, params={"flexible.damping_ratio": 0.0,
+                                                                       "ves.mode": "ideal"})),
+        C("beam", "VES rate 100 Hz", dict(fl, params={"ves.rate": 100.0})),
+        C("beam", "VES bandwidth 100 Hz", dict(fl, params={"ves.bandwidth": 100.0})),
+        C("beam", "VES bandwidth 300 Hz", dict(fl, params={"ves.bandwidth": 300.0})),
+        C("beam", "VES latency 1 s", dict(fl, params={"ves.latency": 1.0})),
+        C("beam", "VES latency 0", dict(fl, params={"ves.latency": 0.0})),
+        C("beam", "flexible ideal scene, zero gravity (passive)", dict(
+            base="flexible", config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
+        C("beam", "flexible, stretched (0, 172, 0.5), High", dict(
+            base="flexible", config=0, q_paper_deg=(0.0, 172.0, 0.5), gain="high", speed=1.5)),
+    ]
 
 
 def _passive(scene, tree) -> bool:
@@ -255,13 +314,8 @@ def check_invariants(scene, tree, ident) -> tuple[list[str], dict]:
     - identification: either excluded with a reason, or m* finite and >= ``MEFF_LOWER`` x
       Ex-IIT m* (lambda = 0, fixed base), e finite in [0, ``E_UPPER``].
     """
-    viol: list[str] = []
     info: dict[str, Any] = {}
-    for g in ("measured", "truth"):
-        ds = tree[g].to_dataset()
-        for name, var in ds.variables.items():
-            if var.dtype.kind == "f" and not np.all(np.isfinite(var.values)):
-                viol.append(f"/{g}/{name} has non-finite values")
+    viol = _non_finite(tree)
     if viol:
         return viol, info
     tr, me = tree["truth"], tree["measured"]
@@ -288,64 +342,98 @@ def check_invariants(scene, tree, ident) -> tuple[list[str], dict]:
         viol.append(f"hammer momentum change {m_b * (vb - vb1):.6g} N s vs contact impulse {P:.6g} N s: "
                     f"{gap:.3g} N s apart, the pendulum's momentum balance allows {bound:.3g}")
     if _passive(scene, tree):
-        t = tr.t_truth.values
-        E = np.asarray(tr.energy.values, float)
-        q = np.asarray(tr.q.values, float)
-        q0 = np.asarray(me.q_cmd.values, float)
-        tau = np.asarray(me.tau_cmd.values, float)
-        tau_gc = tau[0] if tau.ndim == 2 and tau.shape[0] else np.zeros(q0.size)
-        if tau.ndim == 2 and not np.array_equal(tau, np.broadcast_to(tau_gc, tau.shape)):
-            viol.append("Zero-gain servo torque is not constant")
-        Ep = E - (q - q0[None, :]) @ tau_gc
-        Ea = Ep[t >= c0]
-        ke = 0.5 * m_b * vb * vb
-        rise = float(np.max(Ea - np.minimum.accumulate(Ea))) if Ea.size else 0.0
-        info["energy_rise"] = rise / ke
-        if rise > ENERGY_RTOL * ke:
-            viol.append(f"energy rises by {rise:.3g} J after the touch in a passive scene "
-                        f"({rise / ke:.2g} of the hammer's kinetic energy; tolerance {ENERGY_RTOL:g})")
-        if not e_true <= 1.0 + 1e-9:
-            viol.append(f"true restitution {e_true:.6g} > 1 in a passive scene")
-    # flexible base: the structure is damped (and the emulation loop must be stable), so its
-    # motion after the impact must not grow
-    if "base_position" in tr.variables:
-        t = tr.t_truth.values
-        after = t > c1
-        amp = np.max(np.abs(np.concatenate([np.asarray(tr.base_position.values, float),
-                                            np.asarray(tr.base_rotation.values, float) * 0.5], axis=1)[after]),
-                     axis=1) if after.any() else np.zeros(0)
-        if amp.size >= 8:
-            k = amp.size // 4
-            first, last = float(np.max(amp[:k])), float(np.max(amp[-k:]))
-            info["base_growth"] = last / first if first > 0 else math.inf
-            if last > GROWTH_TOL * first:
-                viol.append(f"base motion grows after the impact (peak {first:.3g} in the first quarter of the "
-                            f"record, {last:.3g} in the last): unstable emulation loop or integration")
+        viol += _passive_violations(tr, me, c0, m_b, vb, e_true, info)
+    viol += _base_growth_violations(tr, c1, info)
     # joint limits (the rig has no end stops): reported, not an invariant (see the README)
     robot = load_robot(scene.p("robot"))
     q = np.asarray(tr.q.values, float)
     na = q.shape[1]
     over = np.maximum(q - robot.q_upper[None, :na], robot.q_lower[None, :na] - q)
     info["beyond_limit_deg"] = max(0.0, math.degrees(float(np.max(over))))
-    # identification
-    info.update(excluded=bool(ident.excluded), reason=ident.reason, m_eff=ident.m_eff, e=ident.e)
-    if not ident.excluded:
-        if not (math.isfinite(ident.m_eff) and ident.m_eff > 0 and math.isfinite(ident.e)):
-            viol.append(f"identified m* = {ident.m_eff!r}, e = {ident.e!r}: not finite and positive, and the "
-                        "trial is not excluded")
-        else:
-            if not (0.0 <= ident.e <= E_UPPER):
-                viol.append(f"identified e = {ident.e:.4g} outside [0, {E_UPPER}]")
-            if scene.base == "fixed":
-                m0 = _m0({"q_paper_deg": scene.q_paper_deg})
-                info["m0"] = m0
-                # (at a pose where n leaves the range, m0 = inf: any finite m* > 0 is a lower value
-                # only by the identification's resolution, so the bound does not apply)
-                if math.isfinite(m0) and not ident.m_eff >= MEFF_LOWER * m0:
-                    viol.append(f"identified m* = {ident.m_eff:.4g} kg below {MEFF_LOWER} x the Ex-IIT "
-                                f"m* (lambda = 0) {m0:.4g} kg")
-            info["ident_vs_truth"] = _rel(ident.m_eff, m_true)
+    viol += _identification_violations(scene, ident, m_true, info)
     return viol, info
+
+
+def _non_finite(tree) -> list[str]:
+    """The channels of ``/measured`` and ``/truth`` with a non-finite float."""
+    viol = []
+    for g in ("measured", "truth"):
+        ds = tree[g].to_dataset()
+        for name, var in ds.variables.items():
+            if var.dtype.kind == "f" and not np.all(np.isfinite(var.values)):
+                viol.append(f"/{g}/{name} has non-finite values")
+    return viol
+
+
+def _passive_violations(tr, me, c0: float, m_b: float, vb: float, e_true: float, info: dict) -> list[str]:
+    """A passive scene's invariants (:func:`check_invariants`): a constant servo torque, the
+    energy not rising after the touch, the true restitution at most 1; notes the energy
+    rise in ``info``."""
+    viol = []
+    t = tr.t_truth.values
+    E = np.asarray(tr.energy.values, float)
+    q = np.asarray(tr.q.values, float)
+    q0 = np.asarray(me.q_cmd.values, float)
+    tau = np.asarray(me.tau_cmd.values, float)
+    tau_gc = tau[0] if tau.ndim == 2 and tau.shape[0] else np.zeros(q0.size)
+    if tau.ndim == 2 and not np.array_equal(tau, np.broadcast_to(tau_gc, tau.shape)):
+        viol.append("Zero-gain servo torque is not constant")
+    Ep = E - (q - q0[None, :]) @ tau_gc
+    Ea = Ep[t >= c0]
+    ke = 0.5 * m_b * vb * vb
+    rise = float(np.max(Ea - np.minimum.accumulate(Ea))) if Ea.size else 0.0
+    info["energy_rise"] = rise / ke
+    if rise > ENERGY_RTOL * ke:
+        viol.append(f"energy rises by {rise:.3g} J after the touch in a passive scene "
+                    f"({rise / ke:.2g} of the hammer's kinetic energy; tolerance {ENERGY_RTOL:g})")
+    if not e_true <= 1.0 + 1e-9:
+        viol.append(f"true restitution {e_true:.6g} > 1 in a passive scene")
+    return viol
+
+
+def _base_growth_violations(tr, c1: float, info: dict) -> list[str]:
+    """Flexible base: the structure is damped (and the emulation loop must be stable), so its
+    motion after the impact must not grow; notes the growth in ``info``."""
+    if "base_position" not in tr.variables:
+        return []
+    t = tr.t_truth.values
+    after = t > c1
+    amp = np.max(np.abs(np.concatenate([np.asarray(tr.base_position.values, float),
+                                        np.asarray(tr.base_rotation.values, float) * 0.5], axis=1)[after]),
+                 axis=1) if after.any() else np.zeros(0)
+    if amp.size < 8:
+        return []
+    k = amp.size // 4
+    first, last = float(np.max(amp[:k])), float(np.max(amp[-k:]))
+    info["base_growth"] = last / first if first > 0 else math.inf
+    if last > GROWTH_TOL * first:
+        return [f"base motion grows after the impact (peak {first:.3g} in the first quarter of the "
+                f"record, {last:.3g} in the last): unstable emulation loop or integration"]
+    return []
+
+
+def _identification_violations(scene, ident, m_true: float, info: dict) -> list[str]:
+    """The identification's invariants (:func:`check_invariants`); notes its values in ``info``."""
+    viol = []
+    info.update(excluded=bool(ident.excluded), reason=ident.reason, m_eff=ident.m_eff, e=ident.e)
+    if ident.excluded:
+        return viol
+    if not (math.isfinite(ident.m_eff) and ident.m_eff > 0 and math.isfinite(ident.e)):
+        viol.append(f"identified m* = {ident.m_eff!r}, e = {ident.e!r}: not finite and positive, and the "
+                    "trial is not excluded")
+        return viol
+    if not (0.0 <= ident.e <= E_UPPER):
+        viol.append(f"identified e = {ident.e:.4g} outside [0, {E_UPPER}]")
+    if scene.base == "fixed":
+        m0 = _m0({"q_paper_deg": scene.q_paper_deg})
+        info["m0"] = m0
+        # (at a pose where n leaves the range, m0 = inf: any finite m* > 0 is a lower value
+        # only by the identification's resolution, so the bound does not apply)
+        if math.isfinite(m0) and not ident.m_eff >= MEFF_LOWER * m0:
+            viol.append(f"identified m* = {ident.m_eff:.4g} kg below {MEFF_LOWER} x the Ex-IIT "
+                        f"m* (lambda = 0) {m0:.4g} kg")
+    info["ident_vs_truth"] = _rel(ident.m_eff, m_true)
+    return viol
 
 
 def run_case(case: StressCase, folder: str | os.PathLike, *, write: bool = True) -> StressResult:

@@ -37,8 +37,9 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.errors import SimulationError
-from .integrate import _END_SCALE, EDGE_SUBSTEPS, Lane, trial_steps
+from .integrate import Lane, trial_steps
 from .simulate import build, integration_args, record_arrays
+from .trial_run import _END_SCALE, EDGE_SUBSTEPS
 
 __all__ = ["integrate_batch", "simulate_batch"]
 
@@ -211,29 +212,15 @@ class _Batch:
         self._join()
         a = self._arrays
         nv = self.nv
-        X, t, k, T = a["X"], a["t"], a["k"], a["T"]
-        # -- the step's length and end (integrate.trial_steps, operation for operation) ----
-        t_tick = k * T
-        inc = a["inc"]
-        # substeps: the contact's own, finer at its edges (trial_steps)
-        edge = inc & ((t < a["t0c"] + T) | ((a["ge1"] < 0) & (a["ge0"] < 0.25 * a["ge2"])))
-        sub = np.where(inc, a["subc"], a["subf"])
-        sub = np.where(edge, np.maximum(sub, EDGE_SUBSTEPS), sub)
-        h = np.minimum(T / sub, t_tick - t)
-        # a swinging hammer's catch (trial_steps): the step ends there; the catch itself is
-        # the loop's (handed back below)
-        to_catch = a["tcatch"] - t
-        catch_now = ~a["caught"] & (to_catch <= h) & (to_catch <= 1e-15)
-        h = np.where(~a["caught"] & (to_catch <= h), to_catch, h)
-        t_new = t + h
-        t_new = np.where(np.abs(t_new - t_tick) <= 1e-12, t_tick, t_new)
+        X = a["X"]
+        h, t_new, t_tick, catch_now = self._step_lengths()
         H = h[:, None]
         C2, stuck = a["C2"], a["stuck"]
         some_stuck = stuck.any(axis=1)
         # k1: an evaluation at this state made at the last step's end, where there is one
         # (the same inputs, so the same numbers), else made now
         fresh = np.flatnonzero(~a["k1ok"])
-        if fresh.size == len(t):
+        if fresh.size == len(t_new):
             k1 = self._f(X, C2)[0]
         else:
             k1 = a["K1"].copy()
@@ -243,54 +230,11 @@ class _Batch:
         k3 = self._f(X + (0.5 * H) * k2, C2)[0]
         k4 = self._f(X + H * k3, C2)[0]
         Xn = X + (H / 6.0) * (k1 + k4 + 2.0 * (k2 + k3))
-        Vn = Xn[:, nv + 1:2 * nv + 1]
-        # -- events this loop does not handle: left to the trial's own loop ---------------
-        event = catch_now | ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
-        event |= (a["slip"] & (a["modes"] * Vn < 0)).any(axis=1)        # a joint stops
+        inc = a["inc"]
         flying = ~a["caught"] & ~inc
-        # the rebounding hammer reaches its top (thetadot crosses zero upward)
-        event |= flying & (Xn[:, 2 * nv + 1] > 0)
-        d1, dd1 = np.zeros(len(t)), np.zeros(len(t))
-        v0 = a["v0"].tolist()
-        for r in np.flatnonzero((flying | inc) & ~event).tolist():
-            # ... or touches the arm again, or the contact ends: the gap from the plant's own
-            # kinematics, the event values trial_steps computes
-            plant = self.lanes[r].plant
-            d, dd, _ = plant.gap(Xn[r])
-            if inc[r]:
-                if -min(d, _END_SCALE * (1.0 + plant._d * dd / v0[r])) > 0:
-                    event[r] = True
-                d1[r], dd1[r] = d, dd
-            elif d > 0:
-                event[r] = True
-        K1 = np.zeros_like(Xn)           # the next step's k1, where evaluated below
-        k1ok = np.zeros(len(t), dtype=bool)
-        sr = np.flatnonzero(some_stuck & ~event)
-        if sr.size:
-            # a stuck joint's holding torque at the step's end reaches its static limit
-            K1[sr], lam = self._f(Xn[sr], C2[sr], sr, with_lam=True)
-            k1ok[sr] = True
-            event[sr] |= self._violations(lam, sr)
-        # -- servo tick (controller.PID.update on the batch axis) --------------------------
-        ticked = (k * T - t_new) <= 1e-12
-        t_fin = np.where(ticked, t_tick, t_new)
-        c = Xn[:, :nv] / a["res"]
-        e = a["ref"] - np.where(a["quant"][:, None], np.rint(c), c)
-        s = a["esum"] + e
-        u = a["kP"][:, None] * e + a["kD"][:, None] * (e - a["eprev"]) + a["kI"][:, None] * s + a["gc"]
-        act = a["active"][:, None]
-        tau_new = np.where(act, np.minimum(np.maximum(u, a["lo"]), a["hi"]), a["clipgc"])
-        changed = ticked & (tau_new != a["tau"]).any(axis=1)
-        settle = changed & a["fric"]
-        # a new torque with a slipping joint exactly at rest, or a stuck one it breaks loose,
-        # needs the loop's mode search
-        event |= settle & (a["slip"] & (Vn == 0.0)).any(axis=1)
-        k1ok &= ~changed                 # evaluated with the torque held before the tick
-        cr = np.flatnonzero(settle & some_stuck & ~event)
-        if cr.size:
-            K1[cr], lam = self._f(Xn[cr], tau_new[cr] - a["coul"][cr], cr, with_lam=True)
-            k1ok[cr] = True
-            event[cr] |= self._violations(lam, cr, 1 + 1e-12)
+        event, d1, dd1, K1, k1ok = self._events(Xn, h, catch_now, flying, some_stuck)
+        ticked, t_fin, e, s, tau_new, changed, settle = self._servo_tick(Xn, t_new, t_tick, event, K1, k1ok,
+                                                                          some_stuck)
         ok = ~event
         # -- commit the rows without events ----------------------------------------------
         upd = ok & ticked
@@ -302,8 +246,9 @@ class _Batch:
         a["C2"][ch] = tau_new[ch] - a["coul"][ch]
         X[ok] = Xn[ok]
         self.accepted += int(ok.sum())
+        t = a["t"]
         t[ok] = t_fin[ok]
-        k[upd] += 1
+        a["k"][upd] += 1
         a["ticked"] |= upd
         a["nsteps"][ok] += 1
         # counted as the loop counts them: k1 unless its last evaluation was at this state,
@@ -319,6 +264,105 @@ class _Batch:
         a["k1c"][ok] = settle[ok] | at_end[ok]
         a["K1"][ok] = K1[ok]
         a["k1ok"][ok] = k1ok[ok]
+        self._append_to_lanes(ok, upd, k1, Xn, t_fin)
+        # -- the end-of-recording check (TrialRun.finished) ---------------------------------
+        static = ~a["fric"] & (np.max(np.abs(X[:, nv + 1:2 * nv + 1]), axis=1) < a["settle"])
+        ends = ~inc & ((static & a["caught"]) | ((t >= a["tmin"] - 1e-12) & (static | (t >= a["tmax"] - 1e-12))))
+        return np.flatnonzero(event | (ok & ends)).tolist()
+
+    def _step_lengths(self):
+        """Per row, the step's length ``h`` and end ``t_new``, the next tick ``t_tick`` and
+        whether the hammer's catch is due now (left to the trial's loop): the substeps of
+        the contact (finer at its edges) or of the free arm, up to the tick or the catch
+        (:meth:`.trial_run.TrialRun.step_length` and ``rk4_step``, operation for operation)."""
+        a = self._arrays
+        t, k, T = a["t"], a["k"], a["T"]
+        t_tick = k * T
+        inc = a["inc"]
+        edge = inc & ((t < a["t0c"] + T) | ((a["ge1"] < 0) & (a["ge0"] < 0.25 * a["ge2"])))
+        sub = np.where(inc, a["subc"], a["subf"])
+        sub = np.where(edge, np.maximum(sub, EDGE_SUBSTEPS), sub)
+        h = np.minimum(T / sub, t_tick - t)
+        to_catch = a["tcatch"] - t
+        catch_now = ~a["caught"] & (to_catch <= h) & (to_catch <= 1e-15)
+        h = np.where(~a["caught"] & (to_catch <= h), to_catch, h)
+        t_new = t + h
+        t_new = np.where(np.abs(t_new - t_tick) <= 1e-12, t_tick, t_new)
+        return h, t_new, t_tick, catch_now
+
+    def _events(self, Xn, h, catch_now, flying, some_stuck):
+        """Per row, does the step to ``Xn`` hold an event this loop does not handle (left to
+        the trial's own loop): the catch, a non-finite state, a joint stopping, the hammer
+        reaching its top or touching the arm, the contact ending, a stuck joint's holding
+        torque reaching its static limit. Returns ``(event, d1, dd1, K1, k1ok)``: the events,
+        the contact's overlap and rate at the step end (in contact), and the evaluation made
+        there for the holding torques (the next step's k1 where ``k1ok``)."""
+        a = self._arrays
+        nv = self.nv
+        n = len(h)
+        Vn = Xn[:, nv + 1:2 * nv + 1]
+        inc = a["inc"]
+        event = catch_now | ~(h > 1e-15) | ~np.isfinite(Xn.sum(axis=1)) | ~np.isfinite(Xn).all(axis=1)
+        event |= (a["slip"] & (a["modes"] * Vn < 0)).any(axis=1)        # a joint stops
+        # the rebounding hammer reaches its top (thetadot crosses zero upward)
+        event |= flying & (Xn[:, 2 * nv + 1] > 0)
+        d1, dd1 = np.zeros(n), np.zeros(n)
+        v0 = a["v0"].tolist()
+        for r in np.flatnonzero((flying | inc) & ~event).tolist():
+            # ... or touches the arm again, or the contact ends: the gap from the plant's own
+            # kinematics, the event values TrialRun.event_values computes
+            plant = self.lanes[r].plant
+            d, dd, _ = plant.gap(Xn[r])
+            if inc[r]:
+                if -min(d, _END_SCALE * (1.0 + plant._d * dd / v0[r])) > 0:
+                    event[r] = True
+                d1[r], dd1[r] = d, dd
+            elif d > 0:
+                event[r] = True
+        K1 = np.zeros_like(Xn)           # the next step's k1, where evaluated below
+        k1ok = np.zeros(n, dtype=bool)
+        sr = np.flatnonzero(some_stuck & ~event)
+        if sr.size:
+            # a stuck joint's holding torque at the step's end reaches its static limit
+            K1[sr], lam = self._f(Xn[sr], a["C2"][sr], sr, with_lam=True)
+            k1ok[sr] = True
+            event[sr] |= self._violations(lam, sr)
+        return event, d1, dd1, K1, k1ok
+
+    def _servo_tick(self, Xn, t_new, t_tick, event, K1, k1ok, some_stuck):
+        """The servo tick of the rows whose step ends on one (:meth:`.controller.PID.update`
+        on the batch axis): ``(ticked, t_fin, e, s, tau_new, changed, settle)``, the step's
+        end time, the PID's new error and sum, the new torque, where it changed and where
+        that needs the friction modes checked. Adds to ``event`` (a new torque with a
+        slipping joint at rest, or breaking a stuck one loose), ``K1`` and ``k1ok`` (the
+        consistency evaluation under the new torque) in place."""
+        a = self._arrays
+        nv = self.nv
+        ticked = (a["k"] * a["T"] - t_new) <= 1e-12
+        t_fin = np.where(ticked, t_tick, t_new)
+        c = Xn[:, :nv] / a["res"]
+        e = a["ref"] - np.where(a["quant"][:, None], np.rint(c), c)
+        s = a["esum"] + e
+        u = a["kP"][:, None] * e + a["kD"][:, None] * (e - a["eprev"]) + a["kI"][:, None] * s + a["gc"]
+        act = a["active"][:, None]
+        tau_new = np.where(act, np.minimum(np.maximum(u, a["lo"]), a["hi"]), a["clipgc"])
+        changed = ticked & (tau_new != a["tau"]).any(axis=1)
+        settle = changed & a["fric"]
+        # a new torque with a slipping joint exactly at rest, or a stuck one it breaks loose,
+        # needs the loop's mode search
+        Vn = Xn[:, nv + 1:2 * nv + 1]
+        event |= settle & (a["slip"] & (Vn == 0.0)).any(axis=1)
+        k1ok &= ~changed                 # evaluated with the torque held before the tick
+        cr = np.flatnonzero(settle & some_stuck & ~event)
+        if cr.size:
+            K1[cr], lam = self._f(Xn[cr], tau_new[cr] - a["coul"][cr], cr, with_lam=True)
+            k1ok[cr] = True
+            event[cr] |= self._violations(lam, cr, 1 + 1e-12)
+        return ticked, t_fin, e, s, tau_new, changed, settle
+
+    def _append_to_lanes(self, ok, upd, k1, Xn, t_fin) -> None:
+        """Append the accepted rows' steps (and servo ticks, ``upd``) to their lanes' buffers."""
+        a = self._arrays
         tl = t_fin.tolist()
         for r in np.flatnonzero(ok).tolist():
             ln = self.lanes[r]
@@ -328,10 +372,6 @@ class _Batch:
             if upd[r]:
                 ln.servo_t.append(tl[r])
                 ln.servo_tau.append(a["tau"][r].copy())
-        # -- the end-of-recording check (integrate.trial_steps' stop test) -----------------
-        static = ~a["fric"] & (np.max(np.abs(X[:, nv + 1:2 * nv + 1]), axis=1) < a["settle"])
-        ends = ~inc & ((static & a["caught"]) | ((t >= a["tmin"] - 1e-12) & (static | (t >= a["tmax"] - 1e-12))))
-        return np.flatnonzero(event | (ok & ends)).tolist()
 
 
 def integrate_batch(jobs, *, threads: int = 1, on_done=None) -> list:

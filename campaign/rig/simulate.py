@@ -39,14 +39,14 @@ from .sensors import (
     sample_grid,
     truth_terms,
 )
+from .tree import to_tree
 
 __all__ = ["simulate", "simulate_arrays", "to_tree", "build", "check_stroke", "structure_modes", "Rig"]
 
 # imported on first use: ``import campaign.rig`` (e.g. for the beam model of Figure 8) and
-# the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray and pandas;
-# only a DataTree (to_tree) imports them
+# the campaign's simulation jobs (simulate_arrays) need not pay ~0.7 s for xarray; only a
+# DataTree (:func:`.tree.to_tree`) imports it
 xr = LazyModule("xarray")
-pd = LazyModule("pandas")
 
 #: RK4 steps per contact duration estimate: the step is set from the contact's own time scale
 STEPS_PER_CONTACT = 32
@@ -117,49 +117,67 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     streams = noise_streams(scene.seed)
     t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
     if scene.base == "fixed":
-        plant = FixedBasePlant(robot, q0, n, pend, contact, **friction)
+        plant, freqs = FixedBasePlant(robot, q0, n, pend, contact, **friction), None
     else:
-        beam = Beam.from_scene(scene)
-        # a flexible trial records trial_periods periods of the structure's first mode with
-        # the arm (locked) on top, for Figure 9
-        freqs, arm = _modes_with_arm(robot, q0, beam)
-        f1 = float(freqs[0])
-        min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
-        if max_post > MAX_FLEXIBLE_RECORD:
-            raise InputError(
-                f"the structure's first mode ({f1:.3g} Hz with the arm on top; flexible.beam_EI = "
-                f"{p('flexible.beam_EI'):g} N m^2, beam_length = {p('flexible.beam_length'):g} m) needs a "
-                f"{max_post:.3g} s recording for flexible.trial_periods = {p('flexible.trial_periods'):g} periods, "
-                f"beyond the {MAX_FLEXIBLE_RECORD:g} s a trial may last: stiffen the structure or record fewer periods")
-        if p("ves.mode") == "ideal":
-            plant = IdealCouplingPlant(robot, q0, n, pend, contact, beam, **friction)
-            # the structure is integrated with the arm: RK4 must resolve its highest mode
-            # (omega h <= 1) out of contact too
-            sub_free_min = math.ceil(2.0 * math.pi * float(freqs[-1]) / float(p("controller.servo_rate")))
-        else:
-            if float(p("ves.latency")) > MAX_VES_LATENCY:
-                raise InputError(
-                    f"VES latency {p('ves.latency'):g} s (ves.latency) is beyond {MAX_VES_LATENCY:g} s: a force loop "
-                    f"delayed that long cannot emulate a {f1:.3g} Hz structure (it destabilises it), and its "
-                    "stability check would have to analyse the whole delay line")
-            plant = VesLoopPlant(robot, q0, n, pend, contact, beam, **friction,
-                                 rate=float(p("ves.rate")), latency=float(p("ves.latency")),
-                                 bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
-            linear = scene.param_dict.get("flexible.linear_phases", False)
-            if not isinstance(linear, bool):
-                raise InputError(f"flexible.linear_phases must be true or false, got {linear!r}")
-            plant.linear_phases = linear
-            T_e = plant.emulator_period
-            plant.reset_loop(math.floor(t_contact / T_e + 1e-9) * T_e)
-            # the emulation loop closed through the (locked) arm must be stable
-            fz, zeta = plant.loop.closed_loop_poles(np.asarray(arm.matrix()))
-            if np.any(zeta < 0):
-                k = int(np.argmin(zeta))
-                raise InputError(
-                    f"the VES emulation loop is unstable at ves.rate = {p('ves.rate'):g} Hz, ves.latency = "
-                    f"{p('ves.latency'):g} s, ves.bandwidth = {p('ves.bandwidth'):g} Hz: its {fz[k]:.4g} Hz mode has "
-                    f"damping ratio {zeta[k]:.3g} < 0 with the arm on the platform; lower the bandwidth or the latency")
+        plant, freqs, min_post, max_post = _flexible_plant(scene, robot, q0, n, pend, contact, friction,
+                                                           t_contact=t_contact, min_post=min_post)
+    pid, T = _servo(scene, robot, plant, q0)
+    sub_c, sub_f = _substeps(scene, contact, pend, m1, freqs, servo_period=T, max_post=max_post,
+                             integration=integration)
+    rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
+    rig.m1 = m1
+    return rig
 
+
+def _flexible_plant(scene: Scene, robot, q0, n, pend, contact, friction: dict, *, t_contact: float, min_post: float):
+    """The plant of a flexible-base scene (ideal coupling or VES loop, ``ves.mode``), the
+    structure's natural frequencies with the arm on top [Hz] and the recording's length
+    after the touch ``(min_post, max_post)``: ``flexible.trial_periods`` periods of the
+    structure's first mode (for Figure 9), refused beyond ``MAX_FLEXIBLE_RECORD``; the VES
+    loop is refused at a latency beyond ``MAX_VES_LATENCY`` or unstable with the arm."""
+    p = scene.p
+    beam = Beam.from_scene(scene)
+    freqs, arm = _modes_with_arm(robot, q0, beam)
+    f1 = float(freqs[0])
+    min_post = max_post = max(min_post, float(p("flexible.trial_periods")) / f1)
+    if max_post > MAX_FLEXIBLE_RECORD:
+        raise InputError(
+            f"the structure's first mode ({f1:.3g} Hz with the arm on top; flexible.beam_EI = "
+            f"{p('flexible.beam_EI'):g} N m^2, beam_length = {p('flexible.beam_length'):g} m) needs a "
+            f"{max_post:.3g} s recording for flexible.trial_periods = {p('flexible.trial_periods'):g} periods, "
+            f"beyond the {MAX_FLEXIBLE_RECORD:g} s a trial may last: stiffen the structure or record fewer periods")
+    if p("ves.mode") == "ideal":
+        return IdealCouplingPlant(robot, q0, n, pend, contact, beam, **friction), freqs, min_post, max_post
+    if float(p("ves.latency")) > MAX_VES_LATENCY:
+        raise InputError(
+            f"VES latency {p('ves.latency'):g} s (ves.latency) is beyond {MAX_VES_LATENCY:g} s: a force loop "
+            f"delayed that long cannot emulate a {f1:.3g} Hz structure (it destabilises it), and its "
+            "stability check would have to analyse the whole delay line")
+    plant = VesLoopPlant(robot, q0, n, pend, contact, beam, **friction,
+                         rate=float(p("ves.rate")), latency=float(p("ves.latency")),
+                         bandwidth=float(p("ves.bandwidth")), duration=t_contact + max_post)
+    linear = scene.param_dict.get("flexible.linear_phases", False)
+    if not isinstance(linear, bool):
+        raise InputError(f"flexible.linear_phases must be true or false, got {linear!r}")
+    plant.linear_phases = linear
+    T_e = plant.emulator_period
+    plant.reset_loop(math.floor(t_contact / T_e + 1e-9) * T_e)
+    # the emulation loop closed through the (locked) arm must be stable
+    fz, zeta = plant.loop.closed_loop_poles(np.asarray(arm.matrix()))
+    if np.any(zeta < 0):
+        k = int(np.argmin(zeta))
+        raise InputError(
+            f"the VES emulation loop is unstable at ves.rate = {p('ves.rate'):g} Hz, ves.latency = "
+            f"{p('ves.latency'):g} s, ves.bandwidth = {p('ves.bandwidth'):g} Hz: its {fz[k]:.4g} Hz mode has "
+            f"damping ratio {zeta[k]:.3g} < 0 with the arm on the platform; lower the bandwidth or the latency")
+    return plant, freqs, min_post, max_post
+
+
+def _servo(scene: Scene, robot, plant: FixedBasePlant, q0) -> tuple[PID, float]:
+    """The arm's servo (the counts PID at ``controller.servo_rate``, holding the static
+    output at ``q0``) and its period [s]; refused if unstable on the arm or if holding
+    ``q0`` needs more than the peak torques."""
+    p = scene.p
     T = 1.0 / float(p("controller.servo_rate"))
     P, D, I = scene.gains_counts
     scale = float(p("controller.torque_per_unit"))
@@ -175,7 +193,19 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     pid = PID(P, D, I, scale, robot.encoder_resolution, robot.tau_max, g0 if use_gc else np.zeros_like(g0), q0,
               T, quantize=bool(p("sensors.quantize")))
     pid.hold_static(g0)
+    return pid, T
 
+
+def _substeps(scene: Scene, contact, pend, m1: float, freqs, *, servo_period: float, max_post: float,
+              integration: dict | None) -> tuple[int, int]:
+    """The integrator's RK4 substeps per servo tick ``(in contact, out of contact)``: from
+    the contact's own time scale (``STEPS_PER_CONTACT``) and the scene's settings, enough
+    for the ideal coupling's highest structure mode, then ``integration``'s overrides.
+    Refused: a contact outlasting the recording or needing more than ``MAX_SUBSTEPS``, a
+    structure the ideal coupling cannot resolve, and an override that leaves the contact
+    (or the ideal coupling's structure) unresolved."""
+    p, T = scene.p, servo_period
+    ideal = scene.base == "flexible" and p("ves.mode") == "ideal"
     # contact step from the contact's own time scale (hammer against a wall bounds it)
     t_contact_scale = contact_duration_estimate(contact.stiffness, contact.exponent, pend.m_b, scene.speed)
     if t_contact_scale > max_post:
@@ -191,7 +221,10 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
             f"{sub_c} RK4 steps per {T * 1e3:g} ms servo tick (limit {MAX_SUBSTEPS}); lower contact.stiffness"
         )
     sub_f = int(p("integration.substeps_free"))
-    if scene.base == "flexible" and p("ves.mode") == "ideal":
+    if ideal:
+        # the structure is integrated with the arm: RK4 must resolve its highest mode
+        # (omega h <= 1) out of contact too
+        sub_free_min = math.ceil(2.0 * math.pi * float(freqs[-1]) / float(p("controller.servo_rate")))
         if sub_free_min > MAX_SUBSTEPS_IDEAL:
             raise InputError(
                 f"ideal coupling cannot resolve the structure's highest mode ({freqs[-1]:.4g} Hz: "
@@ -207,7 +240,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
                              "an integer >= 1")
     sub_c = int((integration or {}).get("substeps_contact", sub_c))
     sub_f = int((integration or {}).get("substeps_free", sub_f))
-    if scene.base == "flexible" and p("ves.mode") == "ideal" and min(sub_c, sub_f) < sub_free_min:
+    if ideal and min(sub_c, sub_f) < sub_free_min:
         raise InputError(
             f"integration override substeps_contact={sub_c}, substeps_free={sub_f}: the ideal coupling needs at "
             f"least {sub_free_min} RK4 steps per servo tick to resolve the structure's highest mode "
@@ -221,9 +254,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
         raise InputError(
             f"substeps_contact={sub_c} gives only {steps:.2g} RK4 steps over a contact of ~{t_short * 1e3:.3g} ms "
             f"(at least {MIN_STEPS_PER_CONTACT} needed)")
-    rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
-    rig.m1 = m1
-    return rig
+    return sub_c, sub_f
 
 
 def _modes_with_arm(robot, q0, beam):
@@ -263,38 +294,6 @@ def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: 
 
 def _offset():
     return np.asarray(load_paper()["offset_deg"], dtype=float)
-
-
-def _time(dim: str, clock: ChannelArray):
-    """A clock's time coordinate (:func:`_clock`) as ``(index, index variable)``: the
-    ``PandasIndex`` and the variable xarray's default index of the dimension coordinate
-    would give it."""
-    var = xr.Variable((dim,), clock.values, clock.attrs)
-    index = xr.indexes.PandasIndex(pd.Index(var.values, name=dim), dim, coord_dtype=var.dtype)
-    return index, index.create_variables({dim: var})[dim]
-
-
-#: (dim, labels) -> (index, index variable) of the label coordinates (joints, axes): the
-#: same in every trial, indexed once (xarray indexes are immutable; every Dataset and tree
-#: built from them holds its own shallow copies of the variable)
-_LABELS: dict = {}
-
-
-def _labels(dim: str, labels) -> tuple:
-    key = (dim, tuple(labels))
-    hit = _LABELS.get(key)
-    if hit is None:
-        var = xr.Variable((dim,), list(labels))
-        index = xr.indexes.PandasIndex.from_variables({dim: var}, options={})
-        hit = _LABELS[key] = (index, index.create_variables({dim: var})[dim])
-    return hit
-
-
-def _coords(coords: dict) -> xr.Coordinates:
-    """Indexed coordinates of one group from its ``(index, index variable)`` pairs (what
-    the Dataset constructor would build from the bare dimension coordinates)."""
-    return xr.Coordinates({name: v for name, (_, v) in coords.items()},
-                          indexes={name: i for name, (i, _) in coords.items()})
 
 
 def _check_finite(groups) -> None:
@@ -374,75 +373,80 @@ def _channels(data: dict, specs: dict) -> dict:
             for k, x in data.items()}
 
 
+class _Clocks:
+    """(times, states, derivatives) on a channel's clock (its rate key); channels at one
+    rate share them."""
+
+    def __init__(self, p, sampler: StateSampler, t_end: float):
+        self.p, self.sampler, self.t_end = p, sampler, t_end
+        self.grids = {}
+
+    def __call__(self, rate_key: str):
+        rate = float(self.p(rate_key))
+        if rate not in self.grids:
+            t = sample_grid(rate, self.t_end)
+            self.grids[rate] = (t, *self.sampler(t))
+        return self.grids[rate]
+
+
 def record_arrays(rig: Rig, traj) -> TrialArrays:
     """Sample every channel of the trial (measured and truth) into plain arrays
     (:func:`record` without building xarray objects; :func:`to_tree` makes the tree)."""
     scene, plant = rig.scene, rig.plant
     p = scene.p
-    robot = plant.robot
-    na = robot.nv
-    aq, av = plant.arm_q, plant.arm_v
     flexible = scene.base == "flexible"
     loop = flexible and hasattr(plant, "loop")
-    t_end = traj.t_end
-    sampler = StateSampler(plant, traj)
-    streams = rig.streams
+    clocks = _Clocks(p, StateSampler(plant, traj), traj.t_end)
+    measured, coords, history = _measured(rig, traj, clocks, loop=loop)
+    truth, truth_coords, base_truth = _truth(rig, traj, clocks, history)
+    if flexible:
+        tb, base_measured, base_true = _base_channels(rig, clocks, history, base_truth)
+        measured.update(base_measured)
+        coords["t_base"] = _clock("t_base", tb)
+        coords["axis2"] = _names("axis2", "xyz")
+        truth.update(base_true)
+        truth_coords["axis"] = _names("axis", "xyz")
+    _check_finite((("measured", measured), ("truth", truth)))
+    # the groups share some names: each has its own specs
+    measured = GroupArrays(_channels(measured, {v.name: v for v in schema.MEASURED}), coords)
+    truth = GroupArrays(_channels(truth, {v.name: v for v in schema.TRUTH}), truth_coords,
+                        {"n_contacts": len(traj.contacts), "settled": int(traj.settled),
+                         "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
+                         "ves_mode": str(p("ves.mode")) if flexible else "none"})
+    return TrialArrays({
+        "scene_json": scene.to_json(), "scene_sha256": scene.sha256, "seed": int(scene.seed), "base": scene.base,
+        "config": int(scene.config), "gain": scene.gain, "speed": float(scene.speed), "repeat": int(scene.repeat),
+        "robot": plant.robot.name, "scene_name": scene.name,
+    }, {"measured": measured, "truth": truth})
+
+
+def _measured(rig: Rig, traj, clocks: _Clocks, *, loop: bool) -> tuple[dict, dict, tuple | None]:
+    """The channels a real rig records (``/measured``: encoders, piezo, base F/T, commanded
+    torque, constants of the set-up), their coordinates, and for the VES loop the
+    emulator's record ``(times, states)`` (:func:`_ft_wrench`)."""
+    plant, p, streams = rig.plant, rig.scene.p, rig.streams
+    robot = plant.robot
+    aq, t_end = plant.arm_q, traj.t_end
     quant = bool(p("sensors.quantize"))
-    spec = {v.name: v for v in schema.MEASURED}       # the groups share some names: keep them apart
-    tspec = {v.name: v for v in schema.TRUTH}
-    joints = list(robot.joint_names)
-    grids = {}
-
-    def at(rate_key):
-        """(times, states, derivatives) on a channel's clock; channels at one rate share them."""
-        rate = float(p(rate_key))
-        if rate not in grids:
-            t = sample_grid(rate, t_end)
-            grids[rate] = (t, *sampler(t))
-        return grids[rate]
-
     # joint encoders
-    tj, Xj, _ = at("sensors.joint_encoder_rate")
+    tj, Xj, _ = clocks("sensors.joint_encoder_rate")
     res = robot.encoder_resolution
-    q_meas = Xj[:, aq] + streams["joint_encoder"].normal(0.0, 1.0, (tj.size, na)) * float(
+    q_meas = Xj[:, aq] + streams["joint_encoder"].normal(0.0, 1.0, (tj.size, robot.nv)) * float(
         p("sensors.joint_encoder_noise_counts")) * res
     if quant:
         q_meas = np.round(q_meas / res) * res
     # pendulum encoder
-    tp, Xp, _ = at("sensors.pendulum_encoder_rate")
+    tp, Xp, _ = clocks("sensors.pendulum_encoder_rate")
     theta = quantize(Xp[:, plant.i_th].copy(), 2 * np.pi / float(p("sensors.pendulum_encoder_counts")) if quant else 0.0)
     # piezo
     tf = sample_grid(float(p("sensors.piezo_rate")), t_end)
-    f_true = sampler.contact_force(tf)
+    f_true = clocks.sampler.contact_force(tf)
     f_meas = f_true + streams["piezo"].normal(0.0, float(p("sensors.piezo_noise")), tf.size)
     f_meas = quantize(f_meas, float(p("sensors.piezo_resolution")) if quant else 0.0)
     fs = float(p("sensors.piezo_full_scale"))
     f_meas = np.clip(f_meas, -fs, fs)
-    # base F/T at the arm's mounting: the wrench only changes while the arm moves; at rest
-    # before the touch and after the integration stopped one evaluation serves every sample
-    tft, Xft, XDft = at("sensors.ft_rate")
-    wrench = np.empty((tft.size, 6))
-    pre = tft < traj.t_contact
-    post = tft > traj.t[-1]
-    rest = np.concatenate(plant.rest_wrench())
-    wrench[pre] = rest
-    if loop:
-        # the emulator sampled the sensor at its ticks; between ticks the reading is interpolated
-        tk, wk, rec = plant.ticks()    # (times, wrenches, records): built from its history once here
-        # the states each tick reached, one emulator period later (at rest before the first),
-        # interpolated linearly between ticks (the plant's platform_history, on these arrays)
-        t_rec = np.concatenate([[plant.t_first], tk + plant.emulator_period])
-        rec = np.vstack([np.zeros(24), rec])
-        tk = np.concatenate([[traj.t_contact], tk])
-        wk = np.vstack([rest, wk])
-        tn = tft[~pre]
-        wrench[~pre] = np.column_stack([np.interp(tn, tk, wk[:, i]) for i in range(6)])
-    else:
-        if np.any(post):
-            last = traj.x[-1]
-            wrench[post] = mount_wrenches(plant, last[None], np.zeros((1, last.size)), np.zeros(1))[0]
-        mid = ~(pre | post)
-        wrench[mid] = mount_wrenches(plant, Xft[mid], XDft[mid], sampler.contact_force(tft[mid]))
+    # base F/T
+    tft, wrench, history = _ft_wrench(rig, traj, clocks, loop=loop)
     g = streams["ft"]
     force = wrench[:, :3] + g.normal(0.0, float(p("sensors.ft_noise_force")), (tft.size, 3))
     torque = wrench[:, 3:] + g.normal(0.0, float(p("sensors.ft_noise_torque")), (tft.size, 3))
@@ -452,8 +456,8 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
     tau = np.where((ts < traj.servo_t[0])[:, None], traj.tau_static[None, aq], traj.servo_tau[idx][:, aq])
 
     coords = {"t_joint": _clock("t_joint", tj), "t_pend": _clock("t_pend", tp), "t_force": _clock("t_force", tf),
-              "t_ft": _clock("t_ft", tft), "t_servo": _clock("t_servo", ts), "joint": _names("joint", joints),
-              "axis": _names("axis", "xyz")}
+              "t_ft": _clock("t_ft", tft), "t_servo": _clock("t_servo", ts),
+              "joint": _names("joint", list(robot.joint_names)), "axis": _names("axis", "xyz")}
     measured = {
         "q_enc": q_meas,
         "theta_pend": theta,
@@ -467,25 +471,70 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
         "impact_direction": plant.n.copy(),
         "piezo_full_scale": np.float64(fs),
     }
+    return measured, coords, history
 
-    # truth
-    tt, Xt, _ = at("sensors.truth_rate")
-    f_t = sampler.contact_force(tt)
+
+def _ft_wrench(rig: Rig, traj, clocks: _Clocks, *, loop: bool):
+    """The true wrench at the arm's mounting on the F/T sensor's clock, ``(times, wrench)``,
+    and for the VES loop the emulator's record ``(times, states)`` (None otherwise).
+
+    The wrench only changes while the arm moves; at rest before the touch and after the
+    integration stopped one evaluation serves every sample. The emulator sampled the sensor
+    at its ticks; between ticks the reading is interpolated."""
+    plant = rig.plant
+    tft, Xft, XDft = clocks("sensors.ft_rate")
+    wrench = np.empty((tft.size, 6))
+    pre = tft < traj.t_contact
+    post = tft > traj.t[-1]
+    rest = np.concatenate(plant.rest_wrench())
+    wrench[pre] = rest
+    if not loop:
+        if np.any(post):
+            last = traj.x[-1]
+            wrench[post] = mount_wrenches(plant, last[None], np.zeros((1, last.size)), np.zeros(1))[0]
+        mid = ~(pre | post)
+        wrench[mid] = mount_wrenches(plant, Xft[mid], XDft[mid], clocks.sampler.contact_force(tft[mid]))
+        return tft, wrench, None
+    tk, wk, rec = plant.ticks()    # (times, wrenches, records): built from its history once here
+    # the states each tick reached, one emulator period later (at rest before the first),
+    # interpolated linearly between ticks (the plant's platform_history, on these arrays)
+    t_rec = np.concatenate([[plant.t_first], tk + plant.emulator_period])
+    rec = np.vstack([np.zeros(24), rec])
+    tk = np.concatenate([[traj.t_contact], tk])
+    wk = np.vstack([rest, wk])
+    tn = tft[~pre]
+    wrench[~pre] = np.column_stack([np.interp(tn, tk, wk[:, i]) for i in range(6)])
+    return tft, wrench, (t_rec, rec)
+
+
+def _truth(rig: Rig, traj, clocks: _Clocks, history):
+    """What only the simulator knows (``/truth``), its coordinates, and the base's true
+    state on the truth clock (flexible base: (n, 12) position, rotation, velocity, angular
+    velocity; None on a fixed base)."""
+    plant = rig.plant
+    aq = plant.arm_q
+    tt, Xt, _ = clocks("sensors.truth_rate")
+    f_t = clocks.sampler.contact_force(tt)
     pre = tt < traj.t_contact
     post = tt > traj.t[-1]
     # tip velocity and energy are exact at the samples (Pinocchio per sample); before the
     # touch and after the integration stopped the arm is at rest (one evaluation each)
-    if loop:
+    base_truth = None
+    if history is not None:
+        t_rec, rec = history
         P_hist = np.column_stack([np.interp(tt, t_rec, rec[:, i]) for i in range(6, 12)])
         V_hist = np.column_stack([np.interp(tt, t_rec, rec[:, i]) for i in range(18, 24)])
         energy, tip_v = truth_terms(plant, Xt, pre, post, P_hist, V_hist)
+        base_truth = np.column_stack([P_hist, V_hist])
     else:
         energy, tip_v = truth_terms(plant, Xt, pre, post)
+        if rig.scene.base == "flexible":
+            base_truth = plant.base_state(Xt)
     c0, c1, _ = traj.contacts[0]
-    peak = float(np.max(sampler.contact_force(np.linspace(c0, c1, 2001))))
+    peak = float(np.max(clocks.sampler.contact_force(np.linspace(c0, c1, 2001))))
     truth = {
         "q": Xt[:, aq],
-        "v": Xt[:, av],
+        "v": Xt[:, plant.arm_v],
         "theta": Xt[:, plant.i_th],
         "theta_dot": Xt[:, plant.i_thd],
         "f_contact": f_t,
@@ -499,72 +548,48 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
         "v_b_post": np.float64(traj.v_b_post),
         "impulse": np.float64(traj.impulse),
         "peak_force": np.float64(peak),
-        "e_contact": np.float64(rig.plant.contact.restitution),
+        "e_contact": np.float64(plant.contact.restitution),
     }
-    truth_coords = {"t_truth": _clock("t_truth", tt), "joint": _names("joint", joints)}
-
-    if flexible:
-        tb = sample_grid(float(p("ves.rate")), t_end)
-        body = plant.beam.base_body()
-        if loop:
-            chan = np.column_stack([np.interp(tb, t_rec, rec[:, i]) for i in range(18)])
-            structure, platform, command = chan[:, 0:6], chan[:, 6:12], chan[:, 12:18]
-            base_truth = np.column_stack([P_hist, V_hist])
-        else:
-            Xb, _ = sampler(tb)
-            structure = plant.base_state(Xb)[:, :6]
-            platform = command = structure     # ideal coupling: the platform is the structure
-            base_truth = plant.base_state(Xt)
-        # a scene stored before the rig stated the platform's stroke has none: no limit then
-        check_stroke(platform, stroke=float(scene.param_dict.get("ves.stroke", math.inf)),
-                     stroke_rotation=float(scene.param_dict.get("ves.stroke_rotation", math.inf)),
-                     structure=str(scene.param_dict.get("flexible.structure", "")))
-        measured.update({
-            "base_position": structure[:, :3],
-            "base_rotation": structure[:, 3:],
-            "platform_cmd_position": command[:, :3],
-            "platform_cmd_rotation": command[:, 3:],
-            "platform_position": platform[:, :3],
-            "platform_rotation": platform[:, 3:],
-            "base_mass": np.float64(body.mass),
-            "base_inertia": np.asarray(body.inertia, float),
-            "base_com": np.asarray(body.com, float),
-            "base_mount": np.asarray(body.mount.translation, float),
-        })
-        coords["t_base"] = _clock("t_base", tb)
-        coords["axis2"] = _names("axis2", "xyz")
-        truth.update({
-            "base_position": base_truth[:, 0:3],
-            "base_rotation": base_truth[:, 3:6],
-            "base_velocity": base_truth[:, 6:9],
-            "base_omega": base_truth[:, 9:12],
-        })
-        truth_coords["axis"] = _names("axis", "xyz")
-
-    _check_finite((("measured", measured), ("truth", truth)))
-    measured = GroupArrays(_channels(measured, spec), coords)
-    truth = GroupArrays(_channels(truth, tspec), truth_coords,
-                        {"n_contacts": len(traj.contacts), "settled": int(traj.settled),
-                         "t_static": float(traj.t_static) if traj.t_static is not None else -1.0,
-                         "ves_mode": str(p("ves.mode")) if flexible else "none"})
-    return TrialArrays({
-        "scene_json": scene.to_json(), "scene_sha256": scene.sha256, "seed": int(scene.seed), "base": scene.base,
-        "config": int(scene.config), "gain": scene.gain, "speed": float(scene.speed), "repeat": int(scene.repeat),
-        "robot": robot.name, "scene_name": scene.name,
-    }, {"measured": measured, "truth": truth})
+    truth_coords = {"t_truth": _clock("t_truth", tt), "joint": _names("joint", list(plant.robot.joint_names))}
+    return truth, truth_coords, base_truth
 
 
-def to_tree(trial: TrialArrays) -> xr.DataTree:
-    """The trial as an ``xarray.DataTree`` (what :func:`simulate` returns): each group is
-    built from its Variables and indexed coordinates in one constructor call, and attached
-    to the root without the copies ``DataTree.from_dict`` makes."""
-    children = {}
-    for name, group in trial.groups.items():
-        coords = {dim: _time(dim, c) if dim in schema.CLOCKS else _labels(dim, c.values.tolist())
-                  for dim, c in group.coords.items()}
-        ds = xr.Dataset({k: xr.Variable(v.dims, v.values, v.attrs) for k, v in group.data_vars.items()},
-                        coords=_coords(coords), attrs=group.attrs)
-        children[name] = xr.DataTree(ds)
-    tree = xr.DataTree(xr.Dataset(attrs=trial.attrs))
-    tree.children = children
-    return tree
+def _base_channels(rig: Rig, clocks: _Clocks, history, base_truth):
+    """A flexible base's channels on the emulator's clock: ``(times, measured, truth)``
+    (structure, commanded and actual platform pose; the base's true state from
+    ``base_truth``). Refuses a trial whose platform leaves the VES stroke
+    (:func:`check_stroke`)."""
+    scene, plant = rig.scene, rig.plant
+    tb = sample_grid(float(scene.p("ves.rate")), clocks.t_end)
+    body = plant.beam.base_body()
+    if history is not None:
+        t_rec, rec = history
+        chan = np.column_stack([np.interp(tb, t_rec, rec[:, i]) for i in range(18)])
+        structure, platform, command = chan[:, 0:6], chan[:, 6:12], chan[:, 12:18]
+    else:
+        Xb, _ = clocks.sampler(tb)
+        structure = plant.base_state(Xb)[:, :6]
+        platform = command = structure     # ideal coupling: the platform is the structure
+    # a scene stored before the rig stated the platform's stroke has none: no limit then
+    check_stroke(platform, stroke=float(scene.param_dict.get("ves.stroke", math.inf)),
+                 stroke_rotation=float(scene.param_dict.get("ves.stroke_rotation", math.inf)),
+                 structure=str(scene.param_dict.get("flexible.structure", "")))
+    measured = {
+        "base_position": structure[:, :3],
+        "base_rotation": structure[:, 3:],
+        "platform_cmd_position": command[:, :3],
+        "platform_cmd_rotation": command[:, 3:],
+        "platform_position": platform[:, :3],
+        "platform_rotation": platform[:, 3:],
+        "base_mass": np.float64(body.mass),
+        "base_inertia": np.asarray(body.inertia, float),
+        "base_com": np.asarray(body.com, float),
+        "base_mount": np.asarray(body.mount.translation, float),
+    }
+    truth = {
+        "base_position": base_truth[:, 0:3],
+        "base_rotation": base_truth[:, 3:6],
+        "base_velocity": base_truth[:, 6:9],
+        "base_omega": base_truth[:, 9:12],
+    }
+    return tb, measured, truth
