@@ -28,6 +28,7 @@ import statistics  # noqa: E402
 import time  # noqa: E402
 
 import campaign.rig.integrate as integrate  # noqa: E402
+import campaign.rig.trial_run as trial_run  # noqa: E402
 from campaign.bench.common import blas_line, machine_line  # noqa: E402
 from campaign.rig import linear_phase, simulate_arrays  # noqa: E402
 from campaign.rig.simulate import build, integration_args  # noqa: E402
@@ -52,11 +53,11 @@ def linear_fraction(scene) -> float:
         done.append(m)
         return m, taus
 
-    integrate.run_frozen = counted
+    trial_run.run_frozen = counted
     try:
         integrate.integrate_trial(rig.plant, rig.pid, **integration_args(rig))
     finally:
-        integrate.run_frozen = run
+        trial_run.run_frozen = run
     return sum(done) / max(1, len(rig.plant.history))
 
 
