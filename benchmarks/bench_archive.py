@@ -33,6 +33,7 @@ The archive's budget is 50 ms to write one trial; the script exits with status 1
 
 from __future__ import annotations
 
+import functools
 import os
 
 # one BLAS thread per job, set before numpy loads: the timings are those of one core
@@ -53,10 +54,10 @@ import xarray as xr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-from synthetic import synthetic_trial  # noqa: E402
-
 from campaign import __version__, archive  # noqa: E402
 from campaign.bench.common import blas_line  # noqa: E402
+
+from synthetic import synthetic_trial  # noqa: E402
 
 HEADING = "## Archive I/O"
 BUDGET_MS = 50.0
@@ -131,7 +132,7 @@ def measure(*, duration: float, repeats: int) -> tuple[list[dict], list[dict]]:
             n_vars = sum(len(tree[g].variables) for g in archive.GROUPS)
             for name, compliant, write in _write_layouts(tree, folder):
                 path = folder / f"{base}.nc"
-                wall, cpu = _time(lambda: write(path), repeats)
+                wall, cpu = _time(functools.partial(write, path), repeats)
                 writes.append(dict(base=base, layout=name, compliant=compliant, wall=wall, cpu=cpu,
                                    size=path.stat().st_size, n_vars=n_vars))
             path = archive.write_trial(tree, folder / f"{base}.nc")

@@ -77,7 +77,7 @@ def batched(scenes, threads: int = 1) -> dict:
         batch._Batch.__init__ = init
     c2 = time.process_time()
     taken = sum(b.accepted for b in made)
-    for r, t in zip(rigs, trajs):
+    for r, t in zip(rigs, trajs, strict=True):
         record_arrays(r, t)
     c3 = time.process_time()
     # steps the batch took; the rest (event steps) were the trials' own loops'

@@ -165,9 +165,9 @@ def main(argv=None) -> int:
     body = [
         __doc__.split("\n\n")[1].replace("\n", " "),
         "",
-        _md(("call (rig's arm model, nv = %d)" % robot.model.nv, "C++ [us]", "Python, one state [us]"), rows),
+        _md((f"call (rig's arm model, nv = {robot.model.nv})", "C++ [us]", "Python, one state [us]"), rows),
         "",
-        _md(("fixed-base sweep job, %s gains, %d trials, one-trial path" % (args.gain, tc["trials"]), "value"), [
+        _md((f"fixed-base sweep job, {args.gain} gains, {tc['trials']} trials, one-trial path", "value"), [
             ("CPU per trial: build / integrate / record [ms]",
              f"{tc['build']:.1f} / {tc['integrate']:.1f} / {tc['record']:.1f}"),
             ("RK4 steps / right-hand-side evaluations per trial", f"{tc['steps']:.0f} / {tc['rhs']:.0f}"),

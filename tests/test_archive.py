@@ -21,7 +21,6 @@ import h5py
 import numpy as np
 import pytest
 import xarray as xr
-from synthetic import synthetic_trial
 
 import campaign.archive.read
 from campaign import archive
@@ -42,6 +41,8 @@ from campaign.archive.read import _inspect_isolated_many
 from campaign.cli.main import main as cli_main
 from campaign.core.errors import InputError, TrialFileError
 from campaign.scene.schema import CLOCKS, MEASURED, SCHEMA_VERSION, TRUTH, variables
+
+from synthetic import synthetic_trial
 
 DURATION = 0.3  # s: short recordings keep every write/read in the tens of ms
 ENCODING_KEYS = ("dtype", "zlib", "complevel", "shuffle", "fletcher32", "chunksizes")

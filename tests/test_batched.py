@@ -59,7 +59,7 @@ def _campaign_scenes(config_file):
 def _check_batch(scenes, integration=None):
     batched = simulate_batch(scenes, integration=integration)
     assert len(batched) == len(scenes)
-    for scene, got in zip(scenes, batched):
+    for scene, got in zip(scenes, batched, strict=True):
         _assert_same(simulate_arrays(scene, integration=integration), got, scene.name)
 
 

@@ -16,6 +16,7 @@ import re
 import pytest
 
 from campaign.cli.main import build_parser
+
 from console_examples import REPO, file_examples
 
 PAGE = REPO / "docs" / "cli.rst"

@@ -13,8 +13,8 @@ from campaign.model.exiit import effective_mass
 from campaign.model.robot import load_robot
 from campaign.model.robot.ik import impact_point
 from campaign.plan.compression import compression_mass
-from campaign.plan.prediction import pose_terms, predict
 from campaign.plan.post_contact import ArmAfterImpact
+from campaign.plan.prediction import pose_terms, predict
 from campaign.rig.contact import Contact, peak_force_factor, pulse_shape
 
 Q = np.radians([[-121.9, -27.4, 0.0], [30.0, 60.0, -60.0]])
@@ -85,7 +85,7 @@ def test_matches_the_joints_integrated_under_the_pulse_to_its_peak(puma):
                 grid = np.linspace(0.0, T, f.size)
                 Jn = terms.J[i].T @ n
 
-                def rhs(t, y):
+                def rhs(t, y, grid=grid, H=H, Jn=Jn, g=g):   # this candidate's pose and pulse
                     force = np.interp(t, grid, f)
                     return np.concatenate([y[3:], np.linalg.solve(H, Jn * force - DAMP[g] * y[3:] - KP[g] * y[:3])])
                 t_peak = frac * T
@@ -129,9 +129,7 @@ def test_closer_to_the_rig_than_lambdas_peak_force(puma):
     params = {"pendulum.head_mass": 5.0}
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     from campaign.rig.pendulum import Pendulum
-    p = make_scene(params=params).p
-    m_b = Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
-                   float(p("gravity"))).m_b
+    m_b = Pendulum.from_scene(make_scene(params=params)).m_b
     n = np.array([-1.0, 0.0, 0.0])
     q = Q[0]
     out = {}

@@ -161,7 +161,7 @@ def test_lambda_fit_recovers_lambda_from_trials_struck_along_several_directions(
     qp = np.array([[0, 150, 90], [45, 120, 135], [-45, 180, 0], [0, 90, 90], [30, 160, 60], [-30, 130, 100]], float)
     D = np.array([direction_from_azimuth(a) for a in rng.uniform(-180, 180, len(qp))])
     Q = np.array([paper_q(q) for q in qp])
-    m = np.array([effective_mass(robot, q, n, lam) for q, n in zip(Q, D)])
+    m = np.array([effective_mass(robot, q, n, lam) for q, n in zip(Q, D, strict=True)])
     est = LambdaFit(robot, n_bootstrap=0, warn=False).fit(Q, m, directions=D)
     assert np.allclose(est.lambda_, lam, rtol=1e-6)
     assert np.allclose(est.predict(Q, directions=D), m, rtol=1e-9)
@@ -198,7 +198,7 @@ def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot)
     res = est.evaluate(qp, D)
     F = np.zeros((3, 3))
     h = 1e-6
-    for q, n in zip(qp, D):
+    for q, n in zip(qp, D, strict=True):
         m0 = effective_mass(robot, paper_q(q), n, lam)
         s = np.array([(math.log(effective_mass(robot, paper_q(q), n, lam * np.exp(h * np.eye(3)[j]))) - math.log(m0)) / h
                       for j in range(3)])
@@ -216,7 +216,7 @@ def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):
 
     Q, D = grid_candidates(q1=(0.0,), q2=(90.0, 135.0, 180.0), q3=(0.0, 90.0, 135.0), azimuths=(0.0, 60.0, 120.0))
     ok, reasons = feasible(robot, Q, D, speed=2.5)
-    assert ok.any() and all((r == "") == o for r, o in zip(reasons, ok))
+    assert ok.any() and all((r == "") == o for r, o in zip(reasons, ok, strict=True))
     em = ErrorModel(a=0.01, b=1e-4)
     est = ExperimentDesign(n_poses=4, lambda_prior=[19.82, 4.62, 0.80], error_model=em, m_b=0.72, robot=robot)
     est.fit(Q[ok], D[ok])
@@ -263,7 +263,7 @@ def test_apparent_mass_without_friction_is_eq_11_and_the_fit_recovers_its_parame
     Q = np.array([paper_q(q) for q in qp])
     H, Jn = design_arrays(robot, Q, D)
     m0 = apparent_mass(H, Jn, lam, np.zeros(3), speed=1.5, e=0.55, m_b=0.72)
-    assert np.allclose(m0, [effective_mass(robot, q, n, lam) for q, n in zip(Q, D)], rtol=1e-12)
+    assert np.allclose(m0, [effective_mass(robot, q, n, lam) for q, n in zip(Q, D, strict=True)], rtol=1e-12)
     Q2, D2 = np.vstack([Q, Q]), np.vstack([D, D])
     v = np.repeat([1.5, 2.5], len(Q))
     m = apparent_mass(*design_arrays(robot, Q2, D2), lam, kappa, speed=v, e=0.55, m_b=0.72)

@@ -56,7 +56,7 @@ def puma_q():
     from campaign.model.robot import load_robot
 
     r = load_robot("puma560")
-    return st.tuples(*(st.floats(float(lo), float(hi)) for lo, hi in zip(r.q_lower, r.q_upper))).map(np.array)
+    return st.tuples(*(st.floats(float(lo), float(hi)) for lo, hi in zip(r.q_lower, r.q_upper, strict=True))).map(np.array)
 
 
 lambdas = st.lists(st.floats(0.0, 100.0), min_size=3, max_size=3).map(np.array)

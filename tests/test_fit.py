@@ -6,7 +6,6 @@ import warnings
 
 import numpy as np
 import pytest
-from synthetic_impact import cached_trial, truth_m_e, truth_m_impulse
 
 from campaign.core.errors import InputError
 from campaign.identify import IdentifyOptions, identify_trial
@@ -18,6 +17,8 @@ from campaign.joints.lambda_fit import (
 )
 from campaign.model.exiit import effective_mass_batch
 from campaign.model.paper import configuration_q, impact_direction, load_paper
+
+from synthetic_impact import cached_trial, truth_m_e, truth_m_impulse
 
 LAM = np.array(load_paper()["table3"]["zero_low"])  # paper Table 3 [kg m^2]
 

@@ -108,7 +108,7 @@ def test_static_load_is_held_under_gravity(beam, puma):
     w_static = static_arm_wrench(puma, q_arm, G, mount=frobot.base.mount)
     ib = IdealBase(beam, w_static=w_static, gravity=G)
     fext = pin.StdVec_Force()
-    for j in range(model.njoints):
+    for _ in range(model.njoints):
         fext.append(pin.Force.Zero())
     fext[1] = ib.wrench(q[:7], v[:6])
     a = pin.aba(model, data, q, v, tau_hold, fext)

@@ -12,7 +12,6 @@ import json
 
 import numpy as np
 import pytest
-from synthetic_impact import cached_trial, make_trial, truth_m_e, write_trial
 
 from campaign.cli.main import main
 from campaign.core.errors import InputError, TrialFileError
@@ -23,6 +22,8 @@ from campaign.identify import (
     identify_file,
     identify_trial,
 )
+
+from synthetic_impact import cached_trial, make_trial, truth_m_e, write_trial
 
 LAM = (19.82, 4.62, 0.80)  # paper Table 3, Zero+Low [kg m^2]
 

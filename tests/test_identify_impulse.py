@@ -11,11 +11,12 @@ tests/test_fit.py.
 from __future__ import annotations
 
 import pytest
-from synthetic_impact import cached_trial, truth_m_e, truth_m_impulse
 
 from campaign.core.errors import InputError
 from campaign.identify import IdentifyOptions, identify_trial
 from campaign.identify.options import M_EFF_ESTIMATORS
+
+from synthetic_impact import cached_trial, truth_m_e, truth_m_impulse
 
 IMPULSE = IdentifyOptions(m_eff_estimator="impulse")
 

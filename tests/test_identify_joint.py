@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from synthetic_impact import truth_m_e, truth_m_impulse
 
 from campaign.core.errors import InputError
 from campaign.identify import IdentifyOptions, identify_trial
+
+from synthetic_impact import truth_m_e, truth_m_impulse
 
 
 @pytest.fixture(scope="module")

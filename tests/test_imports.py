@@ -34,9 +34,9 @@ def test_lazy_module_imports_on_first_attribute_access():
 
 def test_lazy_module_raises_for_a_missing_attribute_and_module():
     with pytest.raises(AttributeError):
-        LazyModule("json").no_such_function
+        _ = LazyModule("json").no_such_function
     with pytest.raises(ModuleNotFoundError):
-        LazyModule("no_such_module_here").anything
+        _ = LazyModule("no_such_module_here").anything
 
 
 def test_a_simulation_job_never_imports_xarray(tmp_path):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pinocchio as pin
@@ -122,9 +123,9 @@ def test_rest_is_a_fixed_point_and_the_first_mode_decays_as_the_loop_predicts(bo
     X = frozen.propagate(xi, int(9 * period))["X"]
     E = 0.5 * np.einsum("ki,ij,kj->k", X[:, 0:6], K, X[:, 0:6]) + 0.5 * np.einsum("ki,ij,kj->k", X[:, 6:12], M, X[:, 6:12])
     cuts = [int(round(i * period)) for i in range(3, 10)]
-    amp = [np.abs(X[a:b, 0]).max() for a, b in zip(cuts, cuts[1:])]
-    energy = [E[a:b].max() for a, b in zip(cuts, cuts[1:])]
-    assert all(b < a for a, b in zip(energy, energy[1:]))
+    amp = [np.abs(X[a:b, 0]).max() for a, b in pairwise(cuts)]
+    energy = [E[a:b].max() for a, b in pairwise(cuts)]
+    assert all(b < a for a, b in pairwise(energy))
     per_period = (amp[-1] / amp[0]) ** (1 / (len(amp) - 1))
     assert per_period == pytest.approx(math.exp(-2 * math.pi * zeta[0] / math.sqrt(1 - zeta[0] ** 2)), rel=0.01)
 

@@ -258,7 +258,7 @@ def test_structure_peak_matches_the_rig_in_the_impulsive_limit(puma):
     measured = np.max(np.linalg.norm(truth["base_position"].values, axis=1))
     p = sc.p
     m_b = float(p("pendulum.head_mass")) + float(p("pendulum.rod_mass")) / 3.0
-    contact = Contact(float(p("contact.stiffness")), float(p("contact.exponent")), float(p("contact.restitution")))
+    contact = Contact.from_scene(sc)
     P = predict(pose_terms(puma, configuration_q(1)[None], beam=Beam.from_scene(sc)), [[0.0, 0.0, 0.0]],
                 [[-1.0, 0.0, 0.0]], mass=m_b, speed=2.0, restitution=float(p("contact.restitution")), contact=contact)
     assert P.structure_peak[0, 0, 0] == pytest.approx(measured, rel=0.06)

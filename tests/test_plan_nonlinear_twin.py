@@ -12,8 +12,8 @@ from campaign.studies import plan_rig_check as prc
 
 def fitted_planner(speed, head_mass=None):
     from campaign.model.paper import load_paper
-    from campaign.plan.factory import build_planner
     from campaign.plan.directions import horizontal_directions
+    from campaign.plan.factory import build_planner
 
     params = None if head_mass is None else {"pendulum.head_mass": head_mass}
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}

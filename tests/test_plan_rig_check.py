@@ -57,8 +57,8 @@ def test_small_rig_check_simulates_every_candidate_and_scores_the_planner():
     """Configuration 1's point, two gain sets, the paper's direction and its opposite, fixed base and
     the space-class structure: every candidate is simulated or refused with a reason, and each
     simulated one carries the planner's own prediction."""
-    from campaign.plan.factory import build_planner
     from campaign.plan.directions import horizontal_directions
+    from campaign.plan.factory import build_planner
 
     point = bench.contact_points()["config 1 wrist centre"]
     dirs = horizontal_directions(2)

@@ -13,13 +13,13 @@ from campaign.core.errors import InputError
 from campaign.model.robot import load_robot
 from campaign.model.robot.floating import attach_to_floating_base
 from campaign.model.robot.ik import impact_point
-from campaign.plan.prediction import pose_terms, predict
 from campaign.plan.post_contact import (
     ArmAfterImpact,
     peak_displacement,
     pulse_peak_displacement,
     unit_responses,
 )
+from campaign.plan.prediction import pose_terms, predict
 from campaign.rig.beam import Beam
 from campaign.rig.contact import Contact, pulse_shape
 from campaign.scene.description import make_scene, rig_values

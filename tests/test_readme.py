@@ -17,8 +17,16 @@ from pathlib import Path
 
 import pytest
 
-from console_examples import COMMAND_LINE, REPO, console_examples, file_examples, matches, run_example, \
-    scratch_folder, sources
+from console_examples import (
+    COMMAND_LINE,
+    REPO,
+    console_examples,
+    file_examples,
+    matches,
+    run_example,
+    scratch_folder,
+    sources,
+)
 
 SOURCES = sources()
 EXAMPLES = [(path, command, shown) for path in SOURCES for command, shown in file_examples(path)]

@@ -83,7 +83,7 @@ def test_halving_the_step_changes_post_impact_velocities_by_less_than_1e4(config
     base = _edges(simulate(scene))
     fine = _edges(simulate(scene, integration={"substeps_contact": 2 * rig.substeps_contact,
                                                "substeps_free": 2 * rig.substeps_free}))
-    for a, b in zip(base[1::2], fine[1::2]):
+    for a, b in zip(base[1::2], fine[1::2], strict=True):
         assert abs(a - b) <= 1e-4 * abs(b)
 
 

@@ -43,7 +43,7 @@ def dh_transform(theta, alpha, a, d):
 def puma_wrist_centre(q3):
     """Origin of DH frame 6 with joints 4-6 at 0 [m]."""
     T = np.eye(4)
-    for theta, (alpha, a, d) in zip(list(q3) + [0.0, 0.0, 0.0], PUMA_DH):
+    for theta, (alpha, a, d) in zip(list(q3) + [0.0, 0.0, 0.0], PUMA_DH, strict=True):
         T = T @ dh_transform(theta, alpha, a, d)
     return T[:3, 3]
 

@@ -14,6 +14,7 @@ import yaml
 
 from campaign import studies
 from campaign.report.tables import rig_check_table
+
 from test_workflow import REPO, snakemake, write_config
 
 #: a path under the repository's benchmarks/ folder (not results/<campaign>/benchmarks/, where

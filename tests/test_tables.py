@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-from synthetic_impact import cached_trial, write_trial
 
 from campaign.cli.main import main
 from campaign.core.errors import InputError
@@ -22,6 +21,8 @@ from campaign.report.tables import (
     table4,
     write_tables,
 )
+
+from synthetic_impact import cached_trial, write_trial
 
 PAPER = load_paper()
 NAN = float("nan")

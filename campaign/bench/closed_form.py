@@ -95,7 +95,7 @@ def closed_form_stress(*, log: Callable[[str], None] | None = print) -> dict[str
         for lam_name, lam in (("0", None), ("High", lam_hi)):
             batch = exiit.effective_mass_batch(robot, Q, lam=lam)
             prev = 0.0
-            for dlt, q, mb in zip(deltas, Q, batch):
+            for dlt, q, mb in zip(deltas, Q, batch, strict=True):
                 ms = exiit.effective_mass(robot, q, lam=lam)
                 mf = exiit.effective_mass(frobot, q, lam=lam)
                 d = _eq11_diagnostics(robot, q, lam)
@@ -127,7 +127,7 @@ def closed_form_stress(*, log: Callable[[str], None] | None = print) -> dict[str
     if bad:
         problems.append(f"random poses: {bad} of {len(Q)} batch values neither finite positive (< 1e9 kg) nor inf")
     mism = 0
-    for q, mb in zip(Q[::10], batch[::10]):
+    for q, mb in zip(Q[::10], batch[::10], strict=True):
         ms = exiit.effective_mass(robot, q)
         if not ((math.isinf(ms) and math.isinf(mb)) or abs(ms - mb) <= 1e-9 * ms):
             mism += 1
@@ -268,7 +268,7 @@ def format_closed_form(c: dict[str, Any]) -> str:
                 frows.append([r["design"], "-", "-", "-", "-", r["warnings"], ("ok: " if r["ok"] else "") + r["error"][:90]])
                 continue
             lam = ", ".join(f"{x:.3g}" for x in r["lam"])
-            ci = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in zip(r["ci"][0], r["ci"][1]))
+            ci = ", ".join(f"[{a:.3g}, {b:.3g}]" for a, b in zip(r["ci"][0], r["ci"][1], strict=True))
             frows.append([r["design"], "inf" if math.isinf(r["cond"]) else f"{r['cond']:.3g}", lam, ci,
                           "".join("y" if x else "n" for x in r["identifiable"]), r["warnings"],
                           "ok" if r["ok"] else "; ".join(r["problems"])])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import statistics
 import tempfile
@@ -121,7 +122,7 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
             tree = simulate(scene)   # warm-up
             walls = []
             for _ in range(repeats):
-                tree, w, c = _timed(lambda: simulate(scene))
+                tree, w, c = _timed(functools.partial(simulate, scene))
                 walls.append(w)
                 sims.setdefault(group, []).append(w)
                 per.setdefault((group, kw["gain"]), []).append(w)
@@ -129,18 +130,18 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
             probes.append(probe)
             factor = probe["xarray"] / XARRAY_WRITE_AT_TARGETS   # this machine now vs the targets' one
             scaled.setdefault(group, []).extend(w / factor for w in walls)
-            _, w_id, _ = _timed(lambda: _identify(tree))
+            _, w_id, _ = _timed(functools.partial(_identify, tree))
             idents.append(w_id)
             path = Path(tmp) / f"{group}-{kw['config']}-{kw['gain']}-{kw['speed']}.nc"
             for _ in range(repeats):
-                _, w, _ = _timed(lambda: archive.write_trial(tree, path))
+                _, w, _ = _timed(functools.partial(archive.write_trial, tree, path))
                 writes.setdefault(group, []).append(w)
                 writes_scaled.setdefault(group, []).append(w / factor)
         log(f"[cost] simulated {sum(len(v) for v in sims.values())} trials")
         scene = naive_scene
         naive = [_timed(lambda: naive_rk4(scene, duration=0.5))[1] for _ in range(baseline_repeats)]
         naive_full = [_timed(lambda: naive_trial(scene, duration=0.5))[1] for _ in range(max(1, baseline_repeats // 2))]
-        ours = [_timed(lambda: simulate(scene))[1] for _ in range(baseline_repeats)]
+        ours = [_timed(functools.partial(simulate, scene))[1] for _ in range(baseline_repeats)]
         uniform = [_timed(lambda: simulate(scene, integration={"substeps_contact": 10, "substeps_free": 10}))[1]
                    for _ in range(max(1, baseline_repeats // 2))]
     log("[cost] baseline done")

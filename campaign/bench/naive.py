@@ -95,7 +95,7 @@ def _naive_steps(rig, *, speed: float, catch_delay: float, step: float, n_steps:
         # Coulomb friction by the sign of each joint's velocity (none at rest), no stick phase
         fs = FrictionState(all_free, plant.coulomb(np.where(sticky, np.sign(x[iv]), 1.0).astype(int)), iv.start)
 
-        def f(xx, tt):
+        def f(xx, tt, tau=tau, fs=fs, caught=caught):   # this step's torque, friction and catch
             return rhs(xx, tau, fs, speed, caught, tt)
 
         k1 = f(x, t)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import statistics
@@ -210,7 +211,7 @@ def assign_fronts(rows: Sequence[dict]) -> float:
     tol = timing_noise(rows)
     for key, cost, t in (("front", "wall", tol), ("front_cpu", "cpu", 0.0), ("front_rhs", "rhs", 0.0)):
         pts = [(float(r.get(cost, math.nan)), max(r.get("combined", math.nan), ERR_FLOOR)) for r in rows]
-        for r, f in zip(rows, pareto_front(pts, time_tol=t)):
+        for r, f in zip(rows, pareto_front(pts, time_tol=t), strict=True):
             r[key] = f
     for r in rows:
         r["noise"] = tol
@@ -250,7 +251,7 @@ def work_precision(*, quick: bool = False, repeats: int | None = None, flexible:
         log(f"[wp] {spec.label}: default {dc}/{df}; reference {REF_FACTOR * dc}/{REF_FACTOR * df}; "
             f"{len(settings)} settings x {repeats} repeats")
         try:
-            ref, ref_wall, _ = _timed(lambda: simulate(scene, integration={
+            ref, ref_wall, _ = _timed(functools.partial(simulate, scene, integration={
                 "substeps_contact": REF_FACTOR * dc, "substeps_free": REF_FACTOR * df}))
             half = simulate(scene, integration={"substeps_contact": REF_FACTOR // 2 * dc,
                                                 "substeps_free": REF_FACTOR // 2 * df})
@@ -277,7 +278,7 @@ def work_precision(*, quick: bool = False, repeats: int | None = None, flexible:
             for s in settings:
                 if s.label in failures or (s.naive and len(walls[s.label]) >= max(1, repeats // 2)):
                     continue        # the naive run is ~0.5 s: half the repeats suffice
-                _, w, c = _timed(lambda: s.run(scene))
+                _, w, c = _timed(functools.partial(s.run, scene))
                 walls[s.label].append(w)
                 cpus[s.label].append(c)
         for s in settings:
@@ -393,7 +394,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
     fig, axes = plt.subplots(nrows, cols, figsize=(5.2 * cols, 4.0 * nrows), squeeze=False)
     series = (("ident", "m*, e (identified)", "o"), ("velocity", "v'_a, v'_b (truth)", "s"),
               ("measured", "measured channels", "^"))
-    for ax, label in zip(axes.flat, labels):
+    for ax, label in zip(axes.flat, labels, strict=True):
         mine = [r for r in result["rows"] if r["scene"] == label and math.isfinite(r.get("wall", math.nan))]
         for key, name, marker in series:
             t = np.array([r["wall"] * 1e3 for r in mine])
@@ -401,7 +402,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
             ax.scatter(t, e, marker=marker, s=22, alpha=0.75, label=name)
         front = sorted((r["wall"] * 1e3, max(r["combined"], ERR_FLOOR)) for r in mine if r["front"])
         if front:
-            ax.plot(*zip(*front), "k--", lw=0.8, label="Pareto front (m*, e, v')")
+            ax.plot(*zip(*front, strict=True), "k--", lw=0.8, label="Pareto front (m*, e, v')")
         for r in mine:
             if r["default"]:
                 ax.scatter([r["wall"] * 1e3], [max(r["combined"], ERR_FLOOR)], s=160, facecolors="none",

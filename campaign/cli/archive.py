@@ -62,9 +62,9 @@ def _ls(args: argparse.Namespace) -> int:
     columns = ("path", "base", "config", "gain", "speed", "repeat", "seed", "scene")
     rows = [[str(rec.row()[c]) for c in columns] for rec in records]
     widths = [max([len(c)] + [len(r[i]) for r in rows]) for i, c in enumerate(columns)]
-    print("  ".join(c.ljust(w) for c, w in zip(columns, widths)).rstrip())
+    print("  ".join(c.ljust(w) for c, w in zip(columns, widths, strict=True)).rstrip())
     for r in rows:
-        print("  ".join(v.ljust(w) for v, w in zip(r, widths)).rstrip())
+        print("  ".join(v.ljust(w) for v, w in zip(r, widths, strict=True)).rstrip())
     print(f"{len(records)} trial(s)", file=sys.stderr)
     return 0
 

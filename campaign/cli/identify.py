@@ -136,7 +136,7 @@ def run_fit(args) -> int:
             print(f"  lambda_{j + 1} = {lam:.4g} kg m^2  {lvl} CI [{_fmt(float(lo))}, {_fmt(float(hi))}]  "
                   f"{'identifiable' if f.identifiable_[j] else 'NOT identifiable'}")
         print("  sensitivity d ln m*/d ln lambda (rows: configurations):")
-        for q, row in zip(f.configurations_, f.sensitivity_):
+        for q, row in zip(f.configurations_, f.sensitivity_, strict=True):
             qd = ", ".join(f"{x:.4g}" for x in (q * 180 / math.pi))
             print(f"    q = [{qd}] deg (DH): " + "  ".join(f"{x:.3g}" for x in row))
         print(f"  condition number {f.condition_number_:.4g}")

@@ -4,7 +4,7 @@ the wording their messages share."""
 from __future__ import annotations
 
 import difflib
-from typing import Sequence
+from collections.abc import Sequence
 
 __all__ = ["CampaignError", "InputError", "SimulationError", "TrialFileError", "allowed_names"]
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import time
-from typing import Iterator
+from collections.abc import Iterator
 
 __all__ = ["Timer"]
 # ---------------------------------------------------------------------------------------

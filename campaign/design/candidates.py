@@ -12,8 +12,8 @@ also refuses a pose whose servo would be unstable.
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -106,14 +106,13 @@ def feasible(robot, Q_paper, D, *, speed: float, rig=None) -> tuple[np.ndarray, 
         Why each refused candidate is refused ("" where ok).
     """
     p, _ = load_rig(rig)
-    pend = Pendulum(float(p["pendulum.head_mass"]), float(p["pendulum.rod_mass"]), float(p["pendulum.radius"]),
-                    float(p["gravity"]), float(p["pendulum.max_release_deg"]))
+    pend = Pendulum.from_values(p)
     theta0 = pend.release_angle(speed)
     place = placement_params(p)
     data = robot.model.createData()
     ok = np.zeros(len(Q_paper), bool)
     reasons = []
-    for i, (qp, n) in enumerate(zip(Q_paper, D)):
+    for i, (qp, n) in enumerate(zip(Q_paper, D, strict=True)):
         try:
             q = paper_q(qp)
             if place is not None:

@@ -27,7 +27,8 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -107,11 +108,11 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
     gains = [g for g in gain_sets() if any(g in v for v in gain_classes().values())]
     poses: dict[str, list] = {"paper": [], "designed": [], "heldout": []}
     Qp, Dp = paper_design()
-    for k, (q, n) in enumerate(zip(Qp, Dp), 1):
+    for k, q in enumerate(Qp, 1):
         poses["paper"].append({"config": k, "q_paper_deg": q.tolist(), "direction": None, "speeds": speeds})
     seen = set()
     for name, cls in design["classes"].items():
-        for q, n in zip(cls["designed"]["q_paper_deg"], cls["designed"]["directions"]):
+        for q, n in zip(cls["designed"]["q_paper_deg"], cls["designed"]["directions"], strict=True):
             key = _key(q, n)
             if key not in seen:
                 seen.add(key)
@@ -125,7 +126,7 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
     ho = dict(settings.get("heldout") or {})
     n_ho, seed = int(ho.get("n", 12)), int(ho.get("seed", 7))
     robot = load_robot(paper["robot"])
-    taken = seen | {_key(q, n) for q, n in zip(Qp, Dp)}
+    taken = seen | {_key(q, n) for q, n in zip(Qp, Dp, strict=True)}
     Q, D = random_candidates(40 * n_ho, robot=robot, seed=seed)
     Q = np.round(Q, 1)                                  # poses a person can type
     ok, _ = feasible(robot, Q, D, speed=max(speeds), rig=rig)
@@ -418,7 +419,7 @@ def report_markdown(out: Mapping[str, Any]) -> str:
     lines += ["Joint impedance over the contact (damping, the servo's known gains, Coulomb friction with sticking; "
               f"{im['n_trials']} designed trials of every gain set, 95 % asymptotic intervals): " + _impedance_cell(im)
               + "; measured pulse " + ", ".join(f"{1000 * d:.1f} ms at {v:g} m/s"
-                                              for v, d in zip(im["speeds"], im["durations"])) + ".", ""]
+                                              for v, d in zip(im["speeds"], im["durations"], strict=True)) + ".", ""]
     for name, cls in out["classes"].items():
         nv = len(cls["fits"]["paper"]["lambda"])
         lines += [f"## {name} (gains {', '.join(cls['gains'])})", "",
@@ -462,5 +463,5 @@ def report_markdown(out: Mapping[str, Any]) -> str:
         d = cls["drift"]
         lines += ["", f"Drift from {d['from_speed']:g} to {d['to_speed']:g} m/s: "
                   + ", ".join(f"lambda_{j + 1} {100 * c:+.1f} % ({'within' if o else 'beyond'} the intervals)"
-                              for j, (c, o) in enumerate(zip(d["relative_change"], d["intervals_overlap"]))) + ".", ""]
+                              for j, (c, o) in enumerate(zip(d["relative_change"], d["intervals_overlap"], strict=True))) + ".", ""]
     return "\n".join(lines) + "\n"

@@ -21,7 +21,8 @@ for lambda* (``docs/design.rst``).
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -166,7 +167,7 @@ class ExperimentDesign:
             "condition_number": cond, "criterion_value": _criterion(F, self.criterion),
         }
 
-    def fit(self, Q_paper, D) -> "ExperimentDesign":
+    def fit(self, Q_paper, D) -> ExperimentDesign:
         """Choose ``n_poses`` of the candidates (rows of ``Q_paper`` [deg] and ``D``)."""
         lam, _ = self._check()
         Q_paper = np.asarray(Q_paper, float)

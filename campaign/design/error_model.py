@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -59,7 +60,7 @@ class ErrorModel:
         return self.a**2 + (self.b * x) ** 2
 
     @classmethod
-    def fit(cls, m_identified, m_truth, m_b, speed, *, source: str = "") -> "ErrorModel":
+    def fit(cls, m_identified, m_truth, m_b, speed, *, source: str = "") -> ErrorModel:
         """Fit ``a^2, b^2 >= 0`` to ``(ln m*_identified - ln m*_truth)^2`` by non-negative
         least squares (one row per trial)."""
         from scipy.optimize import nnls  # on demand: nothing else of the design needs scipy

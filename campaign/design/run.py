@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -63,8 +64,7 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
     paper = load_paper()
     robot = load_robot(paper["robot"])
     p, _ = load_rig(rig)
-    pend = Pendulum(float(p["pendulum.head_mass"]), float(p["pendulum.rod_mass"]), float(p["pendulum.radius"]),
-                    float(p["gravity"]), float(p["pendulum.max_release_deg"]))
+    pend = Pendulum.from_values(p)
     errors = calibrate_error_model(calibration)
     if candidates == "grid":
         Q, D = grid_candidates()
@@ -145,7 +145,7 @@ def design_markdown(result: Mapping[str, Any]) -> str:
                   "d ln m*/d ln lambda_1 | _2 | _3 |", "|---|---|---|---|---|---|---|---|"]
         d = cls["designed"]
         for i, (q, az, m, r, s) in enumerate(zip(d["q_paper_deg"], d["azimuth_deg"], d["m_eff"], d["m_ratio"],
-                                                 d["sensitivity"]), 1):
+                                                 d["sensitivity"], strict=True), 1):
             lines.append(f"| {i} | {', '.join(f'{x:g}' for x in q)} | {az:.1f} | {m:.3f} | {r:.2f} | "
                          + " | ".join(f"{x:.3f}" for x in s) + " |")
         lines += ["", "| design | poses | condition number | " + " | ".join(
@@ -154,7 +154,7 @@ def design_markdown(result: Mapping[str, Any]) -> str:
         for label, key in (("paper (configurations 1-3, n = -x)", "paper"), ("designed", "designed")):
             e = cls[key]
             cells = [f"[{lo:.4g}, {hi:.4g}] (+-{100 * rel:.3g} %)" if math.isfinite(rel) else "unbounded"
-                     for lo, hi, rel in zip(e["lambda_ci"][0], e["lambda_ci"][1], e["relative_ci"])]
+                     for lo, hi, rel in zip(e["lambda_ci"][0], e["lambda_ci"][1], e["relative_ci"], strict=True)]
             lines.append(f"| {label} | {len(e['m_eff'])} | {e['condition_number']:.3g} | " + " | ".join(cells) + " |")
         lines.append("")
     return "\n".join(lines) + "\n"

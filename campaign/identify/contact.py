@@ -62,7 +62,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
         starts.insert(0, 0)
     if mask[-1]:
         ends.append(mask.size - 1)
-    return list(zip(starts, ends))
+    return list(zip(starts, ends, strict=True))
 
 
 def _edge_zero(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_cross: float, sign: float) -> float:

@@ -301,7 +301,7 @@ def _coulomb_signs(joint_model: _LinearJointModel, opt: IdentifyOptions) -> tupl
     nv = joint_model.nv
     signs = np.ones((joint_model.K, nv))
     best = None
-    for it in range(max(1, opt.joint_coulomb_iterations)):
+    for it in range(max(1, opt.joint_coulomb_iterations)):  # noqa: B007 - the count it reaches is returned
         sol = joint_model.solve(joint_model.search(signs), signs)
         if best is None or sol.cost < best.cost:
             best = sol

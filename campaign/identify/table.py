@@ -11,8 +11,9 @@ import dataclasses
 import math
 import os
 import time
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 from ..core.errors import InputError, TrialFileError
 from ..core.timing import Timer

@@ -96,7 +96,7 @@ class CoulombLambdaFit:
         self.ci = ci
         self.upper = upper
 
-    def fit(self, Q, D, m_eff, *, speed, e, m_b) -> "CoulombLambdaFit":
+    def fit(self, Q, D, m_eff, *, speed, e, m_b) -> CoulombLambdaFit:
         """Fit to trials at DH poses ``Q`` (N, nv) struck along ``D`` (N, 3).
 
         ``m_eff``, ``speed``, ``e``, ``m_b``: per trial (shape (N,)) identified m* [kg],

@@ -74,7 +74,7 @@ def measured_pulse_shape(paths, contact_start, contact_end, *, segments: int = 4
 
     s = np.linspace(0.0, 1.0, 4 * int(segments) + 1)
     shares = []
-    for path, t0, t1 in zip(paths, contact_start, contact_end):
+    for path, t0, t1 in zip(paths, contact_start, contact_end, strict=True):
         measured, _ = load_trial(path, arrays=True)
         t = np.asarray(measured["t_force"].values, float)
         f = np.clip(np.asarray(measured["f_piezo"].values, float), 0.0, None)
@@ -325,7 +325,7 @@ class ImpedanceFit(Params):
         tp, tn = self._friction()
         return apparent_mass(G, Jn, kappa_pos=c * tp, kappa_neg=c * tn, speed=speed, e=e, m_b=m_b)
 
-    def fit(self, Q, D, m_eff, *, speed, e, m_b, duration, stiffness, damping, pulse_shape) -> "ImpedanceFit":
+    def fit(self, Q, D, m_eff, *, speed, e, m_b, duration, stiffness, damping, pulse_shape) -> ImpedanceFit:
         """Fit to trials at DH poses ``Q`` (N, nv) struck along ``D`` (N, 3).
 
         ``m_eff``, ``speed``, ``e``, ``m_b``, ``duration``: per trial (shape (N,)) identified

@@ -18,7 +18,8 @@ import json
 import math
 import os
 import warnings
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -257,7 +258,7 @@ class LambdaFit(Params):
                 # d ln m*/dL_ab = (1/s) d(x^T lambda x)/dL_ab with lambda = L L^T:
                 # x^T (E_ab L^T + L E_ba) x = 2 x_a (L^T x)_b
                 Ltx = L.T @ x.T                            # (nv, N)
-                g = np.stack([2 * x[:, a] * Ltx[b] / s for a, b in zip(*tril)], axis=1)
+                g = np.stack([2 * x[:, a] * Ltx[b] / s for a, b in zip(*tril, strict=True)], axis=1)
             return sw[:, None] * g
 
         if self.structure == "diagonal":
@@ -351,7 +352,7 @@ class LambdaFit(Params):
             S = self.lambda_[None, :] * xc**2 / sc[:, None]
         else:
             idx = np.tril_indices(nv)
-            S = np.stack([(1.0 if a == b else 2.0) * lam_m[a, b] * xc[:, a] * xc[:, b] / sc for a, b in zip(*idx)],
+            S = np.stack([(1.0 if a == b else 2.0) * lam_m[a, b] * xc[:, a] * xc[:, b] / sc for a, b in zip(*idx, strict=True)],
                          axis=1)
         self.sensitivity_ = S
         sv = np.linalg.svd(S, compute_uv=False)
@@ -396,7 +397,7 @@ class LambdaFit(Params):
         findings: list[str] = []
         ok = np.ones(S.shape[1], bool)
         names = ([f"lambda_{j + 1}" for j in range(nv)] if self.structure == "diagonal"
-                 else [f"lambda_{a + 1}{b + 1}" for a, b in zip(*np.tril_indices(nv))])
+                 else [f"lambda_{a + 1}{b + 1}" for a, b in zip(*np.tril_indices(nv), strict=True)])
         est = self.lambda_ if self.structure == "diagonal" else self.lambda_matrix_[np.tril_indices(nv)]
         lo = self.lambda_ci_[0] if self.structure == "diagonal" else self.lambda_ci_[0][np.tril_indices(nv)]
         hi = self.lambda_ci_[1] if self.structure == "diagonal" else self.lambda_ci_[1][np.tril_indices(nv)]

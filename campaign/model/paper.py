@@ -7,7 +7,7 @@ config folder, not in code; this module only reads and checks them.
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

@@ -21,9 +21,10 @@ import math
 import os
 import re
 import tempfile
+from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import yaml
@@ -82,10 +83,10 @@ def _batch_records(jobs) -> list[dict]:
     scenes = [make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat, params=params, rig=rig)
               for base, config, gain, speed, repeat, params, rig in jobs]
     trials = simulate_batch(scenes)
-    for scene, trial in zip(scenes, trials):
+    for scene, trial in zip(scenes, trials, strict=True):
         if isinstance(trial, SimulationError):
             raise SimulationError(f"{scene.cell}: {trial}")
-    return [_record(job, trial) for job, trial in zip(jobs, trials)]
+    return [_record(job, trial) for job, trial in zip(jobs, trials, strict=True)]
 
 
 def _record(job, trial) -> dict:
@@ -261,7 +262,7 @@ def calibrate(*, calibration=None, rig=None, progress=print, max_nfev: int | Non
     def fun(x):
         key = tuple(np.round(x, 12))
         if key not in cache:
-            params = {n: float(math.exp(v)) for n, v in zip(names, x)}
+            params = {n: float(math.exp(v)) for n, v in zip(names, x, strict=True)}
             summary = _summary(sweep_records(params, sweep, rig=rig))
             r = residuals(summary, obs)
             count[0] += 1
@@ -299,7 +300,7 @@ def calibrate(*, calibration=None, rig=None, progress=print, max_nfev: int | Non
     summary = dict(summary, force_band_N=list(force_band(obs)))
     sens = {n: [float(v) for v in J[:, i]] for i, n in enumerate(names)}
     return CalibrationResult(
-        params_={n: float(math.exp(v)) for n, v in zip(names, sol.x)}, objective_=0.5 * float(r @ r),
+        params_={n: float(math.exp(v)) for n, v in zip(names, sol.x, strict=True)}, objective_=0.5 * float(r @ r),
         residuals_=r, residual_names_=names_r, summary_=summary, sensitivity_=sens, n_evaluations_=count[0],
         start_={n: float(values[n]) for n in names}, success_=bool(sol.success), message_=str(sol.message))
 
@@ -316,15 +317,15 @@ def write_back(result: CalibrationResult, rig: str | Path | None = None) -> Path
         if not m:
             raise InputError(f"{path}: no section {section!r} for {key}")
         block = m.group(1)
-        new_block, n = re.subn(rf"(?m)^(\s+{re.escape(leaf)}: \{{value: )([^,}}]+)", rf"\g<1>{value:.6g}", block, 1)
+        new_block, n = re.subn(rf"(?m)^(\s+{re.escape(leaf)}: \{{value: )([^,}}]+)", rf"\g<1>{value:.6g}", block, count=1)
         if n != 1:
             raise InputError(f"{path}: no line for {key}")
         text = text[:m.start(1)] + new_block + text[m.end(1):]
     stamp = {
-        "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d"),
+        "date": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d"),
         "package_version": __version__,
         "objective": round(result.objective_, 8),
-        "residuals": {n: round(float(v), 6) for n, v in zip(result.residual_names_, result.residuals_)},
+        "residuals": {n: round(float(v), 6) for n, v in zip(result.residual_names_, result.residuals_, strict=True)},
         "evaluations": result.n_evaluations_,
         "values": {k: float(f"{v:.6g}") for k, v in result.params_.items()},
         "sensitivity_norm": {k: round(float(np.linalg.norm(v)), 4) for k, v in result.sensitivity_.items()},

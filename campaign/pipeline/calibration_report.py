@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -336,8 +337,7 @@ def validate(*, rig=None, speeds=(1.0, 1.75, 2.5), workers: int = 2, fixed: Mapp
         # eq 8's own answer with the paper's lambda on this base (the reason of a miss)
         scene = make_scene(base="flexible", config=c, rig=rig)
         p = scene.p
-        m_b = Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
-                       float(p("gravity")), float(p("pendulum.max_release_deg"))).m_b
+        m_b = Pendulum.from_scene(scene).m_b
         q = np.radians(np.asarray(scene.q_paper_deg) + np.asarray(paper["offset_deg"]))
         speed = {g: impulsive_base_speed(load_robot(p("robot")), q, Beam.from_scene(scene).base_body(),
                                          _paper_lambda(g), m_b, paper["impact_direction"]) for g in ("low", "high")}

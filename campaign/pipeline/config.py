@@ -7,8 +7,9 @@ every start); the scene is imported when a check needs it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import yaml
 

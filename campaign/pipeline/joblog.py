@@ -12,7 +12,8 @@ import os
 import sys
 import time
 import traceback
-from typing import Iterator, TextIO
+from collections.abc import Iterator
+from typing import TextIO
 
 from ..core.timing import Timer
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import csv
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from ..core.vocabulary import TRIAL_SUFFIX, cell_dir, trial_relpath
 

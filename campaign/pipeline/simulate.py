@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any, Callable, Iterable, Mapping, Sequence
+from typing import Any
 
 from ..archive import trial_path, write_trial
 from ..core.errors import SimulationError
@@ -117,7 +118,7 @@ def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float) -> list[P
     every trial that failed, after the others are written."""
     n = len(plan)
     written, failed = [], []
-    for i, ((scene, path), trial) in enumerate(zip(plan, results), 1):
+    for i, ((scene, path), trial) in enumerate(zip(plan, results, strict=True), 1):
         if isinstance(trial, SimulationError):
             failed.append(f"{scene.cell}: {trial}")
             print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, FAILED: {trial}", flush=True)

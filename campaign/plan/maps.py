@@ -10,7 +10,7 @@ peak on the flexible one); :mod:`campaign.report.figures.plan_maps` draws them.
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

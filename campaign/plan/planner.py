@@ -12,7 +12,7 @@ ranks the candidates by an objective (:data:`OBJECTIVES`).
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -95,7 +95,7 @@ class ImpactPlanner:
             raise InputError(f"weights = {np.asarray(self.weights).tolist()} must be 3 values >= 0, not all zero")
         return Contact(float(self.contact_stiffness), float(self.contact_exponent), float(self.restitution)), w
 
-    def fit(self, point, directions) -> "ImpactPlanner":
+    def fit(self, point, directions) -> ImpactPlanner:
         """Find every pose reaching ``point`` [m] and predict each candidate; rank them.
 
         Raises InputError (before any prediction) for an unreachable point, a zero
@@ -135,7 +135,7 @@ class ImpactPlanner:
             return pred.structure_peak.copy()
         parts = [pred.impulse, pred.peak_force] + ([pred.structure_peak] if pred.structure_peak is not None else [])
         score = np.zeros(pred.impulse.shape)
-        for wk, x in zip(w, parts):
+        for wk, x in zip(w, parts, strict=True):
             top = float(np.max(x))
             if top > 0:
                 score += wk * x / top

@@ -38,7 +38,7 @@ and gravity resist the contact explicitly. Its impulsive limit is the release ab
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from scipy.linalg import expm

@@ -64,7 +64,7 @@ class _Batch:
         """Take trial ``i`` over at the state its loop handed over."""
         plant, pid = ln.plant, ln.pid
         fs = ln.fs
-        res, ref, gc, lo, hi = (np.array(c, dtype=float) for c in zip(*pid._joints))
+        res, ref, gc, lo, hi = (np.array(c, dtype=float) for c in zip(*pid._joints, strict=True))
         row = {
             "X": np.array(ln.x, dtype=float), "t": ln.t, "k": ln.k_tick, "T": ln.T,
             "tmin": ln.t_min_end, "tmax": ln.t_max_end, "settle": ln.settle_velocity, "fric": ln.friction_events,
@@ -126,8 +126,8 @@ class _Batch:
             self._arrays = {k: v[keep] for k, v in a.items()}
         else:
             self._arrays = None
-        self.ids = [i for i, k in zip(self.ids, keep) if k]
-        self.lanes = [ln for ln, k in zip(self.lanes, keep) if k]
+        self.ids = [i for i, k in zip(self.ids, keep, strict=True) if k]
+        self.lanes = [ln for ln, k in zip(self.lanes, keep, strict=True) if k]
         return out
 
     def __len__(self) -> int:

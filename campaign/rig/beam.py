@@ -272,7 +272,7 @@ class Beam:
         object.__setattr__(self, "platform_com", tuple(com.tolist()))
 
     @classmethod
-    def from_values(cls, values) -> "Beam":
+    def from_values(cls, values) -> Beam:
         """The beam of flat rig values (``flexible.*``, dotted keys)."""
         v = values
         return cls(
@@ -283,7 +283,7 @@ class Beam:
         )
 
     @classmethod
-    def from_scene(cls, scene) -> "Beam":
+    def from_scene(cls, scene) -> Beam:
         """The beam of a :class:`~campaign.scene.description.Scene` (its ``flexible.*`` parameters)."""
         return cls.from_values(scene.param_dict)
 

@@ -20,7 +20,8 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -191,13 +192,13 @@ class Contact:
     restitution: float
 
     @classmethod
-    def from_values(cls, values: Mapping[str, Any]) -> "Contact":
+    def from_values(cls, values: Mapping[str, Any]) -> Contact:
         """The contact law of flat rig values (``contact.*``, dotted keys)."""
         return cls(float(values["contact.stiffness"]), float(values["contact.exponent"]),
                    float(values["contact.restitution"]))
 
     @classmethod
-    def from_scene(cls, scene) -> "Contact":
+    def from_scene(cls, scene) -> Contact:
         """The contact law of a :class:`~campaign.scene.description.Scene`."""
         return cls.from_values(scene.param_dict)
 

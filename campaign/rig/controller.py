@@ -23,7 +23,8 @@ loop (ZOH, per joint, linearised about the commanded pose) is unstable at the se
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -145,7 +146,7 @@ class PID:
         # the per-joint constants as Python floats for update() (see there)
         self._joints = list(zip(np.asarray(self.resolution, dtype=float).tolist(), self._ref.tolist(),
                                 np.asarray(self.tau_gc, dtype=float).tolist(), self._lo.tolist(),
-                                np.asarray(self.tau_max, dtype=float).tolist()))
+                                np.asarray(self.tau_max, dtype=float).tolist(), strict=True))
 
     @property
     def e_prev(self) -> np.ndarray:
@@ -210,7 +211,7 @@ class PID:
         kP, kD, kI, quantize = self._kP, self._kD, self._kI, self.quantize
         e_prev, e_sum = self._e_prev, self._e_sum
         out = []
-        for j, (qj, (res, ref, gc, lo, hi)) in enumerate(zip(q.tolist(), self._joints)):
+        for j, (qj, (res, ref, gc, lo, hi)) in enumerate(zip(q.tolist(), self._joints, strict=True)):
             c = qj / res
             e = ref - (float(round(c)) if quantize else c)
             s = e_sum[j] + e

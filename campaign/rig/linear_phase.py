@@ -271,7 +271,7 @@ def run_frozen(plant, pid, x, tau, fs, k_first: int, k_last: int, period: float)
         if m:
             out = run["out"]
             t = (k_first + done + np.arange(m)) * period
-            plant.history.extend(zip(t.tolist(), run["w"][:m], out[:m]))
+            plant.history.extend(zip(t.tolist(), run["w"][:m], out[:m], strict=True))
             frozen.load(run["X"][m - 1], out[m - 1], m)
             plant.t_last = float(t[-1])
             pid.set_state(e, e_sums[m - 1])

@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from scipy.special import ellipj, ellipk
@@ -56,14 +57,14 @@ class Pendulum:
     max_release_deg: float = 170.0
 
     @classmethod
-    def from_values(cls, values: Mapping[str, Any]) -> "Pendulum":
+    def from_values(cls, values: Mapping[str, Any]) -> Pendulum:
         """The pendulum of flat rig values (``pendulum.*`` and ``gravity``, dotted keys)."""
         return cls(float(values["pendulum.head_mass"]), float(values["pendulum.rod_mass"]),
                    float(values["pendulum.radius"]), float(values["gravity"]),
                    float(values["pendulum.max_release_deg"]))
 
     @classmethod
-    def from_scene(cls, scene) -> "Pendulum":
+    def from_scene(cls, scene) -> Pendulum:
         """The pendulum of a :class:`~campaign.scene.description.Scene`."""
         return cls.from_values(scene.param_dict)
 

@@ -101,7 +101,7 @@ class FrictionState:
     def violations(self, lam) -> list:
         """Per stuck dof, ``|lam| - limit`` (> 0 where the holding torque ``lam`` exceeds the
         static friction it pushes against)."""
-        return [(-x - tp) if x < 0 else (x - tn) for x, (tp, tn) in zip(lam.tolist(), self.stuck_limits)]
+        return [(-x - tp) if x < 0 else (x - tn) for x, (tp, tn) in zip(lam.tolist(), self.stuck_limits, strict=True)]
 
 
 class FixedBasePlant:

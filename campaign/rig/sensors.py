@@ -25,7 +25,7 @@ STREAMS = ("contact_time", "joint_encoder", "pendulum_encoder", "piezo", "ft")
 def noise_streams(seed: int) -> dict[str, np.random.Generator]:
     """One independent generator per channel, from the trial seed."""
     children = np.random.SeedSequence(seed).spawn(len(STREAMS))
-    return {name: np.random.default_rng(c) for name, c in zip(STREAMS, children)}
+    return {name: np.random.default_rng(c) for name, c in zip(STREAMS, children, strict=True)}
 
 
 def sample_grid(rate: float, t_end: float) -> np.ndarray:
@@ -185,7 +185,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
         mount = plant.mount_id
         place = pin.updateFramePlacement
         M_mount = data.oMf[mount]
-    for k, (q, v, a, Fk) in enumerate(zip(Q, V, A, F.tolist())):
+    for k, (q, v, a, Fk) in enumerate(zip(Q, V, A, F.tolist(), strict=True)):
         if Fk != 0.0:                             # (a NaN force still reaches the wrench)
             fk(model, data, q)
             fext[jid] = _point_force(r, n, oMi[jid].rotation, Fk)

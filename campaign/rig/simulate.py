@@ -91,8 +91,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     except ValueError as exc:
         raise InputError(str(exc)) from None
     gravity = float(p("gravity"))
-    pend = Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
-                    gravity, float(p("pendulum.max_release_deg")))
+    pend = Pendulum.from_scene(scene)
     theta0 = pend.release_angle(scene.speed)  # refuses a speed the device cannot reach
     n = np.asarray(scene.impact_direction, dtype=float)
     # the pendulum is placed to strike the impact point along n at the bottom of its swing;
@@ -101,8 +100,8 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     if place is not None:
         place_pendulum(robot, q0, n, radius=pend.radius, release_angle=theta0,
                        what=f"pose {list(scene.q_paper_deg)} deg", **place)
-    contact = Contact(float(p("contact.stiffness")), float(p("contact.exponent")), float(p("contact.restitution")))
-    contact.damping  # refuses an unreachable restitution now
+    contact = Contact.from_scene(scene)
+    _ = contact.damping  # solving for the damping refuses an unreachable restitution now
     friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
                     gravity=gravity)
     min_post, max_post = float(p("trial.min_post_contact")), float(p("trial.max_post_contact"))

@@ -168,7 +168,7 @@ class TrialRun:
                 vals["catch"] = xx[self.ithd]          # rebounding hammer (thd < 0) reaches its top
         if self.friction_events:
             if need_lam:
-                for jj, val in zip(fs.stuck.tolist(), fs.violations(lam)):
+                for jj, val in zip(fs.stuck.tolist(), fs.violations(lam), strict=True):
                     vals[f"break{jj}"] = val
             for j, m, ij in fs.slipping:
                 vals[f"stop{j}"] = -m * float(xx[ij])
@@ -184,7 +184,7 @@ class TrialRun:
         xd, lam, _ = self.evaluate(xx, self.t, cand)
         a = xd[self.iv]
         # |lam| > limit (1 + 1e-12), i.e. |lam| - limit > 1e-12 limit
-        for x_l, (tp, tn) in zip(lam.tolist(), cand.stuck_limits):
+        for x_l, (tp, tn) in zip(lam.tolist(), cand.stuck_limits, strict=True):
             if (-x_l - tp * (1 + 1e-12)) > 0 if x_l < 0 else (x_l - tn * (1 + 1e-12)) > 0:
                 return None
         for j, mj, ij in cand.slipping:

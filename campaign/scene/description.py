@@ -16,8 +16,9 @@ import functools
 import hashlib
 import json
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from ..core.errors import InputError, allowed_names
 from ..core.vocabulary import (
@@ -246,7 +247,7 @@ class Scene:
     def param_dict(self) -> dict[str, Any]:
         return dict(self.params)
 
-    def replace(self, **changes) -> "Scene":
+    def replace(self, **changes) -> Scene:
         """A copy with fields and/or parameters (``params={"contact.stiffness": 1e4}``) changed."""
         params = dict(self.params)
         for k, v in (changes.pop("params", None) or {}).items():
@@ -283,7 +284,7 @@ class Scene:
         return hashlib.sha256(self.to_json().encode()).hexdigest()
 
     @classmethod
-    def from_json(cls, text: str) -> "Scene":
+    def from_json(cls, text: str) -> Scene:
         d = json.loads(text)
         d["params"] = tuple(sorted(d["params"].items()))
         d["q_paper_deg"] = tuple(d["q_paper_deg"])
@@ -359,7 +360,7 @@ class Scene:
             raise InputError("trial.max_post_contact must be >= trial.min_post_contact")
         if self.direction is not None:
             n = tuple(self.direction)
-            if max(abs(a - b) for a, b in zip(check_direction(n), n)) > 1e-12:
+            if max(abs(a - b) for a, b in zip(check_direction(n), n, strict=True)) > 1e-12:
                 raise InputError(f"scene direction {list(n)} must be a horizontal unit vector (check_direction)")
 
 

@@ -22,7 +22,8 @@ xarray object is built); the archive stores either form as the same file.
 from __future__ import annotations
 
 import dataclasses
-from typing import TYPE_CHECKING, Any, Mapping
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     import numpy as np
@@ -168,7 +169,7 @@ class GroupArrays:
         self.variables = {**self.data_vars, **self.coords}
         self.dims = tuple(dict.fromkeys(d for v in self.variables.values() for d in v.dims))
         #: length of each dimension (as :attr:`xarray.Dataset.sizes`)
-        self.sizes = {d: n for v in self.variables.values() for d, n in zip(v.dims, v.values.shape)}
+        self.sizes = {d: n for v in self.variables.values() for d, n in zip(v.dims, v.values.shape, strict=True)}
         self.attrs = dict(attrs or {})
 
     def __getitem__(self, name: str) -> ChannelArray:

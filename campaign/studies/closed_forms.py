@@ -6,7 +6,7 @@ model, not identification's fitting libraries).
 
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pinocchio as pin

@@ -10,7 +10,7 @@ import io
 import math
 import os
 import warnings
-from typing import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin

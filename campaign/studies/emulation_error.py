@@ -45,7 +45,7 @@ def compare(tr: dict) -> dict:
 
 def plot(tr: dict, png, title: str) -> None:
     """Both traces in one figure (PNG)."""
-    import matplotlib   # matplotlib loads only where the figure is drawn
+    import matplotlib  # matplotlib loads only where the figure is drawn
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -77,6 +77,6 @@ def run(out_dir, *, quick: bool = False, log: Log = quiet, config: int = 2, gain
     log(f"loop vs ideal peak {100 * row['peak_relative_difference']:+.2f} %")
     plot(tr, out / "emulation_error.png", f"Base motion, configuration {config}, {gain} gains, {speed} m/s: "
          f"loop vs ideal peak {100 * row['peak_relative_difference']:+.1f} %")
-    samples = [{"mode": mode, "t_s": t, "x_m": x} for mode, (ts, xs) in tr.items() for t, x in zip(ts, xs)]
+    samples = [{"mode": mode, "t_s": t, "x_m": x} for mode, (ts, xs) in tr.items() for t, x in zip(ts, xs, strict=True)]
     return [write_csv(out / "emulation_error.csv", [row], tuple(row)),
             write_csv(out / "traces.csv", samples, ("mode", "t_s", "x_m")), str(out / "emulation_error.png")]

@@ -70,7 +70,7 @@ class Settings:
     bases: tuple = ((50.0, 200.0), (10.0, 50.0), (10.0, 200.0), (200.0, 200.0), (50.0, 800.0))
 
     @classmethod
-    def quick(cls) -> "Settings":
+    def quick(cls) -> Settings:
         return cls(contact_scales=(1.0,), beams=((1.0, "loop"),), speeds=(FIG9_SPEED,), bases=((50.0, 200.0),))
 
 
@@ -177,7 +177,7 @@ def figure9(lam: dict, trials: dict, *, speeds, bases) -> dict:
         tr = {g: trials[(1.0, "loop", c, g)][iv] for g in ("low", "high")}
         m_b = tr["high"]["m_b"]
 
-        def eq8_red(lo, hi, rec_lo=tr["low"]["record"], rec_hi=tr["high"]["record"]):
+        def eq8_red(lo, hi, rec_lo=tr["low"]["record"], rec_hi=tr["high"]["record"], m_b=m_b):
             return reduction(impulsive_base_velocity(robot, rec_lo, lo, m_b), impulsive_base_velocity(robot, rec_hi, hi, m_b))
 
         configs.append({
@@ -252,7 +252,7 @@ def run(out_dir, *, quick: bool = False, log: Log = quiet) -> list[str]:
     b, trials = structure_stiffness(lam, beams=settings.beams, speeds=settings.speeds, log=log)
     c = figure9(lam, trials, speeds=settings.speeds, bases=settings.bases)
     error = [{"cell": f"{k[0]}-{k[1]}", "speed_m_s": v, "identified_over_eq7_minus_1": e}
-             for k, errs in lam["error"].items() for v, e in zip(settings.speeds, errs)]
+             for k, errs in lam["error"].items() for v, e in zip(settings.speeds, errs, strict=True)]
     files = [write_csv(out / "lambda.csv", lambda_rows(lam["fits"]), ("gain_class", "joint", "lambda_kg_m2")),
              write_csv(out / "lambda_error.csv", error, ("cell", "speed_m_s", "identified_over_eq7_minus_1")),
              write_csv(out / "servo_frequencies.csv", servo_frequencies(), ("config", "joint", "f_Hz"))]

@@ -61,7 +61,7 @@ class Settings:
     variants: tuple = tuple(VARIANTS)
 
     @classmethod
-    def quick(cls) -> "Settings":
+    def quick(cls) -> Settings:
         return cls(rates=(50.0,), speeds=(2.5,), repeats=1, variants=("default", "impulse"))
 
 

@@ -86,7 +86,7 @@ def diagnosis(folder, *, limit: int | None = None) -> tuple[list[dict], list[dic
 
 def _no_coulomb(robot, des, shape, servo: bool):
     """Damping only (and the servo's gains if ``servo``), least squares on ln m*: (predict, params)."""
-    from scipy.optimize import least_squares   # scipy loads only for the fit
+    from scipy.optimize import least_squares  # scipy loads only for the fit
 
     H, Jn = design_arrays(robot, des["Q"], des["D"])
     sp = np.unique(des["speed"])

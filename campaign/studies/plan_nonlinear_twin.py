@@ -23,8 +23,8 @@ import pinocchio as pin
 from ..core.errors import SimulationError
 from ..model.paper import load_paper
 from ..model.robot.floating import attach_to_floating_base
-from ..plan.factory import build_planner
 from ..plan.directions import horizontal_directions
+from ..plan.factory import build_planner
 from ..rig.contact import Contact, pulse_shape
 from . import plan_rig_check as prc
 from .common import Log, quiet, write_csv

@@ -31,8 +31,8 @@ from ..model.exiit import effective_mass
 from ..model.paper import configuration_q, impact_direction, load_paper
 from ..model.robot import load_robot
 from ..model.robot.ik import impact_point, position_branches
-from ..plan.factory import build_planner
 from ..plan.directions import horizontal_directions
+from ..plan.factory import build_planner
 from ..plan.prediction import pose_terms, predict
 from ..rig.beam import Beam
 from ..rig.contact import Contact, pulse_shape
@@ -88,7 +88,7 @@ class Settings:
     checks: bool = True
 
     @classmethod
-    def quick(cls) -> "Settings":
+    def quick(cls) -> Settings:
         return cls(directions=2, head_masses=(), points=("config 1 wrist centre",),
                    bases=(("fixed", None), ("flexible", "space_class")), gains=("zero", "high"), checks=False)
 
@@ -139,15 +139,13 @@ def measure(base: str, q_dh, gain: str, n, speed: float, params=None, *, duratio
 
 def hammer_mass(params=None) -> float:
     """Effective mass m_b of the rig's hammer [kg] with the parameter overrides."""
-    p = make_scene(params=params).p
-    return Pendulum(float(p("pendulum.head_mass")), float(p("pendulum.rod_mass")), float(p("pendulum.radius")),
-                    float(p("gravity"))).m_b
+    return Pendulum.from_scene(make_scene(params=params)).m_b
 
 
 def rank_scores(predicted, measured) -> dict:
     """Spearman's rank correlation of predicted and measured values, and the measured value of the
     best predicted candidate over the largest measured value (NaN below 3 candidates)."""
-    from scipy.stats import spearmanr   # scipy.stats loads only where a ranking is scored
+    from scipy.stats import spearmanr  # scipy.stats loads only where a ranking is scored
 
     predicted, measured = np.asarray(predicted, float), np.asarray(measured, float)
     if predicted.size < 3:
@@ -371,12 +369,11 @@ def facts(directions) -> list[dict]:
     robot = load_robot("puma560")
     m1 = min(effective_mass(robot, q, n) for p in contact_points().values()
              for q in position_branches(robot, p).q for n in directions)
-    p = make_scene().p
-    c = Contact(float(p("contact.stiffness")), float(p("contact.exponent")), float(p("contact.restitution")))
+    c = Contact.from_scene(make_scene())
     _, f = pulse_shape(c.damping, c.exponent)
     return [{"name": "smallest free m* over the candidates [kg]", "value": m1},
             {"name": "contact force peak, fraction of the contact", "value": int(np.argmax(f)) / (f.size - 1)},
-            {"name": "contact exponent p", "value": float(p("contact.exponent"))}]
+            {"name": "contact exponent p", "value": float(c.exponent)}]
 
 
 def run(out_dir, *, quick: bool = False, log: Log = quiet) -> list[str]:

@@ -81,7 +81,7 @@ class Settings:
     fit_base: bool = True
 
     @classmethod
-    def quick(cls) -> "Settings":
+    def quick(cls) -> Settings:
         return cls(speeds=(FIG9_SPEED,), map_ei=(("space_class", (1.0,)), ("stiff_mast", (1.0,))), head_scales=(1.0,),
                    fig9_speeds=(FIG9_SPEED,), fit_base=False)
 
@@ -107,8 +107,8 @@ def table4(lam: dict, *, speeds=SPEEDS, log: Log = quiet) -> dict:
             tt = trials[(s, c, g)] = [_run(s, c, g, v) for v in speeds]
             p4 = paper["table4"][f"{c}-{g}"]
             row = {"structure": s, "config": c, "gain": g, "f1": tt[0]["f1"], "freqs": tt[0]["freqs"],
-                   "Tc": _mean(tt, lambda t: t["Tc"]), "m8": _mean(tt, lambda t: eq8(robot, t["record"], lam[g])),
-                   "m7": _mean(tt, lambda t: eq7(robot, t["record"], lam[g])), "ident": _mean(tt, lambda t: t["m_ident"]),
+                   "Tc": _mean(tt, lambda t: t["Tc"]), "m8": _mean(tt, lambda t, g=g: eq8(robot, t["record"], lam[g])),
+                   "m7": _mean(tt, lambda t, g=g: eq7(robot, t["record"], lam[g])), "ident": _mean(tt, lambda t: t["m_ident"]),
                    "truth": _mean(tt, lambda t: t["m_truth"]), "paper": p4["experiment"], "paper_eq8": p4["predicted"]}
             row["ratio"] = row["Tc"] * row["f1"]
             rows.append(row)
@@ -227,7 +227,7 @@ def base_fit(*, fit: bool = True) -> list[dict]:
     of mass, torsional inertia and mount; (b) mass, bending and torsional inertia and the
     centre-of-mass height free. One row per base: its parameters and its residual per cell
     (configuration 1 Low included, not fitted); the space-class base's own first."""
-    from scipy.optimize import least_squares   # scipy loads only for the fit
+    from scipy.optimize import least_squares  # scipy loads only for the fit
 
     m8, own, target = _paper_eq8_model()
 

@@ -71,7 +71,7 @@ def draw(robot_name: str | None = None):
     fig, axes = style.new_figure(1, len(configs), width=7.0, height=2.9, sharex=True, sharey=True)
     axes = np.atleast_1d(axes)
     reach = 0.0
-    for ax, c in zip(axes, configs):
+    for ax, c in zip(axes, configs, strict=True):
         pts, tip = arm_points(robot, configuration_q(c))
         reach = max(reach, float(np.max(np.abs(pts[:, [0, 2]]))))
         ax.axvline(0.0, color=style.PAPER_COLOR, lw=0.6, ls=(0, (4, 3)), label="joint 1 axis")

@@ -10,7 +10,7 @@ link-dynamics model m1 (lambda = 0) as a dashed line across the configuration.
 from __future__ import annotations
 
 import os
-from typing import Sequence
+from collections.abc import Sequence
 
 from ...identify.table import read_identification
 from ...model.paper import load_paper

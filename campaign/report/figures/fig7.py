@@ -9,7 +9,7 @@ found e independent of configuration and gains.
 from __future__ import annotations
 
 import os
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

@@ -12,7 +12,8 @@ the arm locked in each configuration) are computed from ``config/rig.yaml`` thro
 from __future__ import annotations
 
 import os
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import pinocchio as pin

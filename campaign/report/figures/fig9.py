@@ -13,7 +13,7 @@ gain set and the reduction Low gives against High, beside the paper's 20-30 %
 from __future__ import annotations
 
 import os
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -85,7 +85,7 @@ def draw(trials: Mapping[str, str | os.PathLike], *, t_min: float = -0.05):
     t_max = 0.0
     speeds = set()
     periods = {}
-    for ax, c in zip(axes[:, 0], configs):
+    for ax, c in zip(axes[:, 0], configs, strict=True):
         amp = {}
         for g in GAINS:
             d = series(trials[f"{c}-{g}"])
