@@ -19,7 +19,7 @@ CAMPAIGN_CMD = $(VENV)/bin/snakemake --cores 2 && $(VENV)/bin/snakemake --report
 
 help:
 	@echo "make campaign   set up .venv if needed, then run the campaign ($(CAMPAIGN_CMD))"
-	@echo "make test       set up .venv if needed, then run the test suite (pytest)"
+	@echo "make test       set up .venv if needed, then run the linter (ruff) and the test suite (pytest)"
 	@echo "make test-slurm as root: the reduced campaign through a one-node SLURM cluster (tests/cluster/slurm.sh)"
 	@echo "make bench      run every benchmarks/bench_*.py on one BLAS thread, each output also in benchmarks/out/ (timings; see benchmarks/README.md)"
 	@echo "make docs       build the user guide into docs/_build/html (Sphinx, warnings are errors)"
@@ -31,6 +31,7 @@ campaign: $(STAMP)
 	$(CAMPAIGN_CMD)
 
 test: $(STAMP)
+	$(VENV)/bin/ruff check .
 	$(VENV)/bin/pytest
 
 # Installs munge and Slurm (apt-get) and starts a private one-node cluster: root only, and
