@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from campaign.model.paper import load_paper
 from campaign.report.figures import validity
 from campaign.report.tables import structures_table
 from campaign.studies import FILES
@@ -67,7 +68,7 @@ def test_structures_table_puts_each_structure_beside_the_paper(tmp_path):
                     "paper_experiment_kg", "paper_eq8_kg", "fig9_reduction", "fig9_eq8_reduction"])
         w.writerow(["space_class", "2-high", 0.7, 0.05, 40.0, 44.0, 43.0, 39.33, 38.99, 0.02, 0.035])
         w.writerow(["stiff_mast", "2-high", 4.4, 0.32, 40.0, 60.0, 61.0, 39.33, 38.99, 0.04, 0.03])
-    t = structures_table(path)
+    t = structures_table(path, paper=load_paper())
     assert [r["structure"] for r in t.rows] == ["space_class", "stiff_mast"]
     assert t.rows[0]["ident_vs_eq8"] == pytest.approx(0.1)
     assert t.rows[1]["ident_vs_paper"] == pytest.approx(60.0 / 39.33 - 1)
@@ -79,7 +80,7 @@ def test_quick_study_writes_both_structures_and_the_map(tmp_path):
     a point per structure, Table 4 cell and passive configuration, each as the report reads it."""
     files = study.run(tmp_path, quick=True)
     assert sorted(Path(f).name for f in files) == sorted(FILES["space_structure"])
-    t = structures_table(tmp_path / "table4_structures.csv")
+    t = structures_table(tmp_path / "table4_structures.csv", paper=load_paper())
     cells = {(r["structure"], r["cell"]) for r in t.rows}
     assert cells == {(s, c) for s in ("stiff_mast", "space_class") for c in ("1-low", "1-high", "2-low", "2-high")}
     f1 = {r["structure"]: r["f1"] for r in t.rows}

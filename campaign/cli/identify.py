@@ -20,6 +20,7 @@ from ..core.files import check_output_dir
 from ..core.progress import progress
 from ..identify import find_trials, identify_files
 from ..joints.lambda_fit import IdentifiabilityWarning
+from ..model.paper import load_paper
 from ..report.tables import fit_gain_classes, write_tables
 from ..scene.checks import check_seed
 from .commands import HELP
@@ -150,7 +151,7 @@ def run_tables(args) -> int:
     _check_fit_options(args)
     check_output_dir(args.out)
     records = identify_files(progress(find_trials(args.archive), desc="identify"))
-    paths = write_tables(records, args.out, n_bootstrap=args.bootstrap, random_state=args.seed)
+    paths = write_tables(records, args.out, paper=load_paper(), n_bootstrap=args.bootstrap, random_state=args.seed)
     for name, files in paths.items():
         print(f"{name}: " + ", ".join(str(p) for p in files.values()))
     return 0

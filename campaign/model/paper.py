@@ -14,12 +14,17 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.yamlfile import config_dir, read_yaml
 
-__all__ = ["load_paper", "paper_q", "configuration_q", "impact_direction", "gain_counts"]
+__all__ = ["load_paper", "paper_robot", "paper_q", "configuration_q", "impact_direction", "gain_counts"]
 
 
 def load_paper() -> dict:
     """The parsed ``paper.yaml`` (cached while the file is unchanged; treat as read-only)."""
     return read_yaml(config_dir() / "paper.yaml", copy=False)
+
+
+def paper_robot() -> str:
+    """Name of the robot the paper's experiments used (a folder of :mod:`campaign.model.robot`)."""
+    return str(load_paper()["robot"])
 
 
 def paper_q(q_paper_deg) -> np.ndarray:

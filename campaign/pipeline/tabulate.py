@@ -9,6 +9,7 @@ from ..core.files import write_atomic
 from ..core.timing import Timer
 from ..identify.table import read_identification
 from ..joints.lambda_fit import load_fits
+from ..model.paper import load_paper
 from ..report import tables
 from ..report.html import markdown_page
 
@@ -44,16 +45,17 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
     """
     timer = timer if timer is not None else Timer()
     with timer("table"):
+        paper = load_paper()
         records = read_identification(ident_tables)
         loaded = load_fits(fits or {})
         if name == "table2":
-            table = tables.table2(records)
+            table = tables.table2(records, paper=paper)
         elif name == "table3":
-            table = tables.table3(loaded)
+            table = tables.table3(loaded, paper=paper)
         elif name == "table4":
-            table = tables.table4(records, loaded, structure=structure)
+            table = tables.table4(records, loaded, paper=paper, structure=structure)
         elif name == "table4_structures":
-            table = tables.structures_table(source)
+            table = tables.structures_table(source, paper=paper)
         elif name == "plan_rig_check":
             table = tables.rig_check_table(source)
         else:

@@ -15,7 +15,7 @@ trials never enter a table; the tables count the trials they use.
   identified from the flexible trials; the paper's four cells (configurations 1-2 x
   Low/High) first, every other flexible cell after them (``in_paper`` = no).
 
-Every table has the paper's value (``campaign.model.paper.load_paper()``) beside ours and the
+Every table has the paper's value (``config/paper.yaml``, passed in as ``paper``) beside ours and the
 relative difference ``ours / paper - 1``. :func:`write_tables` writes each as CSV (full
 precision) and Markdown; :func:`tables_from_archive` runs identification on an archive
 folder first.
@@ -31,14 +31,16 @@ import math
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..core import vocabulary
 from ..core.errors import InputError
 from ..identify import find_trials, identify_files
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.exiit import effective_mass_batch, effective_mass_from_G, exiit_floating
-from ..model.paper import impact_direction, load_paper
+from ..model.paper import impact_direction, paper_robot
 from ..model.robot import Robot, load_robot
 from ..model.robot.floating import attach_to_floating_base, base_body_of
 
@@ -168,7 +170,7 @@ def _robot(robot, recs):
 
     if isinstance(robot, Robot):
         return robot
-    name = robot or next((r["robot"] for r in recs if r.get("robot")), None) or load_paper()["robot"]
+    name = robot or next((r["robot"] for r in recs if r.get("robot")), None) or paper_robot()
     try:
         return load_robot(str(name))
     except ValueError as exc:
@@ -222,7 +224,7 @@ def fit_gain_classes(records, *, robot=None, gain_classes: Mapping[str, Sequence
     """
 
     recs = as_records(records)
-    classes = dict(gain_classes or load_paper()["gain_classes"])
+    classes = dict(gain_classes or vocabulary.gain_classes())
     rob = _robot(robot, recs)
     fits = {}
     for name, members in classes.items():
@@ -257,11 +259,11 @@ def _stats(vals):
     return float(a.mean()), (float(a.std(ddof=1)) if a.size > 1 else None), int(a.size)
 
 
-def table2(records, *, robot=None, gain_classes=None) -> Table:
-    """Table 2: effective mass per configuration, fixed base (eq 11 with lambda = 0 vs trials)."""
-
-    paper = load_paper()
-    classes = dict(gain_classes or paper["gain_classes"])
+def table2(records, *, paper: Mapping[str, Any], robot=None, gain_classes=None) -> Table:
+    """Table 2: effective mass per configuration, fixed base (eq 11 with lambda = 0 vs trials),
+    beside the paper's published values (``paper``: ``config/paper.yaml`` as read by
+    :func:`campaign.model.paper.load_paper`)."""
+    classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
     fixed = [r for r in recs if r["base"] == "fixed"]
     rob = _robot(robot, fixed)
@@ -302,10 +304,10 @@ def table2(records, *, robot=None, gain_classes=None) -> Table:
     return Table("table2", "Table 2: identified effective mass versus joint condition (fixed base)", cols, rows, notes)
 
 
-def table3(fits: Mapping, *, ci: float | None = None) -> Table:
-    """Table 3: Virtual Rotor Inertia per gain class with bootstrap CIs and identifiability."""
-
-    p3 = load_paper()["table3"]
+def table3(fits: Mapping, *, paper: Mapping[str, Any], ci: float | None = None) -> Table:
+    """Table 3: Virtual Rotor Inertia per gain class with bootstrap CIs and identifiability,
+    beside the paper's (``paper["table3"]``)."""
+    p3 = paper["table3"]
     rows = []
     nv = max((np.asarray(f.lambda_).shape[0] for f in fits.values()), default=0)
     for j in range(nv):
@@ -349,12 +351,12 @@ def flexible_prediction(record: Mapping, lam, robot) -> float:
     return effective_mass_from_G(G, n)
 
 
-def table4(records, fits: Mapping, *, robot=None, gain_classes=None, structure: str | None = None) -> Table:
-    """Table 4: flexible base, m* predicted by eq 8 (identified lambda) vs identified m*;
-    ``structure`` (the named structure the trials emulate) goes into a note."""
-
-    paper = load_paper()
-    classes = dict(gain_classes or paper["gain_classes"])
+def table4(records, fits: Mapping, *, paper: Mapping[str, Any], robot=None, gain_classes=None,
+           structure: str | None = None) -> Table:
+    """Table 4: flexible base, m* predicted by eq 8 (identified lambda) vs identified m*, beside
+    the paper's (``paper["table4"]``); ``structure`` (the named structure the trials emulate)
+    goes into a note."""
+    classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
     flex = [r for r in recs if r["base"] == "flexible"]
     rob = _robot(robot, flex or recs)
@@ -400,13 +402,12 @@ def table4(records, fits: Mapping, *, robot=None, gain_classes=None, structure: 
     return Table("table4", "Table 4: effective mass of the flexible-base manipulator", cols, rows, notes)
 
 
-def structures_table(path) -> Table:
+def structures_table(path, *, paper: Mapping[str, Any]) -> Table:
     """Table 4 and Figure 9's Low-vs-High reduction under both named structures (stiff mast,
     space class), each beside the paper, from the CSV the study
     :mod:`campaign.studies.space_structure` writes (``table4_structures.csv``: the campaign itself
     runs one structure)."""
 
-    paper = load_paper()
     lo, hi = (float(x) for x in paper["figure9_low_vs_high_reduction"])
     with open(path, newline="") as fh:
         src = list(csv.DictReader(fh))
@@ -486,8 +487,8 @@ def rig_check_table(path) -> Table:
     return Table("plan_rig_check", "The impact planner checked on the rig", cols, rows, notes)
 
 
-def write_tables(records, out_dir, *, robot=None, n_bootstrap: int = 200, random_state=0,
-                 gain_classes=None) -> dict[str, dict[str, Path]]:
+def write_tables(records, out_dir, *, paper: Mapping[str, Any], robot=None, n_bootstrap: int = 200,
+                 random_state=0, gain_classes=None) -> dict[str, dict[str, Path]]:
     """Write Tables 2-4 (CSV + Markdown) and the per-trial identification CSV into ``out_dir``.
 
     Returns
@@ -503,8 +504,8 @@ def write_tables(records, out_dir, *, robot=None, n_bootstrap: int = 200, random
         fits = fit_gain_classes(recs, robot=robot, gain_classes=gain_classes, n_bootstrap=n_bootstrap,
                                 random_state=random_state, warn=False)
     out = {}
-    for t in (table2(recs, robot=robot, gain_classes=gain_classes), table3(fits),
-              table4(recs, fits, robot=robot, gain_classes=gain_classes)):
+    for t in (table2(recs, paper=paper, robot=robot, gain_classes=gain_classes), table3(fits, paper=paper),
+              table4(recs, fits, paper=paper, robot=robot, gain_classes=gain_classes)):
         out[t.name] = t.write(out_dir)
     out["trials"] = _write_trials(records, out_dir)
     return out
@@ -523,8 +524,8 @@ def _write_trials(records, out_dir) -> dict[str, Path]:
     return {"csv": path}
 
 
-def tables_from_archive(archive, out_dir, *, n_bootstrap: int = 200, random_state=0, options=None):
+def tables_from_archive(archive, out_dir, *, paper: Mapping[str, Any], n_bootstrap: int = 200, random_state=0,
+                        options=None):
     """Identify every trial under ``archive`` and write the tables into ``out_dir``."""
-
     records = identify_files(find_trials(archive), options=options)
-    return write_tables(records, out_dir, n_bootstrap=n_bootstrap, random_state=random_state)
+    return write_tables(records, out_dir, paper=paper, n_bootstrap=n_bootstrap, random_state=random_state)

@@ -4,6 +4,7 @@ from campaign.pipeline.joblog import job_log
 
 with job_log(snakemake.log[0], job="fig5", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
+        from campaign.model.paper import load_paper
         from campaign.report.figures import fig5
     with timer("figure"):
-        print(fig5.make(snakemake.input.trial, snakemake.output.png, snakemake.output.pdf))  # noqa: F821
+        print(fig5.make(snakemake.input.trial, snakemake.output.png, snakemake.output.pdf, paper=load_paper()))  # noqa: F821

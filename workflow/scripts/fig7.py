@@ -4,6 +4,8 @@ from campaign.pipeline.joblog import job_log
 
 with job_log(snakemake.log[0], job="fig7", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
+        from campaign.model.paper import load_paper
         from campaign.report.figures import fig7
     with timer("figure"):
-        print(fig7.make(list(snakemake.input.tables), snakemake.output.png, snakemake.output.pdf))  # noqa: F821
+        print(fig7.make(list(snakemake.input.tables), snakemake.output.png, snakemake.output.pdf,
+                        paper=load_paper()))  # noqa: F821

@@ -13,12 +13,13 @@ the sign of the simulated displacement.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from ...archive import open_trial_arrays
 from ...identify import detect_contact
-from ...model.paper import load_paper
 from . import style
 
 __all__ = ["JOINT", "series", "draw", "make"]
@@ -70,7 +71,7 @@ def series(trial: str | os.PathLike) -> dict:
     }
 
 
-def draw(trial: str | os.PathLike, *, t_min: float = -0.1):
+def draw(trial: str | os.PathLike, *, paper: Mapping[str, Any], t_min: float = -0.1):
     """Draw Figure 5 from one trial file (configuration 1, zero gains in the campaign).
 
     Parameters
@@ -85,7 +86,7 @@ def draw(trial: str | os.PathLike, *, t_min: float = -0.1):
     matplotlib.figure.Figure
     """
     d = series(trial)
-    paper_deg = float(load_paper()["figure5_joint3_displacement_deg"])
+    paper_deg = float(paper["figure5_joint3_displacement_deg"])
     fig, (ax1, ax2) = style.new_figure(2, 1, width=5.2, height=4.6, sharex=True)
     t_max = float(d["t_enc"][-1])
     for ax in (ax1, ax2):
@@ -113,6 +114,7 @@ def draw(trial: str | os.PathLike, *, t_min: float = -0.1):
     return fig
 
 
-def make(trial: str | os.PathLike, png: str | os.PathLike, pdf: str | os.PathLike | None = None):
+def make(trial: str | os.PathLike, png: str | os.PathLike, pdf: str | os.PathLike | None = None, *,
+         paper: Mapping[str, Any]):
     """Draw Figure 5 from ``trial`` and save it as PNG (and PDF). Returns the files written."""
-    return style.save(draw(trial), png, pdf)
+    return style.save(draw(trial, paper=paper), png, pdf)

@@ -10,16 +10,16 @@ link-dynamics model m1 (lambda = 0) as a dashed line across the configuration.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from ...identify.table import read_identification
-from ...model.paper import load_paper
 from . import style
 
 __all__ = ["draw", "make"]
 
 
-def draw(ident_tables: Sequence[str | os.PathLike], *, base: str = "fixed"):
+def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = "fixed"):
     """Draw Figure 6 from identification tables (:func:`campaign.identify.table.identify_trials`).
 
     Parameters
@@ -36,7 +36,7 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, base: str = "fixed"):
     rows = [r for r in read_identification(ident_tables) if r["base"] == base]
     if not rows:
         raise ValueError(f"no {base}-base trial in the identification tables {list(map(str, ident_tables))}")
-    table2 = load_paper()["table2"]
+    table2 = paper["table2"]
     fig, ax = style.new_figure(width=5.8, height=3.8)
     info = style.cell_scatter(ax, rows, "m_eff")
     first = True
@@ -60,6 +60,6 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, base: str = "fixed"):
 
 
 def make(ident_tables: Sequence[str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None,
-         *, base: str = "fixed"):
+         *, paper: Mapping[str, Any], base: str = "fixed"):
     """Draw Figure 6 and save it as PNG (and PDF). Returns the files written."""
-    return style.save(draw(ident_tables, base=base), png, pdf)
+    return style.save(draw(ident_tables, paper=paper, base=base), png, pdf)

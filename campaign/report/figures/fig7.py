@@ -9,18 +9,18 @@ found e independent of configuration and gains.
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from ...identify.table import read_identification
-from ...model.paper import load_paper
 from . import style
 
 __all__ = ["draw", "make"]
 
 
-def draw(ident_tables: Sequence[str | os.PathLike], *, base: str = "fixed"):
+def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = "fixed"):
     """Draw Figure 7 from identification tables (:func:`campaign.identify.table.identify_trials`).
 
     Parameters
@@ -36,7 +36,7 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, base: str = "fixed"):
     rows = [r for r in read_identification(ident_tables) if r["base"] == base]
     if not rows:
         raise ValueError(f"no {base}-base trial in the identification tables {list(map(str, ident_tables))}")
-    e_paper = float(load_paper()["restitution_mean"])
+    e_paper = float(paper["restitution_mean"])
     fig, ax = style.new_figure(width=5.8, height=3.6)
     info = style.cell_scatter(ax, rows, "e")
     kept = [r["e"] for r in rows if not r["excluded"] and np.isfinite(r["e"])]
@@ -54,6 +54,6 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, base: str = "fixed"):
 
 
 def make(ident_tables: Sequence[str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None,
-         *, base: str = "fixed"):
+         *, paper: Mapping[str, Any], base: str = "fixed"):
     """Draw Figure 7 and save it as PNG (and PDF). Returns the files written."""
-    return style.save(draw(ident_tables, base=base), png, pdf)
+    return style.save(draw(ident_tables, paper=paper, base=base), png, pdf)

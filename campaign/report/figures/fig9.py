@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from ...archive import open_trial_arrays
 from ...identify import detect_contact
-from ...model.paper import load_paper
 from ...rig.simulate import structure_modes
 from ...scene.description import Scene, structure_of
 from . import style
@@ -59,7 +59,7 @@ def series(trial: str | os.PathLike) -> dict:
             "gain": str(measured.attrs.get("gain", "?"))}
 
 
-def draw(trials: Mapping[str, str | os.PathLike], *, t_min: float = -0.05):
+def draw(trials: Mapping[str, str | os.PathLike], *, paper: Mapping[str, Any], t_min: float = -0.05):
     """Draw Figure 9.
 
     Parameters
@@ -79,7 +79,7 @@ def draw(trials: Mapping[str, str | os.PathLike], *, t_min: float = -0.05):
         for g in GAINS:
             if f"{c}-{g}" not in trials:
                 raise ValueError(f"Figure 9 needs a trial for configuration {c}, {g} gains (key '{c}-{g}')")
-    lo, hi = (float(v) for v in load_paper()["figure9_low_vs_high_reduction"])
+    lo, hi = (float(v) for v in paper["figure9_low_vs_high_reduction"])
     fig, axes = style.new_figure(len(configs), 1, width=6.0, height=2.6 * len(configs) + 0.6, sharex=True,
                                  sharey=True, squeeze=False)
     t_max = 0.0
@@ -114,6 +114,7 @@ def draw(trials: Mapping[str, str | os.PathLike], *, t_min: float = -0.05):
     return fig
 
 
-def make(trials: Mapping[str, str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None):
+def make(trials: Mapping[str, str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None, *,
+         paper: Mapping[str, Any]):
     """Draw Figure 9 and save it as PNG (and PDF). Returns the files written."""
-    return style.save(draw(trials), png, pdf)
+    return style.save(draw(trials, paper=paper), png, pdf)
