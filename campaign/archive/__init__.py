@@ -38,11 +38,11 @@ from .manifest import (
     write_manifest,
     write_readme,
 )
-from .write import trial_path, write_trial
+from .write import TRIAL_BYTES, trial_path, write_trial
 
 __all__ = [
     "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",
-    "REFERENCES",
+    "REFERENCES", "TRIAL_BYTES",
     "TrialRecord", "Problem", "ChannelArray", "GroupArrays", "TrialArrays",
     "provenance", "prepare_trial", "write_trial", "open_trial", "open_trial_arrays", "open_trial_tree", "trial_path",
     "list_trials", "open_campaign", "to_cell_dataset",

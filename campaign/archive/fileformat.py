@@ -7,7 +7,6 @@ import datetime as _dt
 import functools
 import hashlib
 import json
-import os
 import re
 import subprocess
 from importlib.metadata import PackageNotFoundError
@@ -20,6 +19,7 @@ import numpy as np
 
 from .. import __version__
 from ..core.errors import InputError
+from ..core.files import source_date_epoch
 from ..core.lazy import LazyModule
 from ..scene.description import Scene
 from ..scene.schema import (
@@ -339,15 +339,7 @@ def _now() -> str:
     """ACDD date_created: UTC, ISO 8601, to the second; ``$SOURCE_DATE_EPOCH`` (seconds since
     1970-01-01 UTC, the reproducible-builds convention) replaces the clock when set, so
     two runs write byte-identical files."""
-    epoch = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
-    if epoch:
-        try:
-            when = _dt.datetime.fromtimestamp(int(epoch), _dt.timezone.utc)
-        except (ValueError, OverflowError, OSError):
-            raise InputError(f"SOURCE_DATE_EPOCH = {epoch!r} is not a whole number of seconds since 1970-01-01 UTC") \
-                from None
-    else:
-        when = _dt.datetime.now(_dt.timezone.utc)
+    when = source_date_epoch() or _dt.datetime.now(_dt.timezone.utc)
     return when.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 

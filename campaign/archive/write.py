@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import os
-import re
-import secrets
+import tempfile
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -14,10 +13,16 @@ from h5py import h5a, h5d, h5ds, h5p, h5s, h5t
 
 from .. import __version__
 from ..core.errors import InputError
+from ..core.files import replace_atomically, write_file
 from ..core.lazy import LazyModule
 from ..scene.description import Scene
 from ..scene.schema import TrialArrays
 from .fileformat import _DEFLATE_LEVEL, GROUPS, TRIAL_SUFFIX, _Group, _plan
+
+#: a little less than a default scene's trial file takes [bytes], per base: the free space a
+#: command asks for per trial before it simulates (denser channels, as the ideal scene's on
+#: the flexible base, take more; a disk that fills part-way fails the write cleanly)
+TRIAL_BYTES = {"fixed": 150_000, "flexible": 750_000}
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
@@ -108,54 +113,67 @@ def _write_group(gid: Any, group: _Group, next_dimid: Iterator[int], *, level: i
         _put_attr(gid, key, value)
 
 
+def _fill_h5(f: h5py.File, plan: tuple[dict[str, Any], dict[str, _Group]], *, level: int = _DEFLATE_LEVEL,
+             fletcher32: bool = False) -> None:
+    """Write a planned trial into the open, empty HDF5 file ``f``."""
+    root, groups = plan
+    f.attrs["_NCProperties"] = np.bytes_(
+        f"version=2,campaign={__version__},hdf5={h5py.version.hdf5_version},h5py={h5py.__version__}".encode())
+    for key, value in root.items():
+        _put_attr(f.id, key, value)
+    dimids = iter(range(1 << 30))
+    for name in GROUPS:
+        _write_group(f.create_group(name, track_order=True).id, groups[name], dimids, level=level,
+                     fletcher32=fletcher32)
+
+
 def _write_h5(plan: tuple[dict[str, Any], dict[str, _Group]], path: Path, *, level: int = _DEFLATE_LEVEL,
               fletcher32: bool = False) -> None:
-    """Write a planned trial to ``path`` (no atomicity here; see :func:`write_trial`)."""
-    root, groups = plan
+    """Write a planned trial to ``path`` with HDF5 (no atomicity here; see :func:`write_trial`)."""
     # track_order: netCDF-4 files keep creation order, and readers list variables in it
     with h5py.File(path, "w", track_order=True) as f:
-        f.attrs["_NCProperties"] = np.bytes_(
-            f"version=2,campaign={__version__},hdf5={h5py.version.hdf5_version},h5py={h5py.__version__}".encode())
-        for key, value in root.items():
-            _put_attr(f.id, key, value)
-        dimids = iter(range(1 << 30))
-        for name in GROUPS:
-            _write_group(f.create_group(name, track_order=True).id, groups[name], dimids, level=level,
-                         fletcher32=fletcher32)
+        _fill_h5(f, plan, level=level, fletcher32=fletcher32)
 
 
-def _temp_name(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+def _anonymous_file() -> int:
+    """A file descriptor of a new file without a name: in memory where the system has
+    ``memfd_create`` (Linux), else in the temporary folder."""
+    memfd_create = getattr(os, "memfd_create", None)
+    if memfd_create is not None:
+        return memfd_create("campaign-trial", os.MFD_CLOEXEC)
+    with tempfile.TemporaryFile() as fh:
+        return os.dup(fh.fileno())
 
 
-def _replace_atomically(path: Path, write: Callable[[Path], None], *, fsync: bool = False) -> Path:
-    """Run ``write(tmp)`` on a temp file beside ``path``, then rename it over ``path``.
+def _hdf5_image(plan: tuple[dict[str, Any], dict[str, _Group]], tmp: Path) -> bytes:
+    """The bytes of a planned trial's file, as HDF5 writes them to ``tmp``.
 
-    Stale temp files of ``path`` (left by a killed writer) are removed first: there is one
-    writer per file, so any such file is an abandoned attempt.
+    HDF5 creates ``tmp`` (a few bytes), then its file descriptor is pointed at an anonymous
+    file holding the same bytes, where HDF5 does the rest. A full disk then fails in the
+    caller's plain write of the returned bytes, which cleans up and names the file, never
+    inside HDF5, which would leave its objects half-closed (tracebacks, leaked descriptors,
+    a crash). The bytes are those HDF5 writes to a file on disk.
     """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    for stale in path.parent.glob(f".{_glob_escape(path.name)}.*.tmp"):
-        stale.unlink(missing_ok=True)
-    tmp = _temp_name(path)
+    scratch = _anonymous_file()
     try:
-        write(tmp)
-        if fsync:
-            fd = os.open(tmp, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+        # track_order: netCDF-4 files keep creation order, and readers list variables in it
+        with h5py.File(tmp, "w", track_order=True) as f:
+            fd = f.id.get_vfd_handle()
+            started = os.pread(fd, os.fstat(fd).st_size, 0)
+            os.pwrite(scratch, started, 0)
+            os.dup2(scratch, fd, inheritable=False)
+            _fill_h5(f, plan)
+        with open(scratch, "rb", closefd=False) as fh:
+            fh.seek(0)
+            return fh.read()
+    finally:
+        os.close(scratch)
 
 
-def _glob_escape(name: str) -> str:
-    """``name`` with glob metacharacters escaped (``[``, ``*``, ``?``)."""
-    return re.sub(r"([\[\]*?])", r"[\1]", name)
+def _replace_atomically(path: Path, write: Callable[[Path], None]) -> Path:
+    """:func:`campaign.core.files.replace_atomically` for a campaign folder's files: one writer
+    per file, so temporary files a killed writer of ``path`` left are removed first."""
+    return replace_atomically(path, write, clear_stale=True)
 
 
 def write_trial(tree: xr.DataTree | TrialArrays, path: str | os.PathLike, *, fsync: bool = True) -> Path:
@@ -181,7 +199,11 @@ def write_trial(tree: xr.DataTree | TrialArrays, path: str | os.PathLike, *, fsy
     Raises
     ------
     InputError
-        The trial breaks the schema (nothing is written).
+        The trial breaks the schema, or ``path`` is a folder, device or FIFO (nothing is
+        written).
+    campaign.core.errors.WriteError
+        Writing failed part-way (a full disk): nothing is left under ``path`` or a
+        temporary name.
 
     Notes
     -----
@@ -190,7 +212,7 @@ def write_trial(tree: xr.DataTree | TrialArrays, path: str | os.PathLike, *, fsy
     stale until ``finalize_campaign`` runs again (``verify`` reports the mismatch).
     """
     plan = _plan(tree)
-    return _replace_atomically(Path(path), lambda tmp: _write_h5(plan, tmp), fsync=fsync)
+    return _replace_atomically(Path(path), lambda tmp: write_file(tmp, _hdf5_image(plan, tmp), fsync=fsync))
 
 
 def trial_path(campaign_dir: str | os.PathLike, scene: Scene) -> Path:

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import __version__
+from ..core.files import write_atomic
 
 #: per-trial simulation time targets of the rig (fixed and flexible base) and the trial write [s]
 TARGET_FIXED = 0.025
@@ -124,7 +125,6 @@ def _timed(fn: Callable[[], Any]) -> tuple[Any, float, float]:
 def write_section(readme: str | os.PathLike, heading: str, body: str) -> Path:
     """Replace (or append) the section ``heading`` of ``readme`` (a markdown file), atomically."""
     readme = Path(readme)
-    readme.parent.mkdir(parents=True, exist_ok=True)
     text = readme.read_text() if readme.is_file() else "# Benchmarks\n"
     section = f"{heading}\n\n{body.rstrip()}\n"
     lines = text.splitlines(keepends=True)
@@ -135,10 +135,7 @@ def write_section(readme: str | os.PathLike, heading: str, body: str) -> Path:
         end = next((j for j in range(start + 1, len(lines)) if lines[j].startswith("## ")), len(lines))
         tail = "".join(lines[end:])
         text = "".join(lines[:start]) + section + ("\n" + tail if tail else "")
-    tmp = readme.with_name(f".{readme.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, readme)
-    return readme
+    return write_atomic(readme, text)
 
 
 def _md(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import io
 import math
 import os
 import statistics
@@ -14,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.files import write_atomic
 from ..identify import identify_trial
 from ..rig import build, simulate
 from ..scene.description import make_scene
@@ -443,8 +445,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
     fig.suptitle("Work-precision of the simulated VES-II (dotted: 1e-3 error target, per-trial time target; "
                  f"errors of 0 drawn at {ERR_FLOOR:g})", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.96))
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
-    return path
+    return write_atomic(path, buf.getvalue())

@@ -1,12 +1,12 @@
-"""Exceptions the CLI turns into a one-line message and exit status 2 (no traceback), and
-the wording their messages share."""
+"""Exceptions the CLI turns into a one-line message (no traceback) and an exit status: 1 for
+:class:`WriteError`, 2 for the others; and the wording their messages share."""
 
 from __future__ import annotations
 
 import difflib
 from collections.abc import Sequence
 
-__all__ = ["CampaignError", "InputError", "SimulationError", "TrialFileError", "allowed_names"]
+__all__ = ["CampaignError", "InputError", "SimulationError", "TrialFileError", "WriteError", "allowed_names"]
 
 
 def allowed_names(value: str, known: Sequence[str], *, limit: int = 12) -> str:
@@ -33,3 +33,14 @@ class SimulationError(CampaignError, FloatingPointError):
 
 class TrialFileError(CampaignError, OSError):
     """A trial or campaign file is missing, corrupt, of an unknown schema, or incomplete."""
+
+
+class WriteError(CampaignError, OSError):
+    """Writing an output failed part-way (a full disk, an I/O error) after the work started;
+    nothing is left under the output's final or temporary name.
+
+    Constructed as ``WriteError(errno, message)``; its text is the message alone.
+    """
+
+    def __str__(self) -> str:
+        return str(self.strerror) if self.strerror else super().__str__()

@@ -1,69 +1,299 @@
-"""Files the campaign writes: atomic writes and output paths checked before any work.
+"""Files the campaign writes: output paths checked before any work, and atomic writes.
 
-A result is written to a temporary file beside its destination and renamed into place,
-so a reader never sees half a file and a failure leaves nothing behind.
+Every command and job that writes goes through this module, so the rules hold everywhere:
+
+* **Before the work** (:func:`check_output_file`, :func:`check_output_dir`): a destination
+  that exists must be a regular file (a device, a FIFO or a socket is refused, never
+  replaced), a file is not a folder and a folder not a file, the nearest existing folder is
+  writable, and its file system has the free space the output needs. A refusal is an
+  :class:`~campaign.core.errors.InputError` naming the option and the path.
+* **While writing** (:func:`write_atomic`, :func:`replace_atomically`): the bytes go to a
+  temporary file beside the destination, which is renamed into place, so a reader never sees
+  half a file. A failure part-way (a full disk, an I/O error) removes the temporary file and
+  raises :class:`~campaign.core.errors.WriteError` naming the destination and the free space
+  left; nothing is left under the final or the temporary name.
 """
 
 from __future__ import annotations
 
+import datetime as _dt
+import errno
 import os
+import re
+import secrets
+import shutil
+import stat
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from .errors import InputError
+from .errors import InputError, WriteError
 
-__all__ = ["write_atomic", "check_output_file", "check_output_dir"]
+__all__ = ["write_atomic", "replace_atomically", "write_file", "check_output_file", "check_output_dir", "free_bytes",
+           "format_bytes", "source_date_epoch", "MIN_FREE_BYTES"]
+
+#: the free space any output needs before work starts (a table, a JSON file, a figure); an
+#: output that needs more (trial files) asks for its own estimate
+MIN_FREE_BYTES = 64 * 1024
+
+#: errno values of a full file system (disk or quota)
+_FULL = (errno.ENOSPC, errno.EDQUOT)
+
+
 # ---------------------------------------------------------------------------------------
-# Virtual Rotor Inertia and the tables
+# the state of the file system
 # ---------------------------------------------------------------------------------------
-def write_atomic(path: str | os.PathLike, data: str | bytes) -> Path:
-    """Write ``data`` to a temporary file beside ``path`` and rename it into place."""
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+def _existing_ancestor(path: Path) -> Path:
+    """``path`` or the nearest of its ancestors that exists."""
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
+def free_bytes(path: str | os.PathLike) -> int | None:
+    """Free space [bytes] for an unprivileged user on the file system ``path`` is (or would be) on;
+    None when it cannot be told."""
     try:
-        if isinstance(data, bytes):
-            tmp.write_bytes(data)
-        else:
-            tmp.write_text(data, encoding="utf-8")
-        os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return out
+        return shutil.disk_usage(_existing_ancestor(Path(path).absolute())).free
+    except OSError:
+        return None
 
 
-def check_output_file(path: str | os.PathLike, *, option: str = "--out") -> Path:
-    """A file that can be written: not a folder, its folder a folder (or creatable) and writable."""
+def format_bytes(n: int | None) -> str:
+    """``n`` bytes as a short decimal size (``"0 B"``, ``"12.3 kB"``, ``"2.9 MB"``)."""
+    if n is None:
+        return "unknown"
+    value = float(n)
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if value < 1000 or unit == "TB":
+            return f"{int(value)} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1000
+    raise AssertionError("unreachable")
+
+
+def _kind(mode: int) -> str:
+    """What a file of mode ``mode`` that is not a regular file or a folder is."""
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISBLK(mode):
+        return "a block device"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def _special(path: Path) -> str | None:
+    """What ``path`` is when it exists and is neither a regular file nor a folder, else None
+    (a symbolic link is followed: the file it names would be the one written over)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    return _kind(mode)
+
+
+# ---------------------------------------------------------------------------------------
+# before the work
+# ---------------------------------------------------------------------------------------
+def check_output_file(path: str | os.PathLike, *, option: str = "--out", need: int = MIN_FREE_BYTES) -> Path:
+    """A file that can be written: a regular file or nothing yet, its folder a folder (or
+    creatable) and writable, with at least ``need`` bytes free on its file system.
+
+    Raises
+    ------
+    InputError
+        Naming ``option`` and ``path``: a folder, a device, FIFO or socket, a file in the
+        way of its folder, a folder or file that is not writable, too little free space.
+    """
     out = Path(path)
     if out.is_dir():
         raise InputError(f"{option} {path}: is a folder; name a file")
+    special = _special(out)
+    if special:
+        raise InputError(f"{option} {path}: is {special}, not a regular file; name a file to write")
     _check_parent(out, option=option, path=path)
     if out.exists() and not os.access(out, os.W_OK):
         raise InputError(f"{option} {path}: the file is not writable")
+    _check_free(out, need=need, option=option, path=path)
     return out
 
 
+def check_output_dir(path: str | os.PathLike, *, option: str = "--out", files: Iterable[str] = (),
+                     need: int = MIN_FREE_BYTES) -> Path:
+    """A folder that can be written into (created if missing): not an existing file, each of
+    ``files`` (paths relative to it) a regular file or nothing yet, under folders or nothing
+    yet, with at least ``need`` bytes free on its file system.
 
-def check_output_dir(path: str | os.PathLike, *, option: str = "--out") -> Path:
-    """A folder that can be written into (created if missing): not an existing file."""
+    Raises
+    ------
+    InputError
+        Naming ``option`` and the path at fault.
+    """
     out = Path(path)
     if out.exists() and not out.is_dir():
-        raise InputError(f"{option} {path}: is a file; name a folder (created if missing)")
+        raise InputError(f"{option} {path}: is {_special(out) or 'a file'}; name a folder (created if missing)")
     if out.is_dir():
         if not os.access(out, os.W_OK | os.X_OK):
             raise InputError(f"{option} {path}: the folder is not writable")
-        return out
-    _check_parent(out, option=option, path=path)
+        for name in files:
+            inside = out / name
+            if inside.is_dir():
+                raise InputError(f"{option} {path}: {inside} is a folder; the command writes a file there")
+            special = _special(inside)
+            if special:
+                raise InputError(f"{option} {path}: {inside} is {special}, not a regular file; "
+                                 "the command would write a file there")
+            folder = _existing_ancestor(inside.parent)
+            if not folder.is_dir():
+                raise InputError(f"{option} {path}: {folder} is a file, not a folder")
+    else:
+        _check_parent(out, option=option, path=path)
+    _check_free(out, need=need, option=option, path=path)
     return out
-
 
 
 def _check_parent(out: Path, *, option: str, path) -> None:
     """The nearest existing ancestor of ``out`` is a writable folder."""
-    parent = out.parent
-    while not parent.exists() and parent != parent.parent:
-        parent = parent.parent
+    parent = _existing_ancestor(out.parent)
     if not parent.is_dir():
         raise InputError(f"{option} {path}: {parent} is a file, not a folder")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InputError(f"{option} {path}: the folder {parent} is not writable")
 
+
+def _check_free(out: Path, *, need: int, option: str, path) -> None:
+    free = free_bytes(out)
+    if free is not None and free < need:
+        raise InputError(f"{option} {path}: {format_bytes(free)} free on its file system, about "
+                         f"{format_bytes(need)} needed")
+
+
+# ---------------------------------------------------------------------------------------
+# while writing
+# ---------------------------------------------------------------------------------------
+def _write_all(fd: int, data: bytes | memoryview) -> None:
+    """Write every byte of ``data`` to ``fd`` (``os.write`` may write fewer than asked)."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
+def write_file(path: str | os.PathLike, data: bytes, *, fsync: bool = False) -> None:
+    """Write ``data`` into ``path`` (created or emptied first), not atomically: the ``write``
+    of :func:`replace_atomically`. ``fsync`` flushes it to the disk before returning."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0), 0o666)
+    try:
+        _write_all(fd, data)
+        if fsync:
+            os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _temp_name(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}-{secrets.token_hex(4)}.tmp")
+
+
+def _glob_escape(name: str) -> str:
+    """``name`` with glob metacharacters escaped (``[``, ``*``, ``?``)."""
+    return re.sub(r"([\[\]*?])", r"[\1]", name)
+
+
+def replace_atomically(path: str | os.PathLike, write: Callable[[Path], None], *, clear_stale: bool = False) -> Path:
+    """Run ``write(tmp)`` on a new temporary file beside ``path``, then rename it over ``path``.
+
+    Parameters
+    ----------
+    path : path-like
+        The destination; its folder is created.
+    write : callable
+        Writes the whole content into the path it is given (which does not exist yet).
+    clear_stale : bool
+        Remove the temporary files an earlier, killed writer of ``path`` left behind first;
+        only where there is one writer per file (a campaign's trial files).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        ``path`` exists and is not a regular file (a folder, a device, a FIFO): it is left
+        as it is.
+    WriteError
+        Writing or renaming failed (a full disk, an I/O error): the temporary file is removed
+        and nothing is left under either name; the message names ``path`` and the free space.
+    """
+    out = Path(path)
+    special = "a folder" if out.is_dir() else _special(out)
+    if special:
+        raise InputError(f"{path}: is {special}, not a regular file; refusing to replace it")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise _write_error(out, exc) from None
+    if clear_stale:
+        for stale in out.parent.glob(f".{_glob_escape(out.name)}.*.tmp"):
+            stale.unlink(missing_ok=True)
+    tmp = _temp_name(out)
+    try:
+        write(tmp)
+        os.replace(tmp, out)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        if isinstance(exc, WriteError):
+            raise
+        raise _write_error(out, exc) from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return out
+
+
+def _write_error(path: Path, exc: OSError) -> WriteError:
+    """The one-line error of a write to ``path`` that failed with ``exc``."""
+    free = free_bytes(path)
+    if exc.errno in _FULL:
+        what = "no space left on device" if exc.errno == errno.ENOSPC else "disk quota exceeded"
+        text = f"{path}: {what} while writing it ({format_bytes(free)} free); not written"
+    else:
+        text = f"{path}: writing it failed: {exc.strerror or exc} ({format_bytes(free)} free); not written"
+    return WriteError(exc.errno, text)
+
+
+def write_atomic(path: str | os.PathLike, data: str | bytes, *, fsync: bool = False,
+                 clear_stale: bool = False) -> Path:
+    """Write ``data`` (text as UTF-8) to a temporary file beside ``path`` and rename it into place.
+
+    ``fsync`` flushes the file to the disk before the rename, so a power loss cannot leave
+    an empty file under the final name. Errors as :func:`replace_atomically`.
+    """
+    raw = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    return replace_atomically(path, lambda tmp: write_file(tmp, raw, fsync=fsync), clear_stale=clear_stale)
+
+
+# ---------------------------------------------------------------------------------------
+# the time written files carry
+# ---------------------------------------------------------------------------------------
+def source_date_epoch() -> _dt.datetime | None:
+    """``$SOURCE_DATE_EPOCH`` (seconds since 1970-01-01 UTC, the reproducible-builds convention)
+    as a UTC time, or None when it is not set; the files written carry it instead of the clock.
+
+    Raises
+    ------
+    InputError
+        The variable is set but is not a whole number of seconds (naming it and its value).
+    """
+    text = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
+    if not text:
+        return None
+    try:
+        return _dt.datetime.fromtimestamp(int(text), _dt.UTC)
+    except (ValueError, OverflowError, OSError):
+        raise InputError(f"SOURCE_DATE_EPOCH = {text!r} is not a whole number of seconds since 1970-01-01 UTC") \
+            from None

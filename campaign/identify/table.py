@@ -8,14 +8,15 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import io
 import math
 import os
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 from ..core.errors import InputError, TrialFileError
+from ..core.files import check_output_file, write_atomic
 from ..core.timing import Timer
 from ..core.vocabulary import misfiled
 from ..model.robot import load_robot
@@ -86,8 +87,8 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
     paths : sequence of path-like
         Trial files.
     out_csv : path-like
-        The CSV to write (columns :data:`IDENTIFY_COLUMNS`; empty cells are NaN), written
-        to a temporary file and renamed.
+        The CSV to write (columns :data:`IDENTIFY_COLUMNS`; empty cells are NaN), checked
+        before the first trial and written atomically (:mod:`campaign.core.files`).
     options : mapping, optional
         Fields of :class:`campaign.identify.IdentifyOptions`.
     timer : Timer, optional
@@ -101,12 +102,14 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
     Raises
     ------
     ValueError
-        An unknown identification option (named).
+        An unknown identification option (named), or ``out_csv`` cannot be written (a folder,
+        a device, a full disk).
     campaign.core.errors.TrialFileError
         A file is not a trial or lacks a channel (named).
     """
     timer = timer if timer is not None else Timer()
     opts = check_identify_options(options)
+    check_output_file(out_csv, option="identification table")
     robots: dict[str, Any] = {}
     rows = []
     columns: list[str] | None = None
@@ -136,17 +139,11 @@ def identify_trials(paths: Sequence[str | os.PathLike], out_csv: str | os.PathLi
         rows.append(row)
         state = f"excluded: {res.reason}" if res.excluded else f"m* = {res.m_eff:.3f} kg, e = {res.e:.3f}"
         print(f"[{i}/{n}] {path}: {state} ({1e3 * (time.perf_counter() - t0):.0f} ms)", flush=True)
-    out = Path(out_csv)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.DictWriter(fh, fieldnames=columns or list(IDENTIFY_COLUMNS), lineterminator="\n")
-            writer.writeheader()
-            writer.writerows(rows)
-        os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=columns or list(IDENTIFY_COLUMNS), lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    write_atomic(out_csv, buf.getvalue())
     return rows
 
 

@@ -18,9 +18,7 @@ import dataclasses
 import datetime as _dt
 import json
 import math
-import os
 import re
-import tempfile
 from collections.abc import Mapping
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -31,6 +29,7 @@ import yaml
 
 from .. import __version__
 from ..core.errors import InputError, SimulationError
+from ..core.files import write_atomic
 from ..core.yamlfile import config_dir, read_yaml
 from ..model.paper import load_paper
 from ..rig.batch import simulate_batch
@@ -335,11 +334,7 @@ def write_back(result: CalibrationResult, rig: str | Path | None = None) -> Path
     block = "calibration:  # written by `campaign calibrate`; reproduce with that one command\n" + \
         "".join("  " + line + "\n" for line in body.splitlines())
     text = re.sub(r"(?ms)^calibration:.*?(?=^\S|\Z)", "", text).rstrip("\n") + "\n\n" + block
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".rig.", suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-    return path
+    return write_atomic(path, text)
 
 
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.files import write_atomic
+from ..core.files import check_output_file, write_atomic
 from ..core.timing import Timer
 from ..identify.table import read_identification
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
@@ -59,8 +59,8 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
     Raises
     ------
     ValueError
-        No usable trial, trials of several robots, or an unknown fit
-        option (named).
+        No usable trial, trials of several robots, an unknown fit option (named), or
+        ``out_json`` cannot be written (a folder, a device, a full disk).
     """
     timer = timer if timer is not None else Timer()
 
@@ -68,6 +68,7 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
     unknown = sorted(set(options or {}) - allowed)
     if unknown:
         raise ValueError(f"fit: unknown option(s) {unknown}; known: {sorted(allowed)}")
+    check_output_file(out_json, option="lambda fit")
     rows = [r for r in read_identification(ident_tables) if r["base"] == base and r["gain"] in gains]
     used = [r for r in rows if not r["excluded"] and math.isfinite(r["m_eff"]) and r["m_eff"] > 0]
     if not used:

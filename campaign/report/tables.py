@@ -37,6 +37,7 @@ import numpy as np
 
 from ..core import vocabulary
 from ..core.errors import InputError
+from ..core.files import write_atomic
 from ..identify import find_trials, identify_files
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.exiit import effective_mass_batch, effective_mass_from_G, exiit_floating
@@ -46,6 +47,7 @@ from ..model.robot.floating import attach_to_floating_base, base_body_of
 
 __all__ = [
     "Table",
+    "TABLE_FILES",
     "as_records",
 
     "fit_gain_classes",
@@ -58,6 +60,12 @@ __all__ = [
     "tables_from_archive",
     "write_tables",
 ]
+
+#: the per-trial identification table :func:`write_tables` writes beside Tables 2-4
+TRIALS_FILE = "identification.csv"
+#: every file :func:`write_tables` writes into its folder
+TABLE_FILES = tuple(f"{name}.{ext}" for name in ("table2", "table3", "table4") for ext in ("csv", "md")) + (
+    TRIALS_FILE,)
 
 
 @dataclasses.dataclass
@@ -90,12 +98,10 @@ class Table:
         return "\n".join(lines) + "\n"
 
     def write(self, out_dir) -> dict[str, Path]:
+        """Write ``<name>.csv`` and ``<name>.md`` into ``out_dir`` (created), each atomically."""
         out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        paths = {"csv": out / f"{self.name}.csv", "md": out / f"{self.name}.md"}
-        paths["csv"].write_text(self.to_csv())
-        paths["md"].write_text(self.to_markdown())
-        return paths
+        return {"csv": write_atomic(out / f"{self.name}.csv", self.to_csv()),
+                "md": write_atomic(out / f"{self.name}.md", self.to_markdown())}
 
 
 def _csv_cell(v):
@@ -514,14 +520,13 @@ def write_tables(records, out_dir, *, paper: Mapping[str, Any], robot=None, n_bo
 def _write_trials(records, out_dir) -> dict[str, Path]:
     rows = [r.to_dict() if hasattr(r, "to_dict") else dict(r) for r in records]
     keys = list(rows[0].keys())
-    path = Path(out_dir) / "identification.csv"
+    path = Path(out_dir) / TRIALS_FILE
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(keys)
     for r in rows:
         w.writerow([json.dumps(v) if isinstance(v, (list, tuple)) else _csv_cell(v) for v in (r.get(k) for k in keys)])
-    path.write_text(buf.getvalue())
-    return {"csv": path}
+    return {"csv": write_atomic(path, buf.getvalue())}
 
 
 def tables_from_archive(archive, out_dir, *, paper: Mapping[str, Any], n_bootstrap: int = 200, random_state=0,

@@ -10,10 +10,12 @@ displacement along x after the impact: the peaks and their relative difference (
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
+from ..core.files import write_atomic
 from ..rig import simulate
 from ..scene.description import make_scene
 from .common import Log, quiet, write_csv
@@ -60,8 +62,10 @@ def plot(tr: dict, png, title: str) -> None:
     ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(loc="upper right")
-    fig.savefig(png, dpi=150)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=150)
     plt.close(fig)
+    write_atomic(png, buf.getvalue())
 
 
 def run(out_dir, *, quick: bool = False, log: Log = quiet, config: int = 2, gain: str = "high",

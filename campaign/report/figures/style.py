@@ -8,6 +8,7 @@ selects the non-interactive Agg backend, so figures render on machines without a
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 from pathlib import Path
 
@@ -18,6 +19,7 @@ matplotlib.use("Agg", force=True)
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 import numpy as np
 
+from ...core.files import write_atomic
 from ...core.vocabulary import gain_sets
 
 __all__ = ["plt", "GAINS", "GAIN_LABEL", "GAIN_COLOR", "GAIN_MARKER", "PAPER_COLOR", "TRUTH_COLOR", "RC",
@@ -104,35 +106,31 @@ def _lean_pdf_fonts():
 
 
 def save(fig, png: str | os.PathLike, pdf: str | os.PathLike | None = None) -> list[Path]:
-    """Save ``fig`` as PNG (and PDF), each to a temporary file renamed into place, then close it.
+    """Save ``fig`` as PNG (and PDF), then close it.
 
-    A killed job never leaves a half-written figure under its final name.
+    Both are rendered in memory first, then each is written atomically
+    (:func:`campaign.core.files.write_atomic`): a failed rendering writes nothing, and a killed
+    job or a full disk never leaves a half-written figure under its final or a temporary name.
 
     Returns
     -------
     list of pathlib.Path
         The files written.
     """
-    written = []
+    images = []
     for path, fmt in ((png, "png"), (pdf, "pdf")):
         if path is None:
             continue
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        buf = io.BytesIO()
         metadata = {"Creator": "campaign"} if fmt == "png" else {"Creator": "campaign", "CreationDate": None}
-        try:
-            with _lean_pdf_fonts() if fmt == "pdf" else contextlib.nullcontext():
-                fig.savefig(tmp, format=fmt, metadata=metadata)
-            os.replace(tmp, path)
-        finally:
-            tmp.unlink(missing_ok=True)
-        written.append(path)
+        with _lean_pdf_fonts() if fmt == "pdf" else contextlib.nullcontext():
+            fig.savefig(buf, format=fmt, metadata=metadata)
+        images.append((path, buf.getvalue()))
         # the first save laid the figure out (constrained layout: 0.1-0.3 s of text
         # measuring); the next one keeps those positions instead of redoing it
         fig.set_layout_engine("none")
     plt.close(fig)
-    return written
+    return [write_atomic(path, data) for path, data in images]
 
 
 #: horizontal offset of each gain set around its configuration in Figures 6-7
