@@ -107,7 +107,10 @@ def run_example(command: str, shown: list[str], folder: Path, monkeypatch, capsy
     assert argv[0] == "campaign"
     monkeypatch.chdir(folder)
     monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
-    status = main(argv[1:])
+    try:
+        status = main(argv[1:])
+    except SystemExit as exc:      # a usage error: argparse ends the process
+        status = exc.code
     out, err = capsys.readouterr()
     actual = (out + err).rstrip("\n").splitlines()
     expected_status = 2 if any(": error: " in line for line in shown) else 0

@@ -6,10 +6,14 @@ taking the parsed arguments and returning an exit status. Only the module of the
 given on the command line is imported (with the stages it uses); the others are listed by
 their help line alone, so ``campaign --help`` imports no stage.
 
-Errors a user can act on (:class:`campaign.core.errors.CampaignError`, ``ValueError``, any
-``OSError``: a file missing, unreadable or not writable) print one line ``campaign <cmd>:
-error: ...`` and exit with status 2, without a traceback. A reader that closes the pipe
-early (``campaign archive ls DIR | head``) ends the command quietly.
+Errors a user can act on print one line ``campaign <cmd>: error: ...`` on stderr, without a
+traceback: a usage error (an unknown option, a missing argument, a value of the wrong type;
+with a hint to ``--help``), bad input (:class:`campaign.core.errors.CampaignError`,
+``ValueError``, any ``OSError``: a file missing, unreadable or not writable) and a bad
+``SOURCE_DATE_EPOCH`` exit with status 2, before any work; an output that could not be
+written part-way (:class:`campaign.core.errors.WriteError`: a full disk) with status 1.
+A reader that closes the pipe early (``campaign archive ls DIR | head``) ends the command
+quietly.
 """
 
 from __future__ import annotations
@@ -20,8 +24,17 @@ import os
 import sys
 
 from .. import __version__
-from ..core.errors import CampaignError
+from ..core.errors import CampaignError, WriteError
+from ..core.files import source_date_epoch
 from .commands import COMMANDS, HELP
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line on stderr, as every other error of
+    the command: ``campaign <cmd>: error: <what>; see 'campaign <cmd> --help'`` (status 2)."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see '{self.prog} --help'\n")
 
 
 def _chosen(argv: list[str]) -> str | None:
@@ -35,7 +48,7 @@ def _chosen(argv: list[str]) -> str | None:
 def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     """The ``campaign`` parser with the full parser of the subcommand in ``argv`` (every
     subcommand's when ``argv`` is None) and the help line of the others."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="campaign",
         description="Impact dynamics of long-reach manipulators: the simulated VES-II campaign "
         "(Yoshida, Mavroidis & Dubowsky). One subcommand per stage.",
@@ -66,6 +79,12 @@ def _one_line(exc: BaseException) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        # before any stage is imported: numpy reads the variable on import, with a traceback
+        source_date_epoch()
+    except CampaignError as exc:
+        print(f"{' '.join(['campaign', *filter(None, [_chosen(argv)])])}: error: {exc}", file=sys.stderr)
+        return 2
     parser = build_parser(argv)
     args = parser.parse_args(argv)
     try:
@@ -75,6 +94,9 @@ def main(argv: list[str] | None = None) -> int:
         # stdout goes to /dev/null so the interpreter's last flush cannot raise again
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141  # 128 + SIGPIPE, as a tool killed by the broken pipe reports
+    except WriteError as exc:
+        print(f"campaign {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+        return 1
     except (CampaignError, ValueError, OSError) as exc:
         print(f"campaign {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return 2
