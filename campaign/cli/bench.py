@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 from .. import bench
+from ..core.files import check_output_dir, write_atomic
 from .commands import HELP
 
 
@@ -73,8 +74,13 @@ def _jsonable(x):
     return x
 
 
-def run_work_precision(args) -> int:
+#: the files ``bench work-precision --out DIR`` writes
+WORK_PRECISION_FILES = ("work_precision.md", "work_precision.json", "work_precision.png")
 
+
+def run_work_precision(args) -> int:
+    if args.out:
+        check_output_dir(args.out, files=WORK_PRECISION_FILES)
     log = (lambda s: print(s, file=sys.stderr))
     res = bench.work_precision(quick=args.quick, repeats=args.repeats, flexible=not args.no_flexible, log=log)
     table = bench.format_wp_table(res)
@@ -90,17 +96,15 @@ def run_work_precision(args) -> int:
     text = "\n".join(parts)
     print(text)
     if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "work_precision.md").write_text(text + "\n")
-        (out / "work_precision.json").write_text(json.dumps(_jsonable(res), indent=1))
-        png = bench.plot_work_precision(res, out / "work_precision.png")
-        print(f"\nwrote {out / 'work_precision.md'}, {out / 'work_precision.json'}, {png}", file=sys.stderr)
+        md, js, png = (Path(args.out) / name for name in WORK_PRECISION_FILES)
+        write_atomic(md, text + "\n")
+        write_atomic(js, json.dumps(_jsonable(res), indent=1))
+        bench.plot_work_precision(res, png)
+        print(f"\nwrote {md}, {js}, {png}")
     return 0
 
 
 def run_stress(args) -> int:
-
     log = None if args.quiet else (lambda s: print(s, file=sys.stderr))
     results = bench.run_stress(bench.stress_cases(reduced=args.reduced), log=log)
     print(bench.format_stress(results))

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from ..core.files import check_output_dir, check_output_file, write_atomic
+from ..core.yamlfile import config_dir
 from ..pipeline.calibration import (
     _summary,
     calibrate,
@@ -26,6 +27,9 @@ from ..pipeline.calibration_report import (
 from ..scene.checks import check_positive_int
 from ..scene.description import load_rig
 from .commands import HELP
+
+#: the files ``--report DIR`` writes
+REPORT_FILES = ("calibration.json", "calibration.md")
 
 
 def register(sub) -> None:
@@ -111,15 +115,13 @@ def _markdown(summary: dict, fit: dict | None, validation: dict | None) -> str:
 
 
 def run(args) -> int:
-
-
     # every input and output checked before the first simulation
     if args.max_evaluations is not None:
         check_positive_int(args.max_evaluations, key="--max-evaluations")
     if args.report:
-        check_output_dir(args.report, option="--report")
-    if args.rig is not None and not args.no_write and not args.skip_fit:
-        check_output_file(args.rig, option="--rig")
+        check_output_dir(args.report, option="--report", files=REPORT_FILES)
+    if not args.no_write and not args.skip_fit:
+        check_output_file(args.rig if args.rig is not None else config_dir() / "rig.yaml", option="--rig")
     _load(args.calibration)
     load_rig(args.rig)
 
@@ -133,14 +135,13 @@ def run(args) -> int:
         summary, fit = result.summary_, result.to_dict()
         if not args.no_write:
             path = write_back(result, args.rig)
-            print(f"calibrate: wrote the fitted values into {path}", file=sys.stderr)
+            print(f"calibrate: wrote the fitted values into {path}")
     validation = validate(rig=args.rig, fixed=summary) if args.validate else None
     text = _markdown(summary, fit, validation)
     if args.report:
-
         out = Path(args.report)
-        write_atomic(out / "calibration.json", json.dumps({"summary": summary, "fit": fit, "validation": validation},
+        write_atomic(out / REPORT_FILES[0], json.dumps({"summary": summary, "fit": fit, "validation": validation},
                                                            indent=1, default=float))
-        write_atomic(out / "calibration.md", text)
+        write_atomic(out / REPORT_FILES[1], text)
     print(text)
     return 0

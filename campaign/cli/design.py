@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import os
 import sys
 
 from ..core.errors import InputError
+from ..core.files import check_output_file
 from ..design.run import run_design, write_design
 from ..model.paper import load_paper
 from .commands import HELP
@@ -64,7 +66,11 @@ def _speeds(text: str) -> list[float]:
 
 
 def run(args) -> int:
-
+    outputs = {option: path for option, path in (("--json", args.out_json), ("--md", args.out_md)) if path is not None}
+    for option, path in outputs.items():
+        check_output_file(path, option=option)
+    if len(outputs) == 2 and os.path.abspath(args.out_json) == os.path.abspath(args.out_md):
+        raise InputError(f"--json and --md both name {args.out_json}; name two files")
     speeds = _speeds(args.speeds)
     if args.k < 1:
         raise InputError(f"--k {args.k}: must be >= 1")

@@ -21,7 +21,7 @@ from ..core.progress import progress
 from ..identify import find_trials, identify_files
 from ..joints.lambda_fit import IdentifiabilityWarning
 from ..model.paper import load_paper
-from ..report.tables import fit_gain_classes, write_tables
+from ..report.tables import TABLE_FILES, fit_gain_classes, write_tables
 from ..scene.checks import check_seed
 from .commands import HELP
 
@@ -86,7 +86,6 @@ def _fmt(v, spec=".4g") -> str:
 
 
 def run_identify(args) -> int:
-
     records = identify_files(progress(args.paths, desc="identify"))
     if args.json:
         json.dump([r.to_dict() for r in records], sys.stdout, indent=1, allow_nan=False)
@@ -102,8 +101,6 @@ def run_identify(args) -> int:
 
 
 def _fits(args):
-
-
     _check_fit_options(args)
     records = identify_files(progress(find_trials(args.archive), desc="identify"))
     with warnings.catch_warnings():
@@ -113,7 +110,6 @@ def _fits(args):
 
 
 def run_fit(args) -> int:
-
     records, fits = _fits(args)
     if not fits:
         raise InputError(f"{args.archive}: no usable fixed-base trials to fit lambda to "
@@ -147,9 +143,8 @@ def run_fit(args) -> int:
 
 
 def run_tables(args) -> int:
-
     _check_fit_options(args)
-    check_output_dir(args.out)
+    check_output_dir(args.out, files=TABLE_FILES)
     records = identify_files(progress(find_trials(args.archive), desc="identify"))
     paths = write_tables(records, args.out, paper=load_paper(), n_bootstrap=args.bootstrap, random_state=args.seed)
     for name, files in paths.items():

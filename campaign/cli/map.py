@@ -14,6 +14,7 @@ import argparse
 from pathlib import Path
 
 from ..core.errors import InputError
+from ..core.files import check_output_file
 from ..core.vocabulary import bases
 from ..model.paper import load_paper, paper_q
 from ..model.robot import load_robot
@@ -66,15 +67,15 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 def run(args) -> int:
     """Entry point of ``campaign map``."""
-
-
     out = Path(args.out)
     if out.suffix.lower() != ".png":
         raise InputError(f"--out {args.out}: the figure must be a .png file (a .pdf is written beside it)")
+    pdf = out.with_suffix(".pdf")
+    check_output_file(out, option="--out")
+    check_output_file(pdf, option="--out's PDF")
     if not (args.resolution > 0):
         raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")
     lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas))
-    pdf = out.with_suffix(".pdf")
     if args.kind == "workspace":
         line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, rig=args.rig, resolution=args.resolution,
                                         base=args.base, y=args.y)

@@ -89,7 +89,7 @@ def register(subparsers) -> argparse.ArgumentParser:
                       help="N horizontal directions evenly spaced over 360 deg, starting at -x")
     dirs.add_argument("--cone", metavar="X,Y,Z,DEG",
                       help="the axis X,Y,Z and --count - 1 directions on the cone of half-angle DEG around it")
-    p.add_argument("--count", type=int, default=9, help="directions of --cone, axis included (default 9)")
+    p.add_argument("--count", type=int, default=None, help="directions of --cone, axis included (default 9)")
     p.add_argument("--mass", type=float, default=None,
                    help="object mass m_b [kg] (default: the rig hammer's effective mass, config/rig.yaml)")
     p.add_argument("--speed", type=float, default=2.0, help="object speed along n [m/s] (default 2.0)")
@@ -123,24 +123,27 @@ def parse_named_lambdas(texts, *, nv: int = 3) -> dict[str, list[float]]:
         lam = parse_vector(values, option=f"--lambda {name.strip()}", size=nv, units="kg m^2")
         if any(v < 0 for v in lam):
             raise InputError(f"--lambda {text}: lambda must be >= 0 kg m^2")
+        if name.strip() in out:
+            raise InputError(f"--lambda {text}: gain class {name.strip()!r} is given twice; give each class once")
         out[name.strip()] = lam
     return out
 
 
 def _directions(args):
-
-
+    if args.count is not None and args.cone is None:
+        raise InputError(f"--count {args.count}: counts the directions of --cone; give --cone X,Y,Z,DEG too")
     if args.horizontal is not None:
         if args.horizontal < 1:
             raise InputError(f"--horizontal {args.horizontal}: need at least 1 direction")
         return horizontal_directions(args.horizontal)
     if args.cone is not None:
         v = parse_vector(args.cone, option="--cone", size=4)
-        if args.count < 1:
-            raise InputError(f"--count {args.count}: need at least 1 direction")
+        count = 9 if args.count is None else args.count
+        if count < 1:
+            raise InputError(f"--count {count}: need at least 1 direction")
         if np.linalg.norm(v[:3]) == 0.0:
             raise InputError(f"--cone {args.cone}: the zero vector has no direction")
-        return cone_directions(v[:3], v[3], args.count)
+        return cone_directions(v[:3], v[3], count)
     if args.direction is not None:
         n = np.asarray(parse_vector(args.direction, option="--direction", size=3))
         if np.linalg.norm(n) == 0.0:
@@ -156,8 +159,6 @@ def _fmt(v, spec=".1f"):
 
 def run(args) -> int:
     """Entry point of ``campaign plan`` (see ``campaign plan --help``)."""
-
-
     point = parse_vector(args.point, option="--point", size=3, units="m")
     dirs = _directions(args)
     if args.mass is not None and not (math.isfinite(args.mass) and args.mass > 0):

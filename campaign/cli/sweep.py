@@ -6,23 +6,34 @@ import contextlib
 import io
 import sys
 import time
+from pathlib import Path
 
-from ..core.vocabulary import bases, gain_sets
+from ..archive import TRIAL_BYTES
+from ..core.errors import InputError
+from ..core.files import check_output_dir
+from ..core.vocabulary import bases, config_folder, gain_sets, layout
 from ..pipeline.simulate import run_cells
 from .commands import HELP
 from .trial import _param
 
 
-def _floats(text: str) -> list[float]:
-    return [float(v) for v in text.split(",") if v.strip()]
-
-
-def _ints(text: str) -> list[int]:
-    return [int(v) for v in text.split(",") if v.strip()]
-
-
-def _names(text: str) -> list[str]:
-    return [v.strip() for v in text.split(",") if v.strip()]
+def _items(text: str, *, option: str, convert, what: str) -> list:
+    """A comma-separated option value as a list: no empty item, no item twice, at least one."""
+    parts = [part.strip() for part in str(text).split(",")]
+    if parts == [""]:
+        raise InputError(f"{option} {text!r}: expected at least one {what}")
+    out = []
+    for i, part in enumerate(parts, 1):
+        if not part:
+            raise InputError(f"{option} {text}: item {i} is empty")
+        try:
+            value = convert(part)
+        except ValueError:
+            raise InputError(f"{option} {text}: {part!r} is not a {what}") from None
+        if value in out:
+            raise InputError(f"{option} {text}: {part} is given twice (each trial is simulated once)")
+        out.append(value)
+    return out
 
 
 def register(sub) -> None:
@@ -35,11 +46,11 @@ def register(sub) -> None:
         "(<base>/config<N>/<gain>/v<speed>/r<repeat>.nc). Rig parameters come from config/rig.yaml (SI units).",
     )
     p.add_argument("--base", choices=bases(), default="fixed", help="base of every trial (default fixed)")
-    p.add_argument("--configs", type=_ints, default=[1, 2, 3], metavar="N,N",
+    p.add_argument("--configs", default="1,2,3", metavar="N,N",
                    help="arm configurations of the paper's Table 1 (default 1,2,3)")
-    p.add_argument("--gains", type=_names, default=list(gain_sets()), metavar="G,G",
+    p.add_argument("--gains", default=",".join(gain_sets()), metavar="G,G",
                    help="servo gain sets of Table 1 (default zero,low,high)")
-    p.add_argument("--speeds", type=_floats, required=True, metavar="V,V",
+    p.add_argument("--speeds", required=True, metavar="V,V",
                    help="hammer speeds along the impact direction [m/s], e.g. 1.0,1.5,2.5")
     p.add_argument("--repeats", type=int, default=1, metavar="R", help="trials per speed (default 1)")
     p.add_argument("--campaign-seed", type=int, default=0, metavar="S",
@@ -55,18 +66,22 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
-
+    configs = _items(args.configs, option="--configs", convert=int, what="configuration number")
+    gains = _items(args.gains, option="--gains", convert=str, what="gain set")
+    speeds = _items(args.speeds, option="--speeds", convert=float, what="speed")
     if args.repeats < 1:
-        raise ValueError(f"--repeats {args.repeats}: expected at least 1")
+        raise InputError(f"--repeats {args.repeats}: expected at least 1")
     if args.threads < 1:
-        raise ValueError(f"--threads {args.threads}: expected at least 1")
-    for g in args.gains:
+        raise InputError(f"--threads {args.threads}: expected at least 1")
+    for g in gains:
         if g not in gain_sets():
-            raise ValueError(f"--gains: unknown gain set {g!r}; expected one of {', '.join(gain_sets())}")
-    if not args.speeds:
-        raise ValueError("--speeds: expected at least one speed")
-    cells = [(args.base, c, g) for c in args.configs for g in args.gains]
+            raise InputError(f"--gains: unknown gain set {g!r}; expected one of {', '.join(gain_sets())}")
+    cells = [(args.base, c, g) for c in configs for g in gains]
+    files = [Path(*layout(args.base, config_folder(c), g, v, r)) for _, c, g in cells for v in speeds
+             for r in range(args.repeats)]
+    # a trial file that exists is replaced: its space comes back once its successor is written
+    new = sum(not (Path(args.out) / f).is_file() for f in files)
+    check_output_dir(args.out, files=files, need=max(new, 1) * TRIAL_BYTES[args.base])
     # a progress line redrawn in place on a terminal; nothing when the output is a file
     tty = sys.stderr.isatty() and not args.quiet
     t0 = time.perf_counter()
@@ -83,12 +98,12 @@ def run(args) -> int:
     log = io.StringIO()
     try:
         with contextlib.redirect_stdout(log):      # run_cells' per-trial lines, printed after the bar
-            written = run_cells(cells, archive_dir=args.out, speeds=args.speeds, repeats=args.repeats,
+            written = run_cells(cells, archive_dir=args.out, speeds=speeds, repeats=args.repeats,
                                 campaign_seed=args.campaign_seed, rig=args.rig, params=dict(args.params),
                                 threads=args.threads, progress=progress)
     finally:
         if not args.quiet:
-            print(log.getvalue(), end="", file=sys.stderr)
+            print(log.getvalue(), end="", flush=True)
     if not args.quiet:
-        print(f"wrote {len(written)} trials under {args.out} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        print(f"wrote {len(written)} trials under {args.out} in {time.perf_counter() - t0:.1f} s")
     return 0

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 
-from ..archive import write_trial
+from ..archive import TRIAL_BYTES, write_trial
 from ..core.files import check_output_file
 from ..core.vocabulary import bases, gain_sets
 from ..core.yamlfile import yaml_load
@@ -63,8 +62,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-
-    check_output_file(args.out)
+    check_output_file(args.out, need=TRIAL_BYTES[args.base])
 
     q_paper = None if args.q is None else parse_vector(args.q, option="--q", size=3, units="deg")
     direction = None if args.direction is None else parse_vector(args.direction, option="--direction", size=3)
@@ -82,5 +80,5 @@ def run(args) -> int:
         tr = tree["truth"]
         print(f"wrote {path}: {scene.cell} ({scene.name} scene, seed {scene.seed}); "
               f"contact {1e3 * float(tr.contact_end - tr.contact_start):.1f} ms, peak {float(tr.peak_force):.1f} N; "
-              f"simulated in {1e3 * (t1 - t0):.0f} ms, written in {1e3 * (t2 - t1):.0f} ms", file=sys.stderr)
+              f"simulated in {1e3 * (t1 - t0):.0f} ms, written in {1e3 * (t2 - t1):.0f} ms")
     return 0

@@ -68,6 +68,9 @@ def check_speeds(speeds: Iterable[Any], *, key: str = "speeds", reach: float = m
             raise InputError(f"{key}: speed {s} m/s is beyond what the pendulum can reach (max {reach:.3f} m/s "
                              f"at its release limit, pendulum.max_release_deg)")
         label = f"{float(s):.{SPEED_DECIMALS}f}"
+        if float(label) == 0:
+            raise InputError(f"{key}: speed {s} m/s would be stored as v{label}, the path of no speed "
+                             f"(paths keep {SPEED_DECIMALS} decimals)")
         if label in seen:
             raise InputError(f"{key}: speeds {seen[label]} and {s} m/s are the same trial path v{label} "
                              f"(speeds must differ in the first {SPEED_DECIMALS} decimals)")

@@ -22,12 +22,14 @@ from typing import Any
 
 from ..core.errors import InputError, allowed_names
 from ..core.vocabulary import (
+    SPEED_DECIMALS,
     TRIAL_SUFFIX,
     bases,
     config_folder,
     custom_pose_folder,
     gain_sets,
     layout,
+    speed_folder,
 )
 from ..core.yamlfile import config_dir, read_yaml
 from ..model.paper import impact_direction, load_paper
@@ -324,6 +326,9 @@ class Scene:
             raise InputError(f"unknown scene {self.name!r}; expected one of {SCENE_NAMES}")
         if not (isinstance(self.speed, (int, float)) and math.isfinite(self.speed) and self.speed > 0):
             raise InputError(f"impact speed must be a finite number > 0 m/s, got {self.speed!r}")
+        if speed_folder(self.speed) == speed_folder(0):
+            raise InputError(f"impact speed {self.speed!r} m/s would be stored as {speed_folder(0)}, the path of "
+                             f"no speed (paths keep {SPEED_DECIMALS} decimals)")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or not 0 <= self.seed <= SEED_MAX:
             raise InputError(f"seed {self.seed!r} is not an integer in [0, 2**63 - 1] (trial files store it as int64)")
         if not isinstance(self.repeat, int) or self.repeat < 0:
