@@ -14,30 +14,39 @@ from typing import Any
 import yaml
 
 from ..core.errors import InputError
+from ..core.files import source_date_epoch
 
-__all__ = ["parse_typed_strings", "check_schema", "check_workflow_config"]
+__all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_workflow_config"]
 # ---------------------------------------------------------------------------------------
 # the workflow's configuration
 # ---------------------------------------------------------------------------------------
-def parse_typed_strings(config: dict, schema: Mapping[str, Any]) -> dict:
+def parse_typed_strings(config: dict, schema: Mapping[str, Any], *, given: Mapping[str, Any] | None = None) -> dict:
     """Values given on Snakemake's command line as the user typed them (``--config
     simulate=false``, ``--config 'speeds=[1.0,2.5]'``): Snakemake passes a value it does
     not recognise as a string (also each item of a list), so a string where the schema
-    wants a boolean, number, array or object is read as YAML, in place, at any depth. A
-    value that stays a string is left for the schema to name."""
+    wants a number, array or object is read as YAML, and one where it wants a boolean is
+    ``true`` or ``false`` (any case), in place, at any depth. A value that stays a string
+    is left for the schema to name.
+
+    ``given`` holds the command line's values (Snakemake's ``workflow.config_settings.config``);
+    only their keys are read, so a value a configuration file quotes (``repeats: "3"``) stays
+    the string it is and the schema refuses it. None reads every key.
+    """
     for name, value in list(config.items()):
-        config[name] = _typed(value, schema.get("properties", {}).get(name, {}), schema)
+        if given is None or name in given:
+            config[name] = _typed(value, schema.get("properties", {}).get(name, {}), schema)
     return config
 
 
-
 def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
-
     if "$ref" in spec:
         spec = root.get("$defs", {}).get(spec["$ref"].rsplit("/", 1)[-1], {})
     types = spec.get("type", [])
     types = [types] if isinstance(types, str) else list(types)
     if isinstance(value, str) and types and "string" not in types:
+        if "boolean" in types:
+            # YAML 1.1 would also read yes/no/on/off; a switch is spelled true or false
+            return {"true": True, "false": False}.get(value.strip().lower(), value)
         try:
             value = yaml.safe_load(value)
         except yaml.YAMLError:
@@ -49,6 +58,11 @@ def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
         return {k: _typed(v, props.get(k, {}), root) for k, v in value.items()}
     return value
 
+
+def check_environment() -> None:
+    """The environment the jobs read: a ``SOURCE_DATE_EPOCH`` that is set is a whole number of
+    seconds (:func:`campaign.core.files.source_date_epoch`), or one line naming it."""
+    source_date_epoch()
 
 
 def check_schema(config: Mapping[str, Any], schema: Mapping[str, Any]) -> None:

@@ -33,13 +33,14 @@ configfile: "config/config.yaml"
 
 
 # --config values arrive as strings unless Snakemake recognises them (simulate=false,
-# speeds=[1.0,2.5]): read them as YAML where the schema wants another type, then validate
+# speeds=[1.0,2.5]): read the command line's (not a file's) as the schema's types, then validate
 SCHEMA_FILE = Path(workflow.basedir, "workflow", "schemas", "config.schema.yaml")
 # (one line naming the key), then let Snakemake's validate fill in the schema's defaults
 with open(SCHEMA_FILE, encoding="utf-8") as _fh:
     _schema = yaml.safe_load(_fh)
-config_checks.parse_typed_strings(config, _schema)
+config_checks.parse_typed_strings(config, _schema, given=workflow.config_settings.config)
 try:
+    config_checks.check_environment()
     config_checks.check_schema(config, _schema)
 except InputError as _exc:
     raise WorkflowError(str(_exc)) from None
