@@ -3,6 +3,7 @@ product's text cites no tracker entries or work sessions."""
 
 from __future__ import annotations
 
+import argparse
 import re
 import subprocess
 import sys
@@ -58,6 +59,26 @@ def test_the_guide_builds_with_a_page_per_stage_and_an_api_page_per_module(built
     # a module a package shadows with a function of the same name still gets its own page
     simulate = (built_guide / "generated" / "campaign.rig.simulate.html").read_text(encoding="utf-8")
     assert 'id="campaign.rig.simulate.simulate_arrays"' in simulate
+
+
+def _parsers(parser, path):
+    """``(command path, parser)`` of ``parser`` and of every subcommand under it."""
+    yield path, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield from _parsers(sub, f"{path} {name}")
+
+
+def test_no_help_text_shows_an_escaped_percent():
+    # argparse expands "%%" in an option's help, but prints a description as written
+    from campaign.cli.main import build_parser
+
+    pages = dict(_parsers(build_parser(None), "campaign"))
+    assert "campaign design" in pages and "campaign archive verify" in pages
+    hits = [f"{path}: {line.strip()}" for path, parser in pages.items()
+            for line in parser.format_help().splitlines() if "%%" in line or "%(" in line]
+    assert not hits, "\n".join(hits)
 
 
 #: what a user of the package has no use for: tracker numbers and numbered work sessions

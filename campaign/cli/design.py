@@ -19,7 +19,7 @@ def register(sub) -> None:
         "maximising the information about ln lambda (eq 11, 15) of each gain class under the identification's "
         "measurement error model var(ln m*) = a^2 + b^2 ((1 + m*/m_b)/v)^2, calibrated on a campaign's identified "
         "trials against their simulator truth. Prints the chosen poses, their predicted sensitivities "
-        "d ln m*/d ln lambda and the predicted 95 %% interval of each lambda component, beside the same numbers for "
+        "d ln m*/d ln lambda and the predicted 95 % interval of each lambda component, beside the same numbers for "
         "the paper's three configurations; writes JSON and Markdown.",
     )
     p.add_argument("--k", type=int, default=6, metavar="K", help="number of poses to choose (default 6)")
