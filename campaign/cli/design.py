@@ -20,9 +20,9 @@ def register(sub) -> None:
         "measurement error model var(ln m*) = a^2 + b^2 ((1 + m*/m_b)/v)^2, calibrated on a campaign's identified "
         "trials against their simulator truth. Candidates that give the same m* and sensitivities are offered "
         "once (unless --repeat-information): m* (eq 7) is even in n, so a pose struck along -n measures what it "
-        "measures along n, and it is unchanged when the arm and n turn together about joint 1. Prints the chosen poses, their predicted sensitivities d ln m*/d ln lambda and the "
-        "predicted 95 % interval of each lambda component, beside the same numbers for the paper's three "
-        "configurations; writes JSON and Markdown.",
+        "measures along n, and it is unchanged when the arm and n turn together about joint 1. Prints the chosen "
+        "poses, their predicted sensitivities d ln m*/d ln lambda and the predicted 95 % interval of each lambda "
+        "component, beside the same numbers for the paper's three configurations; writes JSON and Markdown.",
     )
     p.add_argument("--k", type=int, default=6, metavar="K", help="number of poses to choose (default 6)")
     p.add_argument("--criterion", choices=("D", "A", "E"), default="D",
@@ -87,7 +87,8 @@ def run(args) -> int:
         priors[name] = lam
     result = run_design(n_poses=args.k, criterion=args.criterion, candidates=args.candidates,
                         n_random=args.n_random, seed=args.seed, speeds=speeds, repeats=args.repeats,
-                        calibration=args.calibration, rig=args.rig, lambda_prior=priors, repeat_information=args.repeat_information)
+                        calibration=args.calibration, rig=args.rig, lambda_prior=priors,
+                        repeat_information=args.repeat_information)
     md = write_design(result, out_json=args.out_json, out_md=args.out_md)
     if not args.quiet:
         print(md, end="", file=sys.stdout)
