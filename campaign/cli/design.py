@@ -19,8 +19,8 @@ def register(sub) -> None:
         "maximising the information about ln lambda (eq 11, 15) of each gain class under the identification's "
         "measurement error model var(ln m*) = a^2 + b^2 ((1 + m*/m_b)/v)^2, calibrated on a campaign's identified "
         "trials against their simulator truth. Candidates that give the same m* and sensitivities are offered "
-        "once (unless --repeat-information): m* (eq 7) is even in n, so a pose struck along -n measures what it "
-        "measures along n, and it is unchanged when the arm and n turn together about joint 1. Prints the chosen "
+        "once (unless --repeat-information): m* (eq 7) is even in n, so the model gives a pose struck along -n the "
+        "m* it gives along n, and it is unchanged when the arm and n turn together about joint 1. Prints the chosen "
         "poses, their predicted sensitivities d ln m*/d ln lambda and the predicted 95 % interval of each lambda "
         "component, beside the same numbers for the paper's three configurations; writes JSON and Markdown.",
     )

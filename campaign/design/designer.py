@@ -15,8 +15,8 @@ then exchange passes (Fedorov) until no swap of a chosen candidate for another i
 criterion. ``var_i`` is the measurement error model's (:mod:`campaign.design.error_model`).
 
 Candidates that carry the same information are offered once: m* (eq 7) depends on n only
-through ``n^T J (H + lambda)^-1 J^T n``, so it is even in n (a pose struck along -n gives
-the m* and sensitivities it gives along n), and it is unchanged when the arm and n turn
+through ``n^T J (H + lambda)^-1 J^T n``, so it is even in n (the model gives a pose struck
+along -n the m* and sensitivities it gives along n), and it is unchanged when the arm and n turn
 together about a vertical joint 1 (``H`` does not depend on that joint's angle). A design
 offered both would spend a second pose on the same measurement.
 
