@@ -15,7 +15,7 @@ SLURM_TEST_ARGS ?=
 # 2 cores (profiles/default), then its HTML report, whose path it prints.
 CAMPAIGN_CMD = $(VENV)/bin/snakemake --cores 2 && $(VENV)/bin/snakemake --report results/full/report.html && echo "campaign report: $(CURDIR)/results/full/report.html"
 
-.PHONY: campaign test test-slurm bench docs install install-cluster lock help
+.PHONY: campaign test test-slurm bench docs screenshots install install-cluster lock help
 
 help:
 	@echo "make campaign   set up .venv if needed, then run the campaign ($(CAMPAIGN_CMD))"
@@ -23,6 +23,7 @@ help:
 	@echo "make test-slurm as root: the reduced campaign through a one-node SLURM cluster (tests/cluster/slurm.sh)"
 	@echo "make bench      run every benchmarks/bench_*.py on one BLAS thread, each output also in benchmarks/out/ (timings; see benchmarks/README.md)"
 	@echo "make docs       build the user guide into docs/_build/html (Sphinx, warnings are errors)"
+	@echo "make screenshots  build the reduced campaign's report and the guide, check them in headless Chromium, PNGs in build/screenshots/"
 	@echo "make install    only (re)install the project into .venv from $(LOCK)"
 	@echo "make install-cluster  the same plus the SLURM executor plugin (extra 'cluster')"
 	@echo "make lock       re-resolve pyproject.toml in a scratch venv and rewrite $(LOCK)"
@@ -54,6 +55,13 @@ bench: $(STAMP)
 docs: $(STAMP)
 	$(VENV)/bin/sphinx-build -b html -W --keep-going -n docs docs/_build/html
 	@echo "user guide: $(CURDIR)/docs/_build/html/index.html"
+
+# The report and the guide as a reader sees them (tests/screenshots.py): the reduced campaign,
+# its report and the guide built, then checked and photographed in headless Chromium
+# (Debian: apt-get install -y chromium); without Chromium it says so and succeeds. Not part
+# of `make test`.
+screenshots: $(STAMP)
+	$(PY) tests/screenshots.py
 
 install: $(STAMP)
 

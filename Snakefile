@@ -1,6 +1,6 @@
 # The campaign: Yoshida, Mavroidis & Dubowsky's impact experiments re-done on a simulated
 # VES-II. Configuration: config/config.yaml (full) or --configfile config/ci.yaml (reduced),
-# checked against workflow/schemas/config.schema.yaml. Stage flow (design brief section 1):
+# checked against workflow/schemas/config.schema.yaml. Stage flow:
 #
 #   simulate -> identify -> fit -> tables, figures -> report
 #

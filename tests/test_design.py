@@ -236,6 +236,28 @@ def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):
                 assert _criterion(est.information_ - Fi[k] + Fi[i], "D") <= best + 1e-9
 
 
+def test_candidates_of_the_same_measurement_are_offered_once(robot):
+    from campaign.design.designer import ExperimentDesign
+    from campaign.design.error_model import ErrorModel
+
+    # m* is even in n, and unchanged when the arm and n turn together about joint 1
+    q, az = np.array([-45.0, 180.0, 0.0]), -120.0
+    twins = [(q, az), (q, az + 180.0), (q + [90.0, 0, 0], az + 90.0), (q + [90.0, 0, 0], az - 90.0)]
+    Q = np.array([t[0] for t in twins] + [[0.0, 135.0, 135.0], [0.0, 90.0, 90.0], [0.0, 225.0, 105.0]])
+    D = np.array([direction_from_azimuth(a) for a in [t[1] for t in twins] + [0.0, 0.0, 0.0]])
+    lam = [19.82, 4.62, 0.80]
+    m = [effective_mass(robot, paper_q(qp), n, lam) for qp, n in zip(Q[:4], D[:4], strict=True)]
+    assert np.allclose(m, m[0], rtol=1e-9)
+    kw = dict(n_poses=4, lambda_prior=lam, error_model=ErrorModel(a=0.01, b=1e-4), m_b=0.72, robot=robot)
+    est = ExperimentDesign(**kw).fit(Q, D)
+    assert est.n_offered_ == 4 and sorted(est.chosen_.tolist()) == [0, 4, 5, 6]     # the first twin only
+    with pytest.raises(InputError, match="4 different measurements"):
+        ExperimentDesign(**{**kw, "n_poses": 5}).fit(Q, D)
+    # offered every candidate, the D-optimal design repeats its best measurement
+    rep = ExperimentDesign(**kw, repeat_information=True).fit(Q, D)
+    assert rep.n_offered_ == len(Q) and len(set(np.round(rep.m_eff_, 9))) < 4
+
+
 def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
     cand = tmp_path / "c.csv"
     cand.write_text("q1,q2,q3,azimuth\n0,90,90,0\n45,180,0,-120\n45,120,135,-120\n0,150,90,90\n0,120,135,180\n"
@@ -247,7 +269,9 @@ def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
     assert set(d["classes"]) == {"zero_low", "high"}
     for cls in d["classes"].values():
         assert len(cls["designed"]["q_paper_deg"]) == 3 and len(cls["paper"]["q_paper_deg"]) == 3
-    assert "paper (configurations 1-3" in (tmp_path / "d.md").read_text()
+    md = (tmp_path / "d.md").read_text()
+    assert "paper (configurations 1-3" in md
+    assert "m* is even in n" in md and "only the first is offered" in md and not d["repeat_information"]
     bad = _cli("design", "--candidates", str(tmp_path / "missing.csv"), cwd=tmp_path)
     assert bad.returncode == 2 and "does not exist" in bad.stderr
 

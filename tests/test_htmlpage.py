@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 from campaign.report.html import markdown_page, markdown_to_html
 from campaign.report.tables import Table
 
@@ -25,3 +27,10 @@ def test_paragraphs_code_and_bold():
 def test_a_page_is_complete():
     page = markdown_page("text", title="T & U")
     assert page.startswith("<!DOCTYPE html>") and "<title>T &amp; U</title>" in page and page.endswith("</html>\n")
+
+
+def test_a_wide_table_scrolls_in_its_own_box():
+    # the report's frame can be narrower than a table: its scrollbar belongs right under it
+    page = markdown_page("| a | b |\n|---|---|\n| 1 | 2 |\n", title="t")
+    assert '<div class="table-scroll"><table>' in page and "</table></div>" in page
+    assert re.search(r"\.table-scroll \{[^}]*overflow-x: auto", page)

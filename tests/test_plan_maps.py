@@ -72,6 +72,26 @@ def test_maps_draw_with_units_and_the_paper_configurations(puma, wmap, beam):
     plan_maps.style.plt.close("all")
 
 
+@pytest.mark.parametrize("decades", [(1, 5), (0, 12)])
+def test_direction_map_radial_labels_do_not_overlap(decades):
+    # m* spanning decades, as near a direction at the edge of the range of G*
+    az = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+    m_eff = np.vstack([10 ** (decades[0] + (decades[1] - decades[0]) * np.sin(az) ** 2)] * 2)
+    peak = 1e-3 * (2 + np.cos(az) ** 2) * np.array([[1.0], [2.5]])
+    d = {"azimuth": az, "m_eff": m_eff, "m_eff_flexible": 0.9 * m_eff, "structure_peak": peak,
+         "gain_classes": ["zero_low", "high"], "q": configuration_q(1)}
+    fig = plan_maps.draw_directions(d)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes[:2]:     # m* and the peak displacement
+        boxes = [t.get_window_extent(renderer) for t in ax.yaxis.get_ticklabels() if t.get_visible() and t.get_text()]
+        assert len(boxes) >= 2
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1:]:
+                assert not a.overlaps(b), (ax.get_title(), a, b)
+    plan_maps.style.plt.close("all")
+
+
 def test_map_cli_refuses_a_bad_output_name(capsys, tmp_path):
     status = main(["map", "directions", "--out", str(tmp_path / "x.jpg")])
     _, err = capsys.readouterr()

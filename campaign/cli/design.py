@@ -20,9 +20,11 @@ def register(sub) -> None:
         description="Choose K poses of the arm, each with a horizontal impact direction, from a candidate set, "
         "maximising the information about ln lambda (eq 11, 15) of each gain class under the identification's "
         "measurement error model var(ln m*) = a^2 + b^2 ((1 + m*/m_b)/v)^2, calibrated on a campaign's identified "
-        "trials against their simulator truth. Prints the chosen poses, their predicted sensitivities "
-        "d ln m*/d ln lambda and the predicted 95 %% interval of each lambda component, beside the same numbers for "
-        "the paper's three configurations; writes JSON and Markdown.",
+        "trials against their simulator truth. Candidates that give the same m* and sensitivities are offered "
+        "once (unless --repeat-information): m* (eq 7) is even in n, so the model gives a pose struck along -n the "
+        "m* it gives along n, and it is unchanged when the arm and n turn together about joint 1. Prints the chosen "
+        "poses, their predicted sensitivities d ln m*/d ln lambda and the predicted 95 % interval of each lambda "
+        "component, beside the same numbers for the paper's three configurations; writes JSON and Markdown.",
     )
     p.add_argument("--k", type=int, default=6, metavar="K", help="number of poses to choose (default 6)")
     p.add_argument("--criterion", choices=("D", "A", "E"), default="D",
@@ -33,6 +35,9 @@ def register(sub) -> None:
                         "15 deg, azimuths of n every 30 deg; default), 'random' (--n-random poses uniform within the "
                         "joint limits, seeded) or a CSV with columns q1,q2,q3 (paper deg) and azimuth (deg from -x "
                         "about +z) or nx,ny,nz")
+    p.add_argument("--repeat-information", action="store_true",
+                   help="offer every candidate, also one that repeats another's measurement (a pose along n and "
+                        "along -n): the design may then choose one measurement twice")
     p.add_argument("--n-random", type=int, default=2000, metavar="N", help="random candidates (default 2000)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random candidates (default 0)")
     p.add_argument("--speeds", default="1.5,2.5", metavar="V1,V2,...",
@@ -88,7 +93,8 @@ def run(args) -> int:
         priors[name] = lam
     result = run_design(n_poses=args.k, criterion=args.criterion, candidates=args.candidates,
                         n_random=args.n_random, seed=args.seed, speeds=speeds, repeats=args.repeats,
-                        calibration=args.calibration, rig=args.rig, lambda_prior=priors)
+                        calibration=args.calibration, rig=args.rig, lambda_prior=priors,
+                        repeat_information=args.repeat_information)
     md = write_design(result, out_json=args.out_json, out_md=args.out_md)
     if not args.quiet:
         print(md, end="", file=sys.stdout)

@@ -99,9 +99,12 @@ def plan(settings: Mapping[str, Any], out_json, out_md=None) -> dict[str, Any]:
     repeats = int(settings.get("repeats", 1))
     des = dict(settings.get("design") or {})
     rig = settings.get("rig") or None
+    # every candidate offered, those repeating another's measurement (n and -n of a pose) too: the
+    # poses whose results the guide reports (docs/design.rst) are that design's, and offering only
+    # distinct measurements would choose others (the design's Markdown says which applies)
     design = run_design(n_poses=int(des.get("n_poses", 6)), criterion=str(des.get("criterion", "D")),
                         candidates=str(des.get("candidates", "grid")), speeds=speeds, repeats=repeats, rig=rig,
-                        lambda_prior=des.get("lambda_prior") or None)
+                        lambda_prior=des.get("lambda_prior") or None, repeat_information=True)
     if out_md is not None:
         write_design(design, out_md=out_md)
     paper = load_paper()

@@ -14,6 +14,12 @@ from a candidate set (:mod:`campaign.design.candidates`) to maximise ``ln det F`
 then exchange passes (Fedorov) until no swap of a chosen candidate for another improves the
 criterion. ``var_i`` is the measurement error model's (:mod:`campaign.design.error_model`).
 
+Candidates that carry the same information are offered once: m* (eq 7) depends on n only
+through ``n^T J (H + lambda)^-1 J^T n``, so it is even in n (the model gives a pose struck
+along -n the m* and sensitivities it gives along n), and it is unchanged when the arm and n turn
+together about a vertical joint 1 (``H`` does not depend on that joint's angle). A design
+offered both would spend a second pose on the same measurement.
+
 The method, the designed campaign and its measured results: user guide, *Experiment design
 for lambda* (``docs/design.rst``).
 """
@@ -53,6 +59,15 @@ def _rows(H, Jn, lam):
     return lam[None, :] * x**2 / s[:, None], 1.0 / s
 
 
+def _distinct(S, m) -> np.ndarray:
+    """The first candidate of each group with the same m* and sensitivities (to 1e-9), as a mask."""
+    keys = np.round(np.column_stack([np.log(m), S]), 9) + 0.0   # + 0.0: -0.0 and 0.0 are one value
+    _, first = np.unique(keys, axis=0, return_index=True)
+    mask = np.zeros(len(m), bool)
+    mask[first] = True
+    return mask
+
+
 def _criterion(F: np.ndarray, kind: str) -> float:
     if kind == "D":
         sign, logdet = np.linalg.slogdet(F)
@@ -83,11 +98,18 @@ class ExperimentDesign:
     m_b : float
         Hammer effective mass [kg] (eq 10).
     robot : campaign.model.robot.Robot
+    repeat_information : bool
+        Offer every candidate, also one whose m* and sensitivities equal an earlier one's (the
+        same pose along -n, or the arm and n turned together about joint 1): the design may
+        then choose the same measurement twice. Default: only the first of each such group.
 
     Attributes
     ----------
     chosen_ : ndarray of int
         Indices of the chosen candidates.
+    n_offered_ : int
+        Candidates offered to the search (all, or the first of each group with the same
+        information).
     q_paper_deg_, directions_ : ndarray
         Their poses [deg] and directions.
     sensitivity_ : ndarray, shape (K, nv)
@@ -106,7 +128,8 @@ class ExperimentDesign:
     """
 
     def __init__(self, *, n_poses: int = 6, criterion: str = "D", lambda_prior, speeds: Sequence[float] = (1.5, 2.5),
-                 trials_per_speed: int = 1, error_model: ErrorModel, m_b: float, robot):
+                 trials_per_speed: int = 1, error_model: ErrorModel, m_b: float, robot,
+                 repeat_information: bool = False):
         self.n_poses = n_poses
         self.criterion = criterion
         self.lambda_prior = lambda_prior
@@ -115,6 +138,7 @@ class ExperimentDesign:
         self.error_model = error_model
         self.m_b = m_b
         self.robot = robot
+        self.repeat_information = repeat_information
 
     def _check(self):
         if self.criterion not in CRITERIA:
@@ -180,7 +204,11 @@ class ExperimentDesign:
             raise InputError(f"{Q_paper.shape[0]} feasible candidates cannot give a design of {K} poses")
         H, Jn = _arrays(self.robot, Q_paper, D)
         S, m = _rows(H, Jn, lam)
-        Fi = self._information(S, m)
+        offered = np.arange(len(m)) if self.repeat_information else np.flatnonzero(_distinct(S, m))
+        if offered.size < K:
+            raise InputError(f"{Q_paper.shape[0]} feasible candidates hold {offered.size} different measurements "
+                             f"(n and -n of a pose give the same), too few for a design of {K} poses")
+        Fi = self._information(S[offered], m[offered])
         kind = self.criterion
         nv = lam.size
         # a small ridge lets the greedy start rank candidates before F has full rank
@@ -209,10 +237,11 @@ class ExperimentDesign:
                     improved = True
             if not improved:
                 break
-        idx = np.array(chosen, int)
-        F = Fi[idx].sum(axis=0)
+        F = Fi[np.array(chosen, int)].sum(axis=0)
+        idx = offered[np.array(chosen, int)]
         summ = self._summary(Q_paper[idx], D[idx], S[idx], m[idx], F, lam)
         self.chosen_ = idx
+        self.n_offered_ = int(offered.size)
         self.q_paper_deg_ = Q_paper[idx]
         self.directions_ = D[idx]
         self.sensitivity_ = S[idx]

@@ -34,7 +34,8 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
                seed: int = 0, speeds: Sequence[float] = (1.5, 2.5), repeats: int = 1,
                calibration: Sequence[str] | None = None, rig=None,
                lambda_prior: Mapping[str, Sequence[float]] | None = None,
-               gain_classes: Mapping[str, Sequence[str]] | None = None) -> dict[str, Any]:
+               gain_classes: Mapping[str, Sequence[str]] | None = None,
+               repeat_information: bool = False) -> dict[str, Any]:
     """Design poses and directions for every gain class; the paper's design evaluated beside.
 
     Parameters
@@ -54,6 +55,11 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
         Class -> lambda the design is optimal at; a class not given takes the paper's Table 3.
     gain_classes : mapping, optional
         Class -> gain sets; default the paper's.
+    repeat_information : bool
+        Offer candidates whose m* and sensitivities equal another's (a pose along -n, the
+        arm and n turned together about joint 1; :class:`~campaign.design.designer.ExperimentDesign`),
+        so that a design may choose one measurement twice. By default the first of each such
+        group the rig can strike is offered, the others not.
 
     Returns
     -------
@@ -77,7 +83,8 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
     priors = {**paper["table3"], **dict(lambda_prior or {})}
     out: dict[str, Any] = {
         "criterion": criterion, "n_poses": int(n_poses), "candidates": str(candidates), "n_candidates": int(len(Q)),
-        "n_feasible": int(ok.sum()), "speeds": [float(v) for v in speeds], "repeats": int(repeats),
+        "n_feasible": int(ok.sum()), "repeat_information": bool(repeat_information),
+        "speeds": [float(v) for v in speeds], "repeats": int(repeats),
         "hammer_mass": pend.m_b, "error_model": errors.to_dict(), "classes": {},
         "units": {"lambda": "kg m^2", "m_eff": "kg", "q_paper_deg": "deg", "azimuth_deg": "deg from -x about +z"},
     }
@@ -85,10 +92,11 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
     for name, gains in classes.items():
         est = ExperimentDesign(n_poses=n_poses, criterion=criterion, lambda_prior=priors[name], speeds=speeds,
                                trials_per_speed=int(repeats) * len(gains), error_model=errors, m_b=pend.m_b,
-                               robot=robot)
+                               robot=robot, repeat_information=repeat_information)
         usable = ok.copy()
         refused = []
         for _ in range(4 * int(n_poses) + 1):
+            # a refused candidate's twin of the same information can take its place
             idx = np.flatnonzero(usable)
             est.fit(Q[idx], D[idx])
             bad = [int(idx[i]) for i in est.chosen_
@@ -103,7 +111,7 @@ def run_design(*, n_poses: int = 6, criterion: str = "D", candidates: str = "gri
             raise InputError(f"{name}: the rig refused every design tried ({len(refused)} poses refused)")
         out["classes"][name] = {
             "gains": list(gains), "lambda_prior": [float(x) for x in priors[name]],
-            "trials_per_speed": int(repeats) * len(gains), "designed": est.summary_,
+            "trials_per_speed": int(repeats) * len(gains), "n_offered": est.n_offered_, "designed": est.summary_,
             "paper": est.evaluate(Qp, Dp), "refused_by_rig": refused,
         }
     return out
@@ -133,14 +141,22 @@ def design_markdown(result: Mapping[str, Any]) -> str:
     """Markdown tables of a :func:`campaign.cli.design` result (both gain classes)."""
     lines = ["# Experiment design for lambda", ""]
     em = result["error_model"]
+    if result.get("repeat_information", True):
+        same = ("; all offered, also those that repeat another's measurement: m* is even in n and unchanged by "
+                "turning the arm and n together about joint 1, so a pose listed along n and -n is one measurement "
+                "struck twice")
+    else:
+        same = ("; of those that give the same m* and sensitivities -- m* is even in n and unchanged by turning "
+                "the arm and n together about joint 1 -- only the first is offered")
     lines += [f"Criterion {result['criterion']}-optimal, K = {result['n_poses']} poses from "
-              f"{result['n_candidates']} candidates ({result['n_feasible']} the rig can strike), speeds "
+              f"{result['n_candidates']} candidates ({result['n_feasible']} the rig can strike{same}), speeds "
               f"{', '.join(f'{v:g}' for v in result['speeds'])} m/s. Error model {em['formula']}: a = {em['a']:.4g}, "
               f"b = {em['b']:.4g} m/s from {em['n_trials']} trials (identified vs true m*, rms {em['rms']:.3g}).", ""]
     for name, cls in result["classes"].items():
         lam = cls["lambda_prior"]
         lines += [f"## {name} (gains {', '.join(cls['gains'])}; prior lambda = "
-                  f"[{', '.join(f'{x:g}' for x in lam)}] kg m^2, {cls['trials_per_speed']} trial(s) per pose and speed)",
+                  f"[{', '.join(f'{x:g}' for x in lam)}] kg m^2, {cls['trials_per_speed']} trial(s) per pose and speed"
+                  + (f"; {cls['n_offered']} different measurements offered)" if "n_offered" in cls else ")"),
                   "", "| pose | q paper [deg] | azimuth of n [deg] | m* [kg] | m*/m_b | "
                   "d ln m*/d ln lambda_1 | _2 | _3 |", "|---|---|---|---|---|---|---|---|"]
         d = cls["designed"]

@@ -2,7 +2,8 @@
 
 Snakemake's report shows an HTML result inline and offers anything else (CSV, Markdown)
 as a download only; the tables and the calibration notes are written as HTML beside their
-Markdown so that the report shows them. This renders the Markdown the campaign itself
+Markdown so that the report shows them (a table too wide for the report's frame wraps its
+headers and scrolls sideways in its own box). This renders the Markdown the campaign itself
 writes (``campaign.report.tables.Table.to_markdown``, the calibration report): headings,
 paragraphs, pipe tables, bullet lists, and inline ``code``, ``**bold**`` and ``*italic*``.
 Everything else passes through as escaped text; no third-party Markdown package needed.
@@ -15,12 +16,18 @@ import re
 
 __all__ = ["markdown_to_html", "markdown_page"]
 
+#: the report shows a page in a frame that may be narrower than a table: headers and text
+#: cells wrap, and a table still too wide scrolls sideways in its own box (its scrollbar right
+#: under it, not at the bottom of a frame taller than the screen)
 _STYLE = """
 body { font-family: sans-serif; font-size: 14px; margin: 1em; }
-table { border-collapse: collapse; margin: 0.5em 0 1em 0; }
-th, td { border: 1px solid #bbb; padding: 0.2em 0.6em; text-align: right; }
-th { background: #eee; }
+.table-scroll { overflow-x: auto; max-width: 100%; margin: 0.5em 0 1em 0; }
+table { border-collapse: collapse; }
+th, td { border: 1px solid #bbb; padding: 0.2em 0.6em; text-align: right; vertical-align: top; }
+th { background: #eee; vertical-align: bottom; }
+td { font-variant-numeric: tabular-nums; }
 td:first-child, th:first-child { text-align: left; }
+p, li { max-width: 60em; }
 code { background: #f4f4f4; padding: 0 0.2em; }
 """
 
@@ -78,7 +85,8 @@ def markdown_to_html(text: str) -> str:
             while i < len(lines) and lines[i].strip().startswith("|"):
                 rows.append("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in _cells(lines[i])) + "</tr>")
                 i += 1
-            out.append(f"<table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n" + "\n".join(rows) + "\n</tbody>\n</table>")
+            out.append(f"<div class=\"table-scroll\"><table>\n<thead><tr>{head}</tr></thead>\n<tbody>\n"
+                       + "\n".join(rows) + "\n</tbody>\n</table></div>")
             continue
         elif re.match(r"[-*]\s+", stripped):
             flush()

@@ -32,7 +32,8 @@ rule calibration_report:
     output:
         md=f"{RESULTS}/calibration/calibration.md",
         html=report(f"{RESULTS}/calibration/calibration.html", caption="../report/calibration.rst",
-                    category="Calibration", subcategory="Fitted and held-out observations"),
+                    category="Calibration", subcategory="Fitted and held-out observations",
+                    labels={"report": "The simulated rig against the paper"}),
         csv=f"{RESULTS}/calibration/calibration.csv",
     log:
         log_file("calibration_report"),

@@ -60,7 +60,8 @@ if DESIGNED:
             heldout=designed_tables("heldout"),
         output:
             json=f"{DESIGNED_RESULTS}/report.json",
-            md=report(f"{DESIGNED_RESULTS}/report.md", caption="../report/designed.rst", category="Designed campaign"),
+            md=report(f"{DESIGNED_RESULTS}/report.md", caption="../report/designed.rst", category="Designed campaign",
+                      labels={"report": "Lambda from the designed poses, checked on held-out poses"}),
         params:
             code=CODE_DESIGNED,
         log:

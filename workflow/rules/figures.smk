@@ -1,6 +1,8 @@
 # Figures 4-9 of the paper and the impact planner's maps (campaign.report.figures: one module per
 # figure, one thin script each), PNG for the report and PDF beside it. eq 8's validity map,
-# drawn from a study's data, is in studies.smk.
+# drawn from a study's data, is in studies.smk. Each figure is one row of the report with a
+# format toggle, which opens the first of its two values in sort order: "PNG" before
+# "vector PDF" (a PDF shows as a blank pane in Chromium's report frame).
 
 
 rule fig4_arm_configurations:
@@ -10,7 +12,7 @@ rule fig4_arm_configurations:
         png=report(f"{RESULTS}/figures/fig4.png", caption="../report/fig4.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 4", "format": "PNG"}),
         pdf=report(f"{RESULTS}/figures/fig4.pdf", caption="../report/fig4.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 4", "format": "PDF"}),
+                   subcategory="Figures", labels={"figure": "Figure 4", "format": "vector PDF"}),
     params:
         code=figure_code("fig4"),
     log:
@@ -32,7 +34,7 @@ rule fig5_joint3_motion:
         png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 5", "format": "PNG"}),
         pdf=report(f"{RESULTS}/figures/fig5.pdf", caption="../report/fig5.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 5", "format": "PDF"}),
+                   subcategory="Figures", labels={"figure": "Figure 5", "format": "vector PDF"}),
     params:
         code=figure_code("fig5"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
@@ -57,7 +59,7 @@ rule fig6_effective_mass:
         png=report(f"{RESULTS}/figures/fig6.png", caption="../report/fig6.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 6", "format": "PNG"}),
         pdf=report(f"{RESULTS}/figures/fig6.pdf", caption="../report/fig6.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 6", "format": "PDF"}),
+                   subcategory="Figures", labels={"figure": "Figure 6", "format": "vector PDF"}),
     params:
         code=figure_code("fig6"),
     log:
@@ -79,7 +81,7 @@ rule fig7_restitution:
         png=report(f"{RESULTS}/figures/fig7.png", caption="../report/fig7.rst", category="Fixed base",
                    subcategory="Figures", labels={"figure": "Figure 7", "format": "PNG"}),
         pdf=report(f"{RESULTS}/figures/fig7.pdf", caption="../report/fig7.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 7", "format": "PDF"}),
+                   subcategory="Figures", labels={"figure": "Figure 7", "format": "vector PDF"}),
     params:
         code=figure_code("fig7"),
     log:
@@ -101,7 +103,7 @@ rule fig8_flexible_setup:
         png=report(f"{RESULTS}/figures/fig8.png", caption="../report/fig8.rst", category="Flexible base",
                    subcategory="Figures", labels={"figure": "Figure 8", "format": "PNG"}),
         pdf=report(f"{RESULTS}/figures/fig8.pdf", caption="../report/fig8.rst", category="Flexible base",
-                   subcategory="Figures", labels={"figure": "Figure 8", "format": "PDF"}),
+                   subcategory="Figures", labels={"figure": "Figure 8", "format": "vector PDF"}),
     params:
         code=figure_code("fig8"),
         rig=config["rig"],
@@ -128,7 +130,7 @@ rule fig9_base_motion:
         png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Flexible base",
                    subcategory="Figures", labels={"figure": "Figure 9", "format": "PNG"}),
         pdf=report(f"{RESULTS}/figures/fig9.pdf", caption="../report/fig9.rst", category="Flexible base",
-                   subcategory="Figures", labels={"figure": "Figure 9", "format": "PDF"}),
+                   subcategory="Figures", labels={"figure": "Figure 9", "format": "vector PDF"}),
     params:
         code=figure_code("fig9"),
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
@@ -156,13 +158,13 @@ rule planner_maps:
                          labels={"map": "workspace", "format": "PNG"}),
         workspace_pdf=report(f"{RESULTS}/figures/plan_workspace.pdf", caption="../report/plan_workspace.rst",
                              category="Impact planner", subcategory="Maps",
-                             labels={"map": "workspace", "format": "PDF"}),
+                             labels={"map": "workspace", "format": "vector PDF"}),
         directions=report(f"{RESULTS}/figures/plan_directions.png", caption="../report/plan_directions.rst",
                           category="Impact planner", subcategory="Maps",
                           labels={"map": "directions", "format": "PNG"}),
         directions_pdf=report(f"{RESULTS}/figures/plan_directions.pdf", caption="../report/plan_directions.rst",
                               category="Impact planner", subcategory="Maps",
-                              labels={"map": "directions", "format": "PDF"}),
+                              labels={"map": "directions", "format": "vector PDF"}),
     params:
         code=figure_code("plan_maps"),
         fits=lambda wc: list(fit_jsons().values()),

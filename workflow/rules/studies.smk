@@ -192,7 +192,9 @@ rule eq8_validity_figure:
     output:
         png=report(study_report_files("eq8_validity")[0], caption="../report/eq8_validity.rst",
                    category="Flexible base", subcategory="Figures", labels={"figure": "eq 8 validity", "format": "PNG"}),
-        pdf=study_report_files("eq8_validity")[1],
+        pdf=report(study_report_files("eq8_validity")[1], caption="../report/eq8_validity.rst",
+                   category="Flexible base", subcategory="Figures",
+                   labels={"figure": "eq 8 validity", "format": "vector PDF"}),
     params:
         code=figure_code("validity"),
     log:

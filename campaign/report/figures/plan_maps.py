@@ -104,10 +104,14 @@ def draw_directions(d: dict, *, title: str = ""):
                      ls="--", label=f"{name}, flexible (eq 8)")
     ax1.set_rorigin(lo - 0.3 * (hi - lo))
     ax1.set_rlim(lo, hi)
-    ticks = np.arange(lo, hi + 0.5)
-    ax1.set_rticks(ticks, [f"{10 ** t:g}" for t in ticks])
+    # a grid circle per decade; labels as powers of ten, on a diagonal ray (offset both ways from
+    # their neighbours) and on every k-th decade only: the ray is about 60 points long, and
+    # labels closer than about 20 points along it run into each other
+    decades = np.arange(lo, hi + 0.5)
+    label_every = max(1, int(np.ceil((hi - lo) / 2.5)))
+    ax1.set_rticks(decades, [f"$10^{{{t:.0f}}}$" if round(t - lo) % label_every == 0 else "" for t in decades])
+    ax1.set_rlabel_position(135.0)
     ax1.set_title("m* [kg, log radius] against the direction of n", fontsize=8.5)
-    ax1.set_rlabel_position(157.5)
     ax1.legend(loc="upper left", bbox_to_anchor=(-0.35, -0.05), fontsize=6.5, ncol=1)
     if has_structure:
         ax2 = fig.add_subplot(1, 2, 2, projection="polar")
