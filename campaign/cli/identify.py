@@ -150,8 +150,14 @@ def run_tables(args) -> int:
 
     _check_fit_options(args)
     check_output_dir(args.out)
+    paper = load_paper()
     records = identify_files(progress(find_trials(args.archive), desc="identify"))
-    paths = write_tables(records, args.out, paper=load_paper(), n_bootstrap=args.bootstrap, random_state=args.seed)
+    # the tables put the paper's PUMA 560 values beside the trials': another robot has none
+    others = sorted({r.robot for r in records} - {paper["robot"]})
+    if others:
+        raise InputError(f"{args.archive}: tables compares trials with the paper's {paper['robot']}, this archive "
+                         f"holds {', '.join(others)} trials (campaign fit-lambda fits their lambda)")
+    paths = write_tables(records, args.out, paper=paper, n_bootstrap=args.bootstrap, random_state=args.seed)
     for name, files in paths.items():
         print(f"{name}: " + ", ".join(str(p) for p in files.values()))
     return 0
