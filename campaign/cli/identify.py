@@ -139,7 +139,8 @@ def run_fit(args) -> int:
         print("  sensitivity d ln m*/d ln lambda (rows: configurations):")
         for q, row in zip(f.configurations_, f.sensitivity_, strict=True):
             qd = ", ".join(f"{x:.4g}" for x in (q * 180 / math.pi))
-            print(f"    q = [{qd}] deg (DH): " + "  ".join(f"{x:.3g}" for x in row))
+            # the model's angles: the PUMA 560's DH angles, another robot's URDF joint angles
+            print(f"    q = [{qd}] deg (model): " + "  ".join(f"{x:.3g}" for x in row))
         print(f"  condition number {f.condition_number_:.4g}")
         for w in f.warnings_:
             print(f"  warning: {w}")
