@@ -158,8 +158,8 @@ STRUCTURE = _structure()
 
 
 def _robot():
-    """(name, number of joints) of the robot the campaign simulates: rig_params.robot, else
-    the rig file's ``robot``."""
+    """(name, number of joints, configurations, folder) of the robot the campaign simulates:
+    rig_params.robot, else the rig file's ``robot`` (campaign.model.conventions)."""
     name = config["rig_params"].get("robot")
     key = "rig_params.robot"
     if name is None:
@@ -167,27 +167,24 @@ def _robot():
             leaf = yaml.safe_load(fh).get("robot")
         name, key = (leaf.get("value") if isinstance(leaf, dict) else leaf), "rig"
     try:
-        return str(name), conventions.angle_count(name), conventions.robot_dir(name).resolve()
+        return (str(name), conventions.angle_count(name), conventions.configurations(name),
+                conventions.robot_dir(name).resolve())
     except (InputError, ValueError) as exc:
         _config_error(key, str(exc))
 
 
-ROBOT, ROBOT_JOINTS, _robot_folder = _robot()
+ROBOT, ROBOT_JOINTS, ROBOT_CONFIGURATIONS, _robot_folder = _robot()
 with open(PAPER_FILE) as _fh:
     PAPER_ROBOT = str(yaml.safe_load(_fh)["robot"])
 # the paper's products (its configurations 1-3, its published values beside ours) are made
 # for the paper's robot only; another robot's campaign makes its trials, identification,
 # lambda fits and the products that do not compare it with the paper's arm
 PAPER_ARM = _robot_folder == conventions.robot_dir(PAPER_ROBOT).resolve()
-try:
-    _known_configurations = conventions.configurations(ROBOT)
-except (InputError, ValueError) as _exc:
-    _config_error("rig_params.robot", str(_exc))
 for _base, _sweep in config["bases"].items():
-    _unknown = [c for c in (_sweep or {}).get("configurations", []) if c not in _known_configurations]
+    _unknown = [c for c in (_sweep or {}).get("configurations", []) if c not in ROBOT_CONFIGURATIONS]
     if _unknown:
         _config_error(f"bases.{_base}.configurations", f"robot {ROBOT} names no configuration {_unknown} (its "
-                      f"configurations: {sorted(_known_configurations) or 'none'})")
+                      f"configurations: {sorted(ROBOT_CONFIGURATIONS) or 'none'})")
 #: products another robot's campaign makes too
 ANY_ARM_PRODUCTS = ("fig7",)
 
