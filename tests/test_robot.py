@@ -14,8 +14,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from campaign.core.yamlfile import yaml_load
 from campaign.core.errors import InputError
+from campaign.core.yamlfile import yaml_load
 from campaign.model import conventions
 from campaign.model.paper import configuration_q, load_paper, paper_offset_deg, paper_q
 from campaign.model.robot import ROBOTS_DIR, load_robot
