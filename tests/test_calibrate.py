@@ -14,7 +14,7 @@ import yaml
 
 from campaign.core.errors import InputError
 from campaign.core.yamlfile import config_dir
-from campaign.model.paper import load_paper
+from campaign.model.paper import load_paper, paper_offset_deg
 from campaign.pipeline.calibration import (
     CalibrationResult,
     force_band,
@@ -251,7 +251,7 @@ def test_eq8_impulsive_base_speed_grows_with_lambda_and_carries_eq_14s_factor():
     paper = load_paper()
     scene = make_scene(base="flexible", config=1)
     base = Beam.from_scene(scene).base_body()
-    q = np.radians(np.asarray(scene.q_paper_deg) + np.asarray(paper["offset_deg"]))
+    q = np.radians(np.asarray(scene.q_paper_deg) + paper_offset_deg())
     n = paper["impact_direction"]
     speeds = [impulsive_base_speed(robot, q, base, lam, 0.0, n) for lam in (None, [1.0] * 3, [10.0] * 3, [1e6] * 3)]
     assert all(s > 0 for s in speeds) and speeds == sorted(speeds)     # stiffer joints pass more to the base

@@ -121,7 +121,7 @@ def test_fixed_base_peak_force_follows_the_compression_with_the_arm_model(puma):
 def test_closer_to_the_rig_than_lambdas_peak_force(puma):
     """One fixed-base rig trial with the 5 kg head (high gains, side point, -x blow): the force
     from the compression is within 3 %, lambda's over-predicts by more."""
-    from campaign.model.paper import load_paper
+    from campaign.model.paper import load_paper, paper_offset_deg
     from campaign.plan.factory import build_planner
     from campaign.rig.simulate import simulate_arrays
     from campaign.scene.description import make_scene
@@ -138,7 +138,7 @@ def test_closer_to_the_rig_than_lambdas_peak_force(puma):
         pl.fit(impact_point(puma, q), n[None])
         i = int(np.argmin(np.linalg.norm(pl.q_ - q, axis=1)))
         out[post] = float(pl.predictions_.peak_force[i, pl.gain_classes_.index("high"), 0])
-    q_paper = np.degrees(q) - np.asarray(load_paper()["offset_deg"], dtype=float)
+    q_paper = np.degrees(q) - paper_offset_deg()
     scene = make_scene(base="fixed", config=None, gain="high", speed=2.0, q_paper_deg=q_paper.tolist(), params=params,
                        direction=n.tolist())
     measured = float(np.max(simulate_arrays(scene)["truth"]["f_contact"].values))

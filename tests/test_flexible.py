@@ -30,10 +30,10 @@ def _loaded_first_mode(scene):
     """First bending frequency [Hz] of the scene's structure with the arm locked on top."""
     import pinocchio as pin
 
-    from campaign.model.paper import load_paper
+    from campaign.model.paper import paper_offset_deg
 
     robot = load_robot()
-    q0 = np.radians(np.asarray(scene.q_paper_deg) + np.asarray(load_paper()["offset_deg"]))
+    q0 = np.radians(np.asarray(scene.q_paper_deg) + paper_offset_deg())
     data = robot.model.createData()
     pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
     beam = Beam.from_scene(scene)

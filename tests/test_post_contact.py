@@ -223,7 +223,7 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
     """One candidate simulated on the rig (space-class structure, zero gains, a +y blow at the
     side point): the post-contact prediction with the impulse at once (eq 13's release with
     lambda, which carries the joints' friction) is within 6 % and closer than eq 8's release."""
-    from campaign.model.paper import load_paper
+    from campaign.model.paper import paper_offset_deg
     from campaign.plan.factory import build_planner
     from campaign.rig.simulate import simulate_arrays
 
@@ -233,7 +233,7 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
     planner.arm = dataclasses.replace(planner.arm, pulse=False)
     planner.fit(impact_point(puma, Q), n[None])
     i = int(np.argmin(np.linalg.norm(planner.q_ - Q, axis=1)))
-    q_paper = np.degrees(Q) - np.asarray(load_paper()["offset_deg"], dtype=float)
+    q_paper = np.degrees(Q) - paper_offset_deg()
     scene = make_scene(base="flexible", config=None, gain="zero", speed=2.0, q_paper_deg=q_paper.tolist(),
                        params={"flexible.structure": "space_class"}, direction=n.tolist())
     truth = simulate_arrays(scene)["truth"]

@@ -14,8 +14,10 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from campaign.core.errors import InputError
 from campaign.core.yamlfile import yaml_load
-from campaign.model.paper import configuration_q, load_paper, paper_q
+from campaign.model import conventions
+from campaign.model.paper import configuration_q, load_paper, paper_offset_deg, paper_q
 from campaign.model.robot import ROBOTS_DIR, load_robot
 
 # Standard DH table of the PUMA 560 (alpha [rad], a [m], d [m]), joints 1-6.
@@ -89,8 +91,9 @@ def test_puma_impact_point_is_the_dh_wrist_centre(puma, seed):
 
 
 def test_paper_configurations_map_to_dh_angles():
-    paper = load_paper()
-    assert paper["offset_deg"] == [0.0, 0.0, -90.0]
+    assert drives("puma560")["angle_offset_deg"] == [0.0, 0.0, -90.0]     # the PUMA's own convention
+    assert "offset_deg" not in load_paper()                               # stated once, by the robot
+    np.testing.assert_array_equal(paper_offset_deg(), [0.0, 0.0, -90.0])
     np.testing.assert_allclose(configuration_q(1), np.radians([0.0, 150.0, 0.0]), rtol=0, atol=1e-15)
     np.testing.assert_allclose(configuration_q(3), paper_q([0.0, 135.0, 135.0]), rtol=0, atol=0)
     with pytest.raises(ValueError, match="unknown configuration 4"):
@@ -144,3 +147,63 @@ def test_a_joint_neither_active_nor_locked_is_an_error(tmp_path):
     (folder / "drives.yaml").write_text(text)
     with pytest.raises(ValueError, match=r"joints \['j2'\] are neither active nor locked"):
         load_robot(folder)
+
+
+# -- pose conventions: the angles a pose is given in, the numbered configurations ----------
+def test_the_puma_takes_the_paper_angles_and_table_1(puma):
+    np.testing.assert_array_equal(puma.angle_offset_deg, [0.0, 0.0, -90.0])
+    assert conventions.configurations("puma560") == {int(k): v for k, v in load_paper()["configurations"].items()}
+    for config, angles in conventions.configurations("puma560").items():
+        np.testing.assert_array_equal(puma.q_from_angles(angles), configuration_q(config))
+    assert conventions.angle_count("puma560") == 3
+
+
+def test_the_second_robot_takes_its_own_angles_and_configurations(planar):
+    np.testing.assert_array_equal(planar.angle_offset_deg, [0.0, 0.0])
+    table = conventions.configurations("planar2")
+    assert sorted(table) == [1, 2, 3] and all(len(q) == 2 for q in table.values())
+    np.testing.assert_array_equal(planar.q_from_angles([-45.0, 30.0]), np.radians([-45.0, 30.0]))
+    assert conventions.angle_count("planar2") == 2
+    with pytest.raises(ValueError, match=r"robot planar2 takes 2 joint angles \(j1, j2\), got \[0.0, 150.0, 90.0\]"):
+        planar.q_from_angles([0.0, 150.0, 90.0])
+
+
+def test_an_angle_offset_shifts_the_model_angles_and_needs_one_per_joint(tmp_path):
+    folder = tmp_path / "arm"
+    shutil.copytree(ROBOTS_DIR / "planar2", folder)
+    text = (folder / "drives.yaml").read_text()
+    (folder / "drives.yaml").write_text(text.replace("angle_offset_deg: [0.0, 0.0]", "angle_offset_deg: [10.0, -90.0]"))
+    arm = load_robot(folder)
+    np.testing.assert_allclose(arm.q_from_angles([0.0, 120.0]), np.radians([10.0, 30.0]), rtol=0, atol=1e-15)
+    assert conventions.angle_offset_deg(folder) == [10.0, -90.0]
+    (folder / "drives.yaml").write_text(text.replace("angle_offset_deg: [0.0, 0.0]", "angle_offset_deg: [10.0]"))
+    with pytest.raises(ValueError, match=r"angle_offset_deg must be 2 finite angles"):
+        load_robot(folder)
+    with pytest.raises(InputError, match=r"angle_offset_deg must be 2 finite numbers"):
+        conventions.angle_offset_deg(folder)
+
+
+def test_a_robot_without_an_offset_or_configurations_takes_its_model_angles(tmp_path):
+    folder = tmp_path / "arm"
+    shutil.copytree(ROBOTS_DIR / "planar2", folder)
+    text = (folder / "drives.yaml").read_text()
+    start, end = text.index("angle_offset_deg:"), text.index("units:")
+    (folder / "drives.yaml").write_text(text[:start] + text[end:])
+    np.testing.assert_array_equal(load_robot(folder).angle_offset_deg, [0.0, 0.0])
+    assert conventions.configurations(folder) == {}
+
+
+@pytest.mark.parametrize("configurations, message", [
+    ("{1: [0.0]}", r"configuration 1 must be 2 finite numbers"),
+    ("{0: [0.0, 1.0]}", r"configuration 0 is not a number >= 1"),
+    ("[[0.0, 1.0]]", r"expected a mapping of configuration numbers"),
+    ("no_such_file.yaml", r"'no_such_file.yaml' names .*no_such_file.yaml, which does not exist"),
+])
+def test_bad_configurations_are_named(tmp_path, configurations, message):
+    folder = tmp_path / "arm"
+    shutil.copytree(ROBOTS_DIR / "planar2", folder)
+    text = (folder / "drives.yaml").read_text()
+    start, end = text.index("configurations:"), text.index("units:")
+    (folder / "drives.yaml").write_text(text[:start] + f"configurations: {configurations}\n" + text[end:])
+    with pytest.raises(InputError, match=message):
+        conventions.configurations(folder)

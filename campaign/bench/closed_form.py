@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..model import exiit
-from ..model.paper import load_paper
+from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.floating import BaseBody, attach_to_floating_base
 from .common import _md
@@ -21,7 +21,7 @@ from .common import _md
 # closed-form stress: Ex-IIT near singular configurations, eq 11 conditioning, lambda fit
 # ---------------------------------------------------------------------------------------
 def _q_dh(q_paper_deg) -> np.ndarray:
-    return np.radians(np.asarray(q_paper_deg, float) + np.asarray(load_paper()["offset_deg"], float))
+    return np.radians(np.asarray(q_paper_deg, float) + paper_offset_deg())
 
 
 def _eq11_diagnostics(robot, q, lam=None, n=(-1.0, 0.0, 0.0)) -> dict[str, float]:

@@ -16,7 +16,7 @@ import numpy as np
 from .. import archive
 from ..core.errors import InputError, SimulationError
 from ..model import exiit
-from ..model.paper import load_paper
+from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..rig import build, simulate
 from ..scene.description import load_rig, make_scene
@@ -67,7 +67,7 @@ def _m0(kw: dict) -> float:
     """Ex-IIT m* (eq 11, lambda = 0, fixed base) of the pose of ``make_scene`` keywords."""
     paper = load_paper()
     q = kw.get("q_paper_deg") or paper["configurations"][int(kw.get("config", 1))]
-    q = np.radians(np.asarray(q, float) + np.asarray(paper["offset_deg"], float))
+    q = np.radians(np.asarray(q, float) + paper_offset_deg())
     return float(exiit.effective_mass(load_robot(), q))
 
 

@@ -135,7 +135,8 @@ def run_fit(args) -> int:
         print("  sensitivity d ln m*/d ln lambda (rows: configurations):")
         for q, row in zip(f.configurations_, f.sensitivity_, strict=True):
             qd = ", ".join(f"{x:.4g}" for x in (q * 180 / math.pi))
-            print(f"    q = [{qd}] deg (DH): " + "  ".join(f"{x:.3g}" for x in row))
+            # the model's angles: the PUMA 560's DH angles, another robot's URDF joint angles
+            print(f"    q = [{qd}] deg (model): " + "  ".join(f"{x:.3g}" for x in row))
         print(f"  condition number {f.condition_number_:.4g}")
         for w in f.warnings_:
             print(f"  warning: {w}")
@@ -145,8 +146,14 @@ def run_fit(args) -> int:
 def run_tables(args) -> int:
     _check_fit_options(args)
     check_output_dir(args.out, files=TABLE_FILES)
+    paper = load_paper()
     records = identify_files(progress(find_trials(args.archive), desc="identify"))
-    paths = write_tables(records, args.out, paper=load_paper(), n_bootstrap=args.bootstrap, random_state=args.seed)
+    # the tables put the paper's PUMA 560 values beside the trials': another robot has none
+    others = sorted({r.robot for r in records} - {paper["robot"]})
+    if others:
+        raise InputError(f"{args.archive}: tables compares trials with the paper's {paper['robot']}, this archive "
+                         f"holds {', '.join(others)} trials (campaign fit-lambda fits their lambda)")
+    paths = write_tables(records, args.out, paper=paper, n_bootstrap=args.bootstrap, random_state=args.seed)
     for name, files in paths.items():
         print(f"{name}: " + ", ".join(str(p) for p in files.values()))
     return 0

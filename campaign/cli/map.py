@@ -16,10 +16,12 @@ from pathlib import Path
 from ..core.errors import InputError
 from ..core.files import check_output_file
 from ..core.vocabulary import bases
-from ..model.paper import load_paper, paper_q
+from ..model.conventions import angle_count
+from ..model.paper import load_paper
 from ..model.robot import load_robot
 from ..plan.factory import planner_lambdas
 from ..report.figures import plan_maps
+from ..scene.description import rig_values
 from .commands import HELP
 from .meff import _NEGATIVE_VALUE, parse_vector
 from .plan import parse_named_lambdas
@@ -75,7 +77,8 @@ def run(args) -> int:
     check_output_file(pdf, option="--out's PDF")
     if not (args.resolution > 0):
         raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")
-    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas))
+    nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
+    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv), nv=nv)
     if args.kind == "workspace":
         line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, rig=args.rig, resolution=args.resolution,
                                         base=args.base, y=args.y)
@@ -84,7 +87,7 @@ def run(args) -> int:
         config = None
         if args.q is not None:
             robot = load_robot(load_paper()["robot"])
-            q = robot.check_q(paper_q(parse_vector(args.q, option="--q", size=3, units="deg")), what=f"--q {args.q}")
+            q = robot.q_from_angles(parse_vector(args.q, option="--q", size=robot.nv, units="deg"), what=f"--q {args.q}")
         else:
             table = load_paper()["configurations"]
             if not args.config.isdigit() or int(args.config) not in table:

@@ -1,10 +1,11 @@
 """``campaign meff``: the effective mass of the arm's tip along an impact direction (eq 11).
 
-Evaluates the Ex-IIT of the PUMA 560 (eq 7 on a fixed base, eq 8 on a flexible base) at one
-configuration, or reproduces the m1, m2 and m3 columns of the paper's Table 2 next to the
-published values. Everything the command needs is read from ``config/``: the paper's
-configurations, angle mapping, impact direction and Table 3 lambda from ``paper.yaml``, the
-flexible base body from ``rig.yaml``.
+Evaluates the Ex-IIT of the PUMA 560, or of another robot (``--robot``), (eq 7 on a fixed
+base, eq 8 on a flexible base) at one configuration, or reproduces the m1, m2 and m3
+columns of the paper's Table 2 next to the published values. Everything the command needs
+is read from ``config/`` and the robot's drive file: the paper's impact direction and
+Table 3 lambda from ``paper.yaml``, the robot's configurations and angle convention from
+its drive file, the flexible base body from ``rig.yaml``.
 
 Examples
 --------
@@ -12,6 +13,7 @@ Examples
 
     campaign meff --config 1
     campaign meff --q 0,150,90 --lambda 19.82,4.62,0.80 --json
+    campaign meff --robot planar2 --config 2
     campaign meff --config 2 --base flexible
     campaign meff --table
 """
@@ -27,8 +29,9 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.vocabulary import bases
+from ..model.conventions import configurations
 from ..model.exiit import effective_mass
-from ..model.paper import configuration_q, impact_direction, load_paper, paper_q
+from ..model.paper import configuration_q, impact_direction, load_paper
 from ..model.robot import load_robot
 from ..model.robot.floating import attach_to_floating_base
 from ..rig.beam import Beam
@@ -39,15 +42,16 @@ __all__ = ["register", "run", "parse_vector", "flexible_base_body", "evaluate", 
 
 
 DESCRIPTION = """\
-Effective mass m* = 1 / (n^T G*_33 n) of the PUMA 560's impact point (the wrist centre)
-along the impact direction n (paper, eq 11), with G* from eq 7 (fixed base) or eq 8
-(flexible base), or the paper's Table 2 reproduced with --table.
+Effective mass m* = 1 / (n^T G*_33 n) of the robot's impact point (the PUMA 560's: the
+wrist centre) along the impact direction n (paper, eq 11), with G* from eq 7 (fixed base)
+or eq 8 (flexible base), or the paper's Table 2 reproduced with --table.
 
-Units: joint angles in degrees in the paper's convention (Table 1), mapped to the model's
-DH angles as q_DH = q_paper + offset_deg of config/paper.yaml (0, 0, -90 deg); Virtual
-Rotor Inertia lambda in kg m^2 (diagonal, one value per joint); the direction n is
-dimensionless and normalised; m* in kg. Joint limits are inclusive (configuration 3 sits
-exactly on joint 3's +45 deg DH limit).
+Units: joint angles in degrees, one per joint, in the robot's own convention (the PUMA
+560's: the paper's, Table 1), mapped to the model's angles as q = angle + angle_offset_deg
+of the robot's drive file (the PUMA 560's: 0, 0, -90 deg to its DH angles); Virtual Rotor
+Inertia lambda in kg m^2 (diagonal, one value per joint); the direction n is
+dimensionless and normalised; m* in kg. Joint limits are inclusive (the PUMA 560's
+configuration 3 sits exactly on joint 3's +45 deg DH limit).
 
 Give comma-separated values without spaces. Values starting with '-' work as they are
 (--direction -1,0,0), or write them as --q=-10,150,90.
@@ -88,9 +92,10 @@ def register(subparsers) -> argparse.ArgumentParser:
     p._negative_number_matcher = _NEGATIVE_VALUE
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--config", metavar="N",
-                      help="paper configuration of Table 1 (1, 2 or 3; config/paper.yaml)")
+                      help="configuration of the robot (the PUMA 560's: the paper's Table 1, 1, 2 or 3)")
     what.add_argument("--q", metavar="Q1,Q2,Q3",
-                      help="joint angles [deg], paper convention (q3 from the straight elbow)")
+                      help="joint angles [deg], one per joint, in the robot's convention (the PUMA 560's: the "
+                           "paper's, q3 from the straight elbow)")
     what.add_argument("--table", action="store_true",
                       help="reproduce Table 2 (m1, m2, m3 of configurations 1-3) beside the paper's "
                            "values; fixed base, the paper's n and Table 3 lambda")
@@ -99,6 +104,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--direction", metavar="X,Y,Z",
                    help="impact direction n in the arm's base frame, normalised "
                         "(default: the paper's n = -1,0,0 from config/paper.yaml)")
+    p.add_argument("--robot", default=None, metavar="NAME",
+                   help="a shipped robot (puma560, planar2) or the folder or drive file of one "
+                        "(default: the paper's robot, config/paper.yaml)")
     p.add_argument("--base", choices=bases(), default=None,
                    help="fixed: ground-fixed arm (eq 7, default); flexible: arm on the emulated "
                         "base body of config/rig.yaml (eq 8, see below)")
@@ -140,29 +148,26 @@ def parse_vector(text: str, *, option: str, size: int, units: str = "") -> list[
 
 
 def _arm_q(args, robot):
-    """(config or None, paper angles [deg], DH angles [rad]) from --config / --q."""
+    """(config or None, the robot's angles [deg], model angles [rad]) from --config / --q."""
 
 
-    paper = load_paper()
     if args.config is not None:
-        table = paper["configurations"]
+        table = configurations(robot.source)
         key = args.config.strip()
         if not re.fullmatch(r"[0-9]+", key) or int(key) not in table:
             raise InputError(f"--config {args.config}: unknown configuration; known: {sorted(table)}")
         config = int(key)
         q_paper = [float(v) for v in table[config]]
-        q = configuration_q(config)
         option = f"--config {config}"
     else:
         config = None
         q_paper = parse_vector(args.q, option="--q", size=robot.nv, units="deg")
-        q = paper_q(q_paper)
         option = f"--q {args.q}"
     try:
-        q = robot.check_q(q, what=option)
+        q = robot.q_from_angles(q_paper, what=option)
     except ValueError as exc:
-        off = np.asarray(paper["offset_deg"], dtype=float)
-        raise InputError(f"{exc} (paper angles map to DH as q + {off.tolist()} deg)") from None
+        raise InputError(f"{exc} ({robot.name}'s angles map to its model's as q + "
+                         f"{robot.angle_offset_deg.tolist()} deg)") from None
     return config, q_paper, q
 
 
@@ -306,8 +311,8 @@ def run(args) -> int:
 
     paper = load_paper()
     if args.table:
-        extra = [f"{opt} {val}" for opt, val in (("--lambda", args.lam), ("--direction", args.direction))
-                 if val is not None]
+        extra = [f"{opt} {val}" for opt, val in (("--lambda", args.lam), ("--direction", args.direction),
+                                                 ("--robot", args.robot)) if val is not None]
         if args.base == "flexible":
             extra.append("--base flexible")
         if extra:
@@ -321,7 +326,7 @@ def run(args) -> int:
             print(format_table2(rows))
         return 0
 
-    robot = load_robot(paper["robot"])
+    robot = load_robot(paper["robot"] if args.robot is None else args.robot)
     config, q_paper, q = _arm_q(args, robot)
     lam = _lambda(args, robot.nv)
     n = _direction(args)
@@ -339,8 +344,9 @@ def run(args) -> int:
     value = "inf (n leaves the range of G*_33: the tip cannot move along n)" if infinite else f"{m:.6g}"
     print(f"m*        = {value} kg")
     print(f"base      = {base} (eq {'7' if base == 'fixed' else '8'})")
-    print(f"arm       = {robot.name}{where}, q = {_fmt(q_paper)} deg (paper) = "
-          f"{_fmt(np.degrees(q))} deg (DH)")
+    convention = "paper" if robot.name == paper["robot"] else f"{robot.name}'s angles"
+    print(f"arm       = {robot.name}{where}, q = {_fmt(q_paper)} deg ({convention}) = "
+          f"{_fmt(np.degrees(q))} deg ({'DH' if robot.name == paper['robot'] else 'model'})")
     print(f"lambda    = {_fmt(lam)} kg m^2")
     print(f"direction = {_fmt(n, '.6g')}")
     return 0

@@ -19,10 +19,12 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.vocabulary import bases
+from ..model.conventions import angle_count
 from ..model.paper import impact_direction
 from ..plan.directions import cone_directions, horizontal_directions
 from ..plan.factory import build_planner, planner_lambdas
 from ..plan.prediction import check_object
+from ..scene.description import rig_values
 from .commands import HELP
 from .meff import _NEGATIVE_VALUE, parse_vector
 
@@ -113,8 +115,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def parse_named_lambdas(texts, *, nv: int = 3) -> dict[str, list[float]]:
-    """``--lambda NAME=L1,L2,L3`` options as ``{NAME: [L1, L2, L3]}`` (kg m^2, each >= 0)."""
+def parse_named_lambdas(texts, *, nv: int) -> dict[str, list[float]]:
+    """``--lambda NAME=L1,L2,L3`` options as ``{NAME: [L1, L2, L3]}`` (kg m^2, each >= 0), ``nv``
+    values each (one per joint of the planner's robot)."""
     out: dict[str, list[float]] = {}
     for text in texts:
         name, sep, values = str(text).partition("=")
@@ -168,7 +171,8 @@ def run(args) -> int:
     weights = parse_vector(args.weights, option="--weights", size=3)
     if args.objective == "displacement" and args.base != "flexible":
         raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
-    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas))
+    nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
+    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv), nv=nv)
     planner = build_planner(base=args.base, lambdas=lambdas, mass=args.mass, speed=args.speed,
                             restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig)
     check_object(mass=planner.mass, speed=planner.speed, restitution=planner.restitution)

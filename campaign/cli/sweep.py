@@ -47,7 +47,7 @@ def register(sub) -> None:
     )
     p.add_argument("--base", choices=bases(), default="fixed", help="base of every trial (default fixed)")
     p.add_argument("--configs", default="1,2,3", metavar="N,N",
-                   help="arm configurations of the paper's Table 1 (default 1,2,3)")
+                   help="arm configurations of the robot (the PUMA 560's: the paper's Table 1; default 1,2,3)")
     p.add_argument("--gains", default=",".join(gain_sets()), metavar="G,G",
                    help="servo gain sets of Table 1 (default zero,low,high)")
     p.add_argument("--speeds", required=True, metavar="V,V",

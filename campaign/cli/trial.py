@@ -9,9 +9,10 @@ from ..archive import TRIAL_BYTES, write_trial
 from ..core.files import check_output_file
 from ..core.vocabulary import bases, gain_sets
 from ..core.yamlfile import yaml_load
+from ..model.conventions import angle_count
 from ..plan.stroke import check_scene_stroke
 from ..rig import simulate
-from ..scene.description import make_scene
+from ..scene.description import make_scene, rig_values
 from .commands import HELP
 from .meff import parse_vector
 
@@ -35,10 +36,12 @@ def register(sub) -> None:
                    help="ground-fixed base, or the flexible long-reach base emulated by the VES (default: fixed)")
     pose = p.add_mutually_exclusive_group()
     pose.add_argument("--config", type=int, default=None, metavar="N",
-                      help="arm configuration of the paper's Table 1 (1, 2 or 3; default 1)")
+                      help="arm configuration of the robot (the PUMA 560's: the paper's Table 1, 1, 2 or 3; "
+                           "default 1)")
     pose.add_argument("--q", default=None, metavar="Q1,Q2,Q3",
-                      help="any arm pose instead, in the paper's joint angles [deg] (q_DH = q + (0, 0, -90) deg); "
-                           "write --q=-10,150,90 when the first angle is negative")
+                      help="any arm pose instead, one angle per joint of the robot, in its own angles [deg] (the "
+                           "PUMA 560's are the paper's: q_DH = q + (0, 0, -90) deg); write --q=-10,150,90 when the "
+                           "first angle is negative")
     p.add_argument("--direction", default=None, metavar="NX,NY,NZ",
                    help="impact direction n in the arm's base frame: a horizontal unit vector (the hammer moves "
                         "horizontally at the bottom of its swing; default the paper's -x). The pendulum is placed to "
@@ -64,7 +67,11 @@ def register(sub) -> None:
 def run(args) -> int:
     check_output_file(args.out, need=TRIAL_BYTES[args.base])
 
-    q_paper = None if args.q is None else parse_vector(args.q, option="--q", size=3, units="deg")
+    q_paper = None
+    if args.q is not None:
+        # as many angles as the scene's robot has joints (rig file and --set robot=...)
+        robot = rig_values(rig=args.rig, params=dict(args.params))["robot"]
+        q_paper = parse_vector(args.q, option="--q", size=angle_count(robot), units="deg")
     direction = None if args.direction is None else parse_vector(args.direction, option="--direction", size=3)
     config = args.config if args.config is not None else (0 if q_paper is not None else 1)
     scene = make_scene(base=args.base, config=config, gain=args.gain, speed=args.speed, repeat=args.repeat,

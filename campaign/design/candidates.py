@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..model.exiit import effective_mass
-from ..model.paper import impact_direction, load_paper, paper_q
+from ..model.paper import impact_direction, load_paper, paper_offset_deg, paper_q
 from ..rig.pendulum import Pendulum
 from ..rig.placement import place_pendulum, placement_params
 from ..rig.simulate import build
@@ -57,7 +57,7 @@ def random_candidates(n: int, *, robot, seed: int = 0) -> tuple[np.ndarray, np.n
     if not (isinstance(n, (int, np.integer)) and n > 0):
         raise InputError(f"number of random candidates must be an integer > 0, got {n!r}")
     rng = np.random.default_rng(seed)
-    off = np.asarray(load_paper()["offset_deg"], float)
+    off = paper_offset_deg()
     lo, hi = np.degrees(robot.q_lower) - off, np.degrees(robot.q_upper) - off
     Q = rng.uniform(lo, hi, size=(n, robot.nv))
     return Q, _directions_from(rng.uniform(-180.0, 180.0, size=n))

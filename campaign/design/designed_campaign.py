@@ -46,7 +46,7 @@ from ..joints.lambda_fit import (
     design_arrays,
     sensitivity_matrix,
 )
-from ..model.paper import load_paper
+from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..rig import simulate_arrays
 from ..scene.description import make_scene
@@ -394,7 +394,7 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
 
 def _paper_deg(q_dh) -> list[float]:
 
-    off = np.asarray(load_paper()["offset_deg"], float)
+    off = paper_offset_deg()
     return (np.degrees(np.asarray(q_dh, float)) - off).round(6).tolist()
 
 

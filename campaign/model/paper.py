@@ -1,7 +1,9 @@
 """The paper's conventions and published values, read from ``config/paper.yaml``.
 
-Configurations, the paper-to-DH angle mapping and the impact direction live in the
-config folder, not in code; this module only reads and checks them.
+Configurations and the impact direction live in the config folder, the mapping of the
+paper's angles to the model's with the paper's robot (its drive file's
+``angle_offset_deg``, :mod:`.conventions`), not in code; this module only reads and
+checks them.
 """
 
 from __future__ import annotations
@@ -13,8 +15,10 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.yamlfile import config_dir, read_yaml
+from .conventions import angle_offset_deg, configurations
 
-__all__ = ["load_paper", "paper_robot", "paper_q", "configuration_q", "impact_direction", "gain_counts"]
+__all__ = ["load_paper", "paper_robot", "paper_offset_deg", "paper_q", "configuration_q", "impact_direction",
+           "gain_counts"]
 
 
 def load_paper() -> dict:
@@ -27,10 +31,16 @@ def paper_robot() -> str:
     return str(load_paper()["robot"])
 
 
+def paper_offset_deg() -> np.ndarray:
+    """Offset [deg] from the paper's joint angles to the model's DH angles: the paper's
+    robot's ``angle_offset_deg`` (the PUMA 560's 0, 0, -90 deg)."""
+    return np.asarray(angle_offset_deg(paper_robot()), dtype=float)
+
+
 def paper_q(q_paper_deg) -> np.ndarray:
     """Map the paper's joint angles [deg] to the model's DH angles [rad]."""
     q = np.asarray(q_paper_deg, dtype=float)
-    off = np.asarray(load_paper()["offset_deg"], dtype=float)
+    off = paper_offset_deg()
     if q.shape != off.shape:
         raise ValueError(f"expected {off.size} paper angles, got {q.tolist()}")
     return np.radians(q + off)
@@ -38,7 +48,7 @@ def paper_q(q_paper_deg) -> np.ndarray:
 
 def configuration_q(config) -> np.ndarray:
     """DH angles [rad] of the paper's configuration ``config`` (1, 2 or 3)."""
-    table = load_paper()["configurations"]
+    table = configurations(paper_robot())
     try:
         key = int(config)
     except (TypeError, ValueError):

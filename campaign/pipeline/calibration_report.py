@@ -19,7 +19,7 @@ import numpy as np
 from ..archive import open_trial_arrays
 from ..core.errors import InputError
 from ..core.yamlfile import config_dir, yaml_load
-from ..model.paper import load_paper
+from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.floating import base_body_of
 from ..rig.beam import Beam
@@ -338,7 +338,7 @@ def validate(*, rig=None, speeds=(1.0, 1.75, 2.5), workers: int = 2, fixed: Mapp
         scene = make_scene(base="flexible", config=c, rig=rig)
         p = scene.p
         m_b = Pendulum.from_scene(scene).m_b
-        q = np.radians(np.asarray(scene.q_paper_deg) + np.asarray(paper["offset_deg"]))
+        q = np.radians(np.asarray(scene.q_paper_deg) + paper_offset_deg())
         speed = {g: impulsive_base_speed(load_robot(p("robot")), q, Beam.from_scene(scene).base_body(),
                                          _paper_lambda(g), m_b, paper["impact_direction"]) for g in ("low", "high")}
         out["figure9"][c] = {"peak_low_m": peaks["low"], "peak_high_m": peaks["high"],

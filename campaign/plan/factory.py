@@ -54,6 +54,9 @@ def planner_lambdas(*, fits: Sequence[str | Path] = (), named: Mapping[str, Sequ
         out[str(name)] = [float(v) for v in lam]
     if not out:
         out = {str(k): [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
+        if any(len(lam) != nv for lam in out.values()):
+            raise InputError(f"the paper's Table 3 lambda is for its {len(next(iter(out.values())))}-joint robot: "
+                             f"give the lambda of this {nv}-joint robot (--fit or --lambda)")
     return out
 
 

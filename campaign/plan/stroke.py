@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import InputError
-from ..model.paper import paper_q
 from ..model.robot import load_robot
 from ..rig.beam import Beam
 from ..rig.contact import Contact
@@ -64,7 +63,7 @@ def check_scene_stroke(scene: Scene) -> None:
         return
     robot = load_robot(scene.p("robot"))
     try:
-        q0 = robot.check_q(paper_q(scene.q_paper_deg), what=f"pose {list(scene.q_paper_deg)} deg (paper angles)")
+        q0 = robot.q_from_angles(scene.q_paper_deg, what=f"pose {list(scene.q_paper_deg)} deg ({robot.name} angles)")
     except ValueError as exc:
         raise InputError(str(exc)) from None
     contact = Contact.from_scene(scene)

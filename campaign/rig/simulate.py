@@ -18,7 +18,6 @@ import pinocchio as pin
 from ..core.errors import InputError, SimulationError
 from ..core.lazy import LazyModule
 from ..model.exiit import effective_mass
-from ..model.paper import load_paper
 from ..model.robot import load_robot
 from ..scene import schema
 from ..scene.description import Scene
@@ -86,8 +85,8 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     p = scene.p
     robot = load_robot(p("robot"))
     try:
-        q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()),
-                           what=f"pose {list(scene.q_paper_deg)} deg (paper angles; DH = paper + {_offset().tolist()} deg)")
+        q0 = robot.q_from_angles(scene.q_paper_deg, what=f"pose {list(scene.q_paper_deg)} deg ({robot.name} angles; "
+                                 f"model = these + {robot.angle_offset_deg.tolist()} deg)")
     except ValueError as exc:
         raise InputError(str(exc)) from None
     gravity = float(p("gravity"))
@@ -272,7 +271,7 @@ def structure_modes(scene: Scene) -> np.ndarray:
     recording and Figure 9's time axis), then the second pair, torsion, axial."""
 
     robot = load_robot(scene.p("robot"))
-    q0 = robot.check_q(np.radians(np.asarray(scene.q_paper_deg) + _offset()), what="configuration")
+    q0 = robot.q_from_angles(scene.q_paper_deg, what="configuration")
     return _modes_with_arm(robot, q0, Beam.from_scene(scene))[0]
 
 
@@ -289,10 +288,6 @@ def check_stroke(platform, *, stroke: float, stroke_rotation: float, structure: 
                 f"the emulated base moves {peak:.4g} {units} from rest, beyond the VES platform's stroke {key} = "
                 f"{limit:g} {units}" + (f" (structure {structure})" if structure else "")
                 + ": a slower hammer or a stiffer or heavier structure keeps the platform in range")
-
-
-def _offset():
-    return np.asarray(load_paper()["offset_deg"], dtype=float)
 
 
 def _check_finite(groups) -> None:

@@ -32,6 +32,7 @@ from ..core.vocabulary import (
     speed_folder,
 )
 from ..core.yamlfile import config_dir, read_yaml
+from ..model.conventions import configurations, drive_file
 from ..model.paper import impact_direction, load_paper
 
 __all__ = ["Scene", "load_rig", "rig_values", "load_structures", "structure_of", "trial_structures", "make_scene", "derive_seed", "check_direction",
@@ -198,9 +199,11 @@ class Scene:
     ----------
     base : {"fixed", "flexible"}
     config : int
-        Paper configuration (Table 1), or 0 when ``q_paper_deg`` is given directly.
+        The robot's configuration (the PUMA 560's: the paper's Table 1), or 0 when
+        ``q_paper_deg`` is given directly.
     q_paper_deg : tuple of float
-        Commanded joint angles in the paper's convention [deg].
+        Commanded joint angles in the robot's own angles [deg], the paper's for the PUMA 560
+        (model angles: :meth:`campaign.model.robot.Robot.q_from_angles`).
     gain : {"zero", "low", "high"}
     gains_counts : tuple of float
         (P, D, I) in the paper's controller counts (Table 1).
@@ -438,8 +441,9 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
     Parameters
     ----------
     base, config, gain, speed, repeat
-        The campaign cell. ``config`` is a paper configuration (1-3); pass
-        ``q_paper_deg`` instead for another arm pose (paper degrees).
+        The campaign cell. ``config`` is a configuration of the scene's robot (its drive
+        file's ``configurations``; the PUMA 560's are the paper's Table 1, 1-3); pass
+        ``q_paper_deg`` instead for another arm pose (the robot's angles [deg]).
     seed : int, optional
         RNG seed of the sensors and the contact instant; by default derived from the cell
         and ``campaign_seed``, so the same cell always gets the same numbers.
@@ -474,14 +478,7 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
     if gain not in paper["gains"]:
         raise InputError(f"unknown gain set {gain!r}; expected one of {sorted(paper['gains'])}")
     if q_paper_deg is None:
-        try:
-            key = int(config)
-        except (TypeError, ValueError):
-            key = None
-        if key not in paper["configurations"]:
-            raise InputError(f"unknown configuration {config!r}; known: {sorted(paper['configurations'])}")
-        q_paper_deg = paper["configurations"][key]
-        config = key
+        q_paper_deg, config = _configuration(values["robot"], config)
     else:
         config = 0 if config is None else int(config)
     if gains_counts is None:
@@ -501,6 +498,25 @@ def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero
         gains_counts=tuple(float(x) for x in gains_counts), speed=speed, repeat=int(repeat), seed=int(seed),
         name=scene, params=tuple(sorted(values.items())), direction=direction,
     )
+
+
+def _configuration(robot: str, config) -> tuple[list[float], int]:
+    """(angles [deg], number) of the robot's configuration ``config`` (its drive file's
+    ``configurations``; the PUMA 560's are the paper's Table 1), or InputError."""
+    try:
+        table = configurations(robot)
+    except ValueError as exc:
+        raise InputError(f"rig parameter robot: {exc}") from None
+    if not table:
+        raise InputError(f"robot {robot} names no configurations (configurations: in its drive file "
+                         f"{drive_file(robot)}): give the pose as joint angles")
+    try:
+        key = int(config)
+    except (TypeError, ValueError):
+        key = None
+    if key not in table:
+        raise InputError(f"unknown configuration {config!r}; known: {sorted(table)}")
+    return table[key], key
 
 
 def _paper_direction() -> tuple[float, float, float]:

@@ -18,7 +18,7 @@ import pinocchio as pin
 from ..core.files import write_atomic
 from ..identify import identify_trial
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
-from ..model.paper import impact_direction, load_paper
+from ..model.paper import impact_direction, load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..rig import simulate
 from ..rig.beam import Beam
@@ -57,7 +57,7 @@ def modes(scene) -> np.ndarray:
     pair, torsion, axial."""
     robot = load_robot(scene.p("robot"))
     beam = Beam.from_scene(scene)
-    q0 = np.radians(np.asarray(scene.q_paper_deg) + np.asarray(load_paper()["offset_deg"]))
+    q0 = np.radians(np.asarray(scene.q_paper_deg) + paper_offset_deg())
     data = robot.model.createData()
     pin.ccrba(robot.model, data, q0, np.zeros(robot.nv))
     return np.asarray(beam.modes(tip=beam.base_body().mount.act(data.oYcrb[0]))[0], float)

@@ -29,7 +29,7 @@ import pinocchio as pin
 import scipy.linalg as sla
 
 from ..model import exiit
-from ..model.paper import load_paper
+from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.floating import attach_to_floating_base, base_body_of
 from ..rig.beam import Beam
@@ -236,7 +236,7 @@ def servo_frequencies() -> list[dict]:
                           resolution=robot.encoder_resolution, period=1.0 / sc.p("controller.servo_rate"))[0]
     rows = []
     for c in (1, 2):
-        q = np.radians(np.asarray(paper["configurations"][c]) + np.asarray(paper["offset_deg"]))
+        q = np.radians(np.asarray(paper["configurations"][c]) + paper_offset_deg())
         H = np.diag(pin.crba(robot.model, robot.model.createData(), q))
         rows += [{"config": c, "joint": j + 1, "f_Hz": f}
                  for j, f in enumerate(np.sqrt(np.asarray(Kp) / H) / (2 * math.pi))]

@@ -26,7 +26,7 @@ from ..design.designed_campaign import impedance_arrays
 from ..identify.table import read_identification
 from ..joints.impedance import ImpedanceFit, apparent_mass, half_sine_shape, measured_pulse_shape, pulse_compliance
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit, design_arrays
-from ..model.paper import load_paper
+from ..model.paper import paper_offset_deg
 from ..model.robot import load_robot
 from .common import Log, quiet, write_csv
 
@@ -61,7 +61,7 @@ def diagnosis(folder, *, limit: int | None = None) -> tuple[list[dict], list[dic
     """(constant lambda rows, one row per held-out trial): the apparent lambda per joint over
     the contact from the truth; ``limit`` held-out trials per gain class at most."""
     robot = load_robot("puma560")
-    offset = np.asarray(load_paper()["offset_deg"], float)
+    offset = paper_offset_deg()
     lam_rows, rows = [], []
     for name, gains in CLASSES.items():
         lam = _constant_lambda(robot, _rows(folder, "designed", gains))

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..model.exiit import effective_mass
-from ..model.paper import configuration_q, impact_direction, load_paper
+from ..model.paper import configuration_q, impact_direction, load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.ik import impact_point, position_branches
 from ..plan.directions import horizontal_directions
@@ -110,7 +110,7 @@ def with_structure(params, structure):
 
 def simulate_truth(base: str, q_dh, gain: str, n, speed: float, params=None):
     """(simulator truth, scene, None) of one rig trial, or (None, None, refusal reason)."""
-    q_paper = np.degrees(q_dh) - np.asarray(load_paper()["offset_deg"], dtype=float)
+    q_paper = np.degrees(q_dh) - paper_offset_deg()
     kw = dict(base=base, config=None, gain=gain, speed=speed, q_paper_deg=[float(x) for x in q_paper], params=params)
     if not np.allclose(n, impact_direction()):
         kw["direction"] = [float(x) for x in n]

@@ -2,7 +2,8 @@
 # file lives, which trials and identification tables each product needs, and the targets.
 #
 # Only the standard library, PyYAML and the package's start-up modules (campaign.core.vocabulary,
-# campaign.pipeline.paths, .config, .digests: standard library and PyYAML at import) are imported
+# campaign.model.conventions, campaign.pipeline.paths, .config, .digests: standard library and
+# PyYAML at import) are imported
 # here: Snakemake evaluates this file every time it starts, a dry run included, so the heavy
 # stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
 
@@ -19,6 +20,7 @@ from campaign import studies as study_registry   # names and files only: it impo
 from campaign.core import vocabulary
 from campaign.core.errors import InputError
 from campaign.core.yamlfile import config_file
+from campaign.model import conventions
 from campaign.pipeline import config as config_checks
 from campaign.pipeline import digests, paths
 
@@ -99,6 +101,8 @@ def _sweeps():
     """{base: {configurations, gains, speeds, repeats}} with the global speeds/repeats filled in."""
     out = {}
     for base, sweep in config["bases"].items():
+        if sweep is None:       # a base set to null is not swept
+            continue
         out[base] = {
             "configurations": sorted(int(c) for c in sweep["configurations"]),
             "gains": [g for g in GAIN_ORDER if g in sweep["gains"]],
@@ -141,7 +145,7 @@ def _held_sweeps(held):
 def _structure():
     """The flexible sweep's named structure (bases.flexible.structure), checked against the
     rig file's ``structures:``; None keeps the rig file's default."""
-    name = config["bases"].get("flexible", {}).get("structure")
+    name = (config["bases"].get("flexible") or {}).get("structure")
     if name is None:
         return None
     with open(RIG_FILE) as fh:
@@ -152,6 +156,38 @@ def _structure():
 
 
 STRUCTURE = _structure()
+
+
+def _robot():
+    """(name, number of joints, configurations, folder) of the robot the campaign simulates:
+    rig_params.robot, else the rig file's ``robot`` (campaign.model.conventions)."""
+    name = config["rig_params"].get("robot")
+    key = "rig_params.robot"
+    if name is None:
+        with open(RIG_FILE) as fh:
+            leaf = yaml.safe_load(fh).get("robot")
+        name, key = (leaf.get("value") if isinstance(leaf, dict) else leaf), "rig"
+    try:
+        return (str(name), conventions.angle_count(name), conventions.configurations(name),
+                conventions.robot_dir(name).resolve())
+    except (InputError, ValueError) as exc:
+        _config_error(key, str(exc))
+
+
+ROBOT, ROBOT_JOINTS, ROBOT_CONFIGURATIONS, _robot_folder = _robot()
+with open(PAPER_FILE) as _fh:
+    PAPER_ROBOT = str(yaml.safe_load(_fh)["robot"])
+# the paper's products (its configurations 1-3, its published values beside ours) are made
+# for the paper's robot only; another robot's campaign makes its trials, identification,
+# lambda fits and the products that do not compare it with the paper's arm
+PAPER_ARM = _robot_folder == conventions.robot_dir(PAPER_ROBOT).resolve()
+for _base, _sweep in config["bases"].items():
+    _unknown = [c for c in (_sweep or {}).get("configurations", []) if c not in ROBOT_CONFIGURATIONS]
+    if _unknown:
+        _config_error(f"bases.{_base}.configurations", f"robot {ROBOT} names no configuration {_unknown} (its "
+                      f"configurations: {sorted(ROBOT_CONFIGURATIONS) or 'none'})")
+#: products another robot's campaign makes too
+ANY_ARM_PRODUCTS = ("fig7",)
 
 
 def sweep_params(base):
@@ -338,9 +374,24 @@ def _fixed_complete():
         and bool({"zero", "low"} & set(have["gains"]))
 
 
+def fit_requirement():
+    """Why this configuration cannot fit lambda, or "" if it can: every gain class needs as
+    many fixed-base configurations as the robot has joints (eq 11: one lambda_j per joint)."""
+    have = SWEEPS.get("fixed")
+    if not have or not fit_classes():
+        return "needs bases.fixed with the gains of a gain class"
+    if len(have["configurations"]) < ROBOT_JOINTS:
+        return (f"needs bases.fixed with at least {ROBOT_JOINTS} configurations (robot {ROBOT} has "
+                f"{ROBOT_JOINTS} joints, one lambda_j each)")
+    return ""
+
+
 def missing_requirement(product):
     """Why ``product`` cannot be made from this configuration, or "" if it can."""
     fixed = SWEEPS.get("fixed")
+    if not PAPER_ARM and product not in ANY_ARM_PRODUCTS:
+        return (f"needs the paper's robot {PAPER_ROBOT} (its configurations and published values; this campaign "
+                f"simulates {ROBOT})")
     if product in ("fig4", "fig8"):
         return ""
     if product in STUDY_PRODUCTS:
@@ -382,8 +433,9 @@ def requires(product):
 
 
 def default_targets():
-    """Every product this configuration can make, plus the archive's manifest (simulating)
-    or its verification (reusing). Products it cannot make are named on stderr."""
+    """Every product this configuration can make, the lambda fits, plus the archive's
+    manifest (simulating) or its verification (reusing). Products it cannot make are named
+    on stderr."""
     out = []
     for product in FIGURES + TABLES:
         why = missing_requirement(product)
@@ -391,6 +443,11 @@ def default_targets():
             print(f"campaign {CAMPAIGN}: skipping {product}: it {why}", file=sys.stderr)
         else:
             out += product_files(product)
+    why = fit_requirement()
+    if why:
+        print(f"campaign {CAMPAIGN}: skipping the lambda fits: it {why}", file=sys.stderr)
+    else:
+        out += [f for f in fit_jsons().values() if f not in out]
     out += [f for f in study_targets() if f not in out]
     out.append(f"{ARCHIVE}/MANIFEST.sha256" if SIMULATE else f"{RESULTS}/archive_verify.txt")
     return out

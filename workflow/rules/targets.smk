@@ -18,7 +18,7 @@ rule identification:
 
 rule fig4:
     input:
-        requires("fig4"),
+        lambda wc: requires("fig4"),
 
 
 rule fig5:
@@ -38,7 +38,7 @@ rule fig7:
 
 rule fig8:
     input:
-        requires("fig8"),
+        lambda wc: requires("fig8"),
 
 
 rule fig9:

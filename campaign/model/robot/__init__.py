@@ -6,8 +6,9 @@ A robot is described by two files in one folder:
   robot models), and
 * ``drives.yaml`` with what a URDF cannot say: rotor inertia ``Jm``, gear ratio ``G``,
   motor-side viscous ``B`` and Coulomb ``Tc_pos``/``Tc_neg`` friction, peak joint torque
-  ``tau_max``, encoder resolution, which joints move, where the others are locked, and
-  where the impact point is.
+  ``tau_max``, encoder resolution, which joints move, where the others are locked, where
+  the impact point is, and the robot's pose conventions (the offset of the angles users
+  give poses in, its numbered configurations: :mod:`campaign.model.conventions`).
 
 :func:`load_robot` turns them into a :class:`Robot`: a Pinocchio ``model`` reduced to the
 active joints (the locked links ride on the last active one), with
@@ -26,10 +27,9 @@ import numpy as np
 import pinocchio as pin
 
 from ...core.yamlfile import parse_yaml_bytes
+from ..conventions import ROBOTS_DIR, robot_dir
 
 __all__ = ["Robot", "load_robot", "robot_dir", "ROBOTS_DIR"]
-
-ROBOTS_DIR = Path(__file__).resolve().parent
 
 _DRIVE_KEYS = ("Jm", "G", "B", "Tc_pos", "Tc_neg", "tau_max", "encoder_resolution")
 
@@ -61,6 +61,9 @@ class Robot:
         Joint-side encoder resolution [rad per count].
     q_lower, q_upper : ndarray, shape (nq,)
         Joint limits [rad], inclusive.
+    angle_offset_deg : ndarray, shape (nv,)
+        Offset [deg] from the angles a pose is given in (``--q``, configurations) to the
+        model's: ``q = radians(angle + angle_offset_deg)``.
     source : str
         Path of the drive file the robot was loaded from.
     """
@@ -77,6 +80,7 @@ class Robot:
     encoder_resolution: np.ndarray
     q_lower: np.ndarray
     q_upper: np.ndarray
+    angle_offset_deg: np.ndarray
     source: str
 
     @property
@@ -103,19 +107,15 @@ class Robot:
                 )
         return q
 
-
-def robot_dir(name_or_path: str | Path) -> Path:
-    """Folder of a robot: a name shipped with the package (``puma560``) or a path."""
-    p = Path(name_or_path)
-    if p.is_file():
-        return p.parent
-    if p.is_dir():
-        return p
-    shipped = ROBOTS_DIR / str(name_or_path)
-    if shipped.is_dir():
-        return shipped
-    known = sorted(d.name for d in ROBOTS_DIR.iterdir() if (d / "drives.yaml").is_file())
-    raise ValueError(f"unknown robot {str(name_or_path)!r}: not a folder or drive file, and not one of {known}")
+    def q_from_angles(self, angles_deg, *, what: str = "pose") -> np.ndarray:
+        """The model's angles ``q = radians(angles_deg + angle_offset_deg)`` [rad] of a pose
+        given in the robot's own angles [deg], checked as :meth:`check_q` checks them; raises
+        ValueError naming the pose and, for a wrong count, the number of angles the robot takes."""
+        angles = np.asarray(angles_deg, dtype=float)
+        if angles.shape != self.angle_offset_deg.shape:
+            raise ValueError(f"{what}: robot {self.name} takes {self.angle_offset_deg.size} joint angles "
+                             f"({', '.join(self.joint_names)}), got {angles.ravel().tolist()}")
+        return self.check_q(np.radians(angles + self.angle_offset_deg), what=what)
 
 
 def load_robot(name_or_path: str | Path = "puma560") -> Robot:
@@ -191,6 +191,11 @@ def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
     for key in ("Jm", "B", "tau_max", "encoder_resolution"):
         if np.any(vals[key] < 0) or (key in ("tau_max", "encoder_resolution") and np.any(vals[key] == 0)):
             raise ValueError(f"{drive_file}: {key} = {vals[key].tolist()} must be positive")
+    offset = spec.get("angle_offset_deg")
+    offset = np.zeros(len(names)) if offset is None else np.asarray(offset, dtype=float)
+    if offset.shape != (len(names),) or not np.all(np.isfinite(offset)):
+        raise ValueError(f"{drive_file}: angle_offset_deg must be {len(names)} finite angles [deg], one per "
+                         f"active joint, got {spec.get('angle_offset_deg')!r}")
     G = vals["G"]
     armature = vals["Jm"] * G**2
     model.armature = armature.copy()
@@ -216,5 +221,6 @@ def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
         encoder_resolution=vals["encoder_resolution"],
         q_lower=np.array(model.lowerPositionLimit, dtype=float),
         q_upper=np.array(model.upperPositionLimit, dtype=float),
+        angle_offset_deg=offset,
         source=str(drive_file),
     )
