@@ -283,11 +283,14 @@ def single_trial(wc):
     to be one of the campaign's (its cell, speed and repeat in the sweep)."""
     trial = {"base": wc.base, "config": int(wc.config), "gain": wc.gain, "speed": float(wc.speed),
              "repeat": int(wc.repeat)}
-    why = config_checks.trial_pick_problem(**trial, sweeps=SWEEPS, key="the trial asked for", held=cells(wc.base))
-    if why:
+    sweep = SWEEPS.get(wc.base)
+    if sweep is None or (wc.base, trial["config"], wc.gain) not in cells(wc.base) \
+            or trial["speed"] not in sweep["speeds"] or trial["repeat"] >= sweep["repeats"]:
+        runs = (f"bases.{wc.base} runs configurations {sweep['configurations']}, gains {sweep['gains']}, speeds "
+                f"{sweep['speeds']} m/s and repeats 0-{sweep['repeats'] - 1}") if sweep else f"it has no {wc.base} base"
         raise WorkflowError(f"{ARCHIVE}/{vocabulary.trial_relpath(**trial)} is not a trial of campaign {CAMPAIGN}: "
-                            + why.removeprefix("configuration key "))
-    return {**trial, "repeats": SWEEPS[wc.base]["repeats"]}
+                            f"{runs}")
+    return {**trial, "repeats": sweep["repeats"]}
 
 
 def trial_source(base, config_, gain, speed, repeat, key):

@@ -41,6 +41,7 @@ rule fig5_joint3_motion:
     params:
         code=figure_code("fig5"),
         trial=lambda wc: trial_source("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5")[1],
+        pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
     priority: PRIORITY["fig5_joint3_motion"]
     log:
         log_file("fig5"),
@@ -62,6 +63,7 @@ rule fig9_base_motion:
     params:
         code=figure_code("fig9"),
         trials=lambda wc: {key.replace("_", "-")[1:]: path for key, (_, path) in fig9_sources().items()},
+        pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
     priority: PRIORITY["fig9_base_motion"]
     log:
         log_file("fig9"),
