@@ -61,12 +61,12 @@ class TrialEntry:
     size : int
         The file's size [bytes].
     content : tuple of str
-        The stored ``content_sha256`` of each group of :data:`campaign.archive.GROUPS`:
+        The stored ``content_sha256`` of each group (``measured``, ``truth``):
         two trials with the same ones hold the same data.
     row : dict
-        The trial's ``index.csv`` row (:data:`campaign.archive.INDEX_COLUMNS`).
+        The trial's ``index.csv`` row (its columns ``INDEX_COLUMNS``).
     rates : dict
-        ``{rate key: Hz}`` of the clocks (:data:`campaign.scene.schema.CLOCKS`) in the
+        ``{rate key: Hz}`` of the clocks (``campaign.scene.schema.CLOCKS``) in the
         trial's scene, for the README.
     kept : bool
         The file was already there with the same content and stays as it was (its
