@@ -43,6 +43,8 @@ from pathlib import Path
 
 import yaml
 
+from campaign.bench.common import blas_line
+
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 HEADING = "## Planning"
@@ -150,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="largest campaign planned with --before (default %(default)s)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
+    print(blas_line())
     sizes = [int(s) for s in args.sizes.split(",")]
     bad = [s for s in sizes if s % (CELLS * REPEATS)]
     if bad:
