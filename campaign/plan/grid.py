@@ -33,6 +33,6 @@ def grid_points(resolution, x_range=WORKSPACE_RANGE, z_range=WORKSPACE_RANGE, *,
     if nx * nz > MAX_GRID_POINTS:
         finest = max(x_range[1] - x_range[0], z_range[1] - z_range[0]) / (math.isqrt(MAX_GRID_POINTS) - 1)
         raise InputError(f"{key} = {res:g} m gives a workspace grid of {nx} x {nz} = {nx * nz:.3g} points, over the "
-                         f"{MAX_GRID_POINTS:,} this map samples at most (a step of at least {finest:.3g} m over "
+                         f"{MAX_GRID_POINTS:,} this map samples at most (a step of at least {finest:.4g} m over "
                          f"x {list(x_range)}, z {list(z_range)} m)")
     return nx * nz
