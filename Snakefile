@@ -4,7 +4,11 @@
 #
 #   simulate -> identify -> fit -> tables, figures -> report
 #
-# beside it, the studies (workflow/rules/studies.smk: not per campaign; the report shows
+# in one job per simulation unit, then one job per base and stage family: identify_<base>
+# (every trial of the base), fixed_base (the lambda fits, Tables 2-3, Figures 6-7),
+# flexible_base (Table 4, the calibration report), model_figures (Figures 4, 8), the single-
+# trial Figures 5 and 9, the planner's maps, and the archive's finalisation;
+# beside them, the studies (workflow/rules/studies.smk: not per campaign; the report shows
 # those the configuration lists under `studies:`).
 #
 # This file only includes the rules (helpers: workflow/rules/common.smk) and names the
@@ -15,8 +19,8 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/targets.smk"
 include: "workflow/rules/simulate.smk"
 include: "workflow/rules/identify.smk"
-include: "workflow/rules/fit.smk"
-include: "workflow/rules/tables.smk"
+include: "workflow/rules/fixed_base.smk"
+include: "workflow/rules/flexible_base.smk"
 include: "workflow/rules/figures.smk"
 include: "workflow/rules/archive.smk"
 include: "workflow/rules/calibration.smk"

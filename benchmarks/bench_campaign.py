@@ -4,17 +4,24 @@ Each campaign runs in a fresh temporary directory with the repository's Snakefil
 cores (``snakemake --cores 2``; the workflow profile ``profiles/default`` applies), figures,
 tables and the archive's manifest included, then ``snakemake --report`` builds the HTML
 report. The wall time of both is measured around the commands; the jobs' own ``TIMING``
-lines (``campaign.pipeline.joblog.job_log``) split the CPU time of the run into
+lines (``campaign.pipeline.joblog.job_log``; a job that makes several products writes one per
+product, ``part_of`` the job) split the CPU time of the run by stage:
 
 * simulation (``simulate`` + ``write``: integrating the rig, writing the trial files),
-* identification (``identify``),
+* identification (``identify``), the lambda fits (``fit``), the tables (``table``), the
+  figures (``figure``), the planner's maps (``maps``), the calibration report (``report``),
+  the archive's finalisation (``finalize``),
 * interpreter start-up + imports (``startup`` + ``imports``: paid by every job),
-* other work (figures, fits, tables, archive finalisation),
+* other job work (the rest of the jobs' CPU),
 
 measured in CPU seconds (contention from other work on the machine stretches wall times but
 hardly CPU times); the CPU of the whole run not spent in jobs is Snakemake's own (DAG,
 scheduling, job spawning). Per-job overhead against per-trial cost, the measurement behind
 ``job_unit``, is printed from the same lines.
+
+``--before DIR`` runs the same campaigns with the workflow and package of another source
+tree (e.g. ``git worktree add --detach /tmp/before <commit>``), alternating with this one
+run by run, so that old and new are measured side by side under the same load.
 
 Usage::
 
@@ -22,13 +29,15 @@ Usage::
     python benchmarks/bench_campaign.py --campaigns ci --units sweep,cell
     python benchmarks/bench_campaign.py --readme benchmarks/out/summary.md   # also record the summary
     python benchmarks/bench_campaign.py --repeats 3              # each run 3 times, the median shown
+    python benchmarks/bench_campaign.py --repeats 3 --before /tmp/before
 
 With ``--repeats N`` each campaign runs N times, one after the other; the table shows the run
-with the median wall time (its CPU split) and the range of the N wall times: on a machine
-shared with other work one run's wall and CPU times move by 10 % and more.
+with the median wall time (its CPU split) and the range of the N wall times, and the split
+by stage gives the median of each stage's CPU over the N runs: on a machine shared with
+other work one run's wall and CPU times move by 10 % and more.
 
-Targets (2-core machine): full campaign <= 60 s, reduced <= 20 s. The script exits
-with status 1 if a run fails; missing a target is reported, not an error.
+Targets (2-core machine): full campaign with its report <= 25 s, reduced <= 10 s. The
+script exits with status 1 if a run fails; missing a target is reported, not an error.
 """
 
 from __future__ import annotations
@@ -60,18 +69,24 @@ from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS, 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 HEADING = "## Campaign wall time"
-TARGETS = {"full": 60.0, "ci": 20.0}  # seconds, 2-core machine
+TARGETS = {"full": 25.0, "ci": 10.0}  # seconds with the report, 2-core machine
+#: the CPU split by stage: the TIMING keys each stage sums
+STAGES = {"simulation": ("simulate", "write"), "identification": ("identify",), "fits": ("fit",),
+          "tables": ("table",), "figures": ("figure",), "maps": ("maps",), "calibration report": ("report",),
+          "finalize": ("finalize",), "start-up + imports": ("startup", "imports")}
 CONFIGS = {"full": REPO / "config" / "config.yaml", "ci": REPO / "config" / "ci.yaml"}
 
 
-def run(cmd: list[str], cwd: Path) -> tuple[float, float]:
-    """Run a command; return its wall time and the CPU time of it and all its descendants [s].
+def run(cmd: list[str], cwd: Path, *, tree: Path = REPO) -> tuple[float, float]:
+    """Run a command with the package of ``tree`` first on the path; return its wall time and
+    the CPU time of it and all its descendants [s].
 
     Raises with its output tail if it fails.
     """
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(tree), os.environ.get("PYTHONPATH")) if p)}
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
@@ -119,8 +134,24 @@ def machine_probe(repeats: int = 3) -> dict[str, float]:
     return {"naive": statistics.median(times), **write_probe()}
 
 
-def bench_one(name: str, unit: str, cores: int) -> dict:
-    """Run one campaign from clean in a temporary directory; return the measurements."""
+def stage_split(recs: list[dict], cpu: float) -> dict[str, float]:
+    """CPU seconds of each stage (:data:`STAGES`), the rest of the jobs' work and Snakemake's own."""
+    jobs_cpu = sum(r["cpu"]["total"] for r in recs if "part_of" not in r)
+    parts = {stage: 0.0 for stage in STAGES}
+    for r in recs:
+        for stage, keys in STAGES.items():
+            for key in keys:
+                # one job per product drew the planner's maps under "figure"
+                part = "maps" if key == "figure" and r["job"] == "plan_maps" else stage
+                parts[part] += r["cpu"].get(key, 0.0)
+    parts["other job work"] = jobs_cpu - sum(parts.values())
+    parts["Snakemake"] = max(0.0, cpu - jobs_cpu)
+    return parts
+
+
+def bench_one(name: str, unit: str, cores: int, tree: Path = REPO) -> dict:
+    """Run one campaign from clean in a temporary directory with the workflow of ``tree``;
+    return the measurements."""
     probe_before = machine_probe()
     cfg = yaml.safe_load(CONFIGS[name].read_text())
     cfg["job_unit"] = unit
@@ -128,10 +159,10 @@ def bench_one(name: str, unit: str, cores: int) -> dict:
     try:
         config = work / "config.yaml"
         config.write_text(yaml.safe_dump(cfg, sort_keys=False))
-        base = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(work), "--configfile", str(config)]
-        dag, _ = run(base + ["-n"], work)
-        wall, cpu = run([*base[:5], "--cores", str(cores), *base[5:]], work)
-        report, report_cpu = run(base + ["--report", str(work / "report.html")], work)
+        base = [SNAKEMAKE, "-s", str(tree / "Snakefile"), "--directory", str(work), "--configfile", str(config)]
+        dag, _ = run(base + ["-n"], work, tree=tree)
+        wall, cpu = run([*base[:5], "--cores", str(cores), *base[5:]], work, tree=tree)
+        report, report_cpu = run(base + ["--report", str(work / "report.html")], work, tree=tree)
         results = work / cfg["results_root"] / cfg["campaign"]
         recs = timings(results)
         trials = trials_per_job(results)
@@ -140,22 +171,16 @@ def bench_one(name: str, unit: str, cores: int) -> dict:
     # the machine's speed drifts during a run: the probes before and after it, averaged
     probe_after = machine_probe()
     probe = {k: 0.5 * (probe_before[k] + probe_after[k]) for k in probe_before}
+    jobs = [r for r in recs if "part_of" not in r]
     sim = [r for r in recs if r["job"].startswith("simulate")]
     ident = [r for r in recs if r["job"].startswith("identify")]
-    jobs_cpu = sum(r["cpu"]["total"] for r in recs)
-    parts = {
-        "simulation": sum(r["cpu"].get("simulate", 0.0) + r["cpu"].get("write", 0.0) for r in recs),
-        "identification": sum(r["cpu"].get("identify", 0.0) for r in recs),
-        "start-up + imports": sum(r["cpu"].get("startup", 0.0) + r["cpu"].get("imports", 0.0) for r in recs),
-    }
-    parts["other job work"] = jobs_cpu - sum(parts.values())
-    parts["Snakemake"] = max(0.0, cpu - jobs_cpu)
+    parts = stage_split(recs, cpu)
     n_trials = sum(trials.values())
-    per_job = [r["cpu"].get("startup", 0.0) + r["cpu"].get("imports", 0.0) for r in sim + ident]
+    per_job = [r["cpu"].get("startup", 0.0) + r["cpu"].get("imports", 0.0) for r in jobs]
     return {
         "campaign": name, "unit": unit, "cores": cores, "wall": wall, "report": report, "dag": dag, "probe": probe,
-        "probes": (probe_before, probe_after),
-        "cpu": cpu, "report_cpu": report_cpu, "jobs": len(recs), "sim_jobs": len(sim), "trials": n_trials,
+        "probes": (probe_before, probe_after), "tree": "this" if tree == REPO else "before",
+        "cpu": cpu, "report_cpu": report_cpu, "jobs": len(jobs), "sim_jobs": len(sim), "trials": n_trials,
         "parts": parts, "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan"),
         "job_overhead": sum(per_job) / len(per_job) if per_job else float("nan"),
         "sim_per_trial": {b: _per_trial(sim, trials, b, ("simulate", "write")) for b in ("fixed", "flexible")},
@@ -172,13 +197,12 @@ def _per_trial(recs: list[dict], trials: dict[str, int], base: str, stages: tupl
 
 
 def table(rows: list[dict]) -> str:
-    head = ("| campaign | job unit | trials | jobs | wall [s] | + report [s] | xarray write probe [ms] | "
+    head = ("| campaign | tree | job unit | trials | jobs | wall [s] | + report [s] | xarray write probe [ms] | "
             "+ report scaled by the write reference [s] | target [s] | naive baseline [ms] | load | CPU [s] | "
-            "CPU / cores [s] | simulation | identification | start-up + imports | other job work | Snakemake |")
+            "CPU / cores [s] |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         cpu = r["cpu"]
-        share = {k: f"{v:.1f} ({100 * v / cpu:.0f} %)" for k, v in r["parts"].items()}
         target = TARGETS.get(r["campaign"], float("nan"))
         total = r["wall"] + r["report"]
         walls = r.get("walls", [r["wall"]])
@@ -188,11 +212,22 @@ def table(rows: list[dict]) -> str:
         scaled = total * XARRAY_WRITE_AT_TARGETS / px
         verdict = ("met" if total <= target else
                    "missed here; met scaled by the write reference" if scaled <= target else "missed")
-        lines.append(f"| {r['campaign']} | {r['unit']} | {r['trials']} | {r['jobs']} | {wall} | "
+        lines.append(f"| {r['campaign']} | {r['tree']} | {r['unit']} | {r['trials']} | {r['jobs']} | {wall} | "
                      f"{total:.1f} | {1e3 * px:.1f} ({1e3 * pb:.1f} / {1e3 * pa:.1f}) | "
                      f"{scaled:.1f} | {target:.0f} ({verdict}) | {1e3 * r['probe']['naive']:.0f} | {r['load']:.1f} | "
-                     f"{cpu:.1f} | {cpu / r['cores']:.1f} | {share['simulation']} | {share['identification']} | "
-                     f"{share['start-up + imports']} | {share['other job work']} | {share['Snakemake']} |")
+                     f"{cpu:.1f} | {cpu / r['cores']:.1f} |")
+    return "\n".join(lines)
+
+
+def split_table(rows: list[dict]) -> str:
+    """The CPU split by stage of each campaign and tree, the median of each stage over the runs [s]."""
+    names = list(rows[0]["split"])
+    head = "| campaign | tree | " + " | ".join(names) + " | total |"
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        split = r["split"]
+        lines.append(f"| {r['campaign']} | {r['tree']} | " + " | ".join(f"{split[k]:.1f}" for k in names)
+                     + f" | {sum(split.values()):.1f} |")
     return "\n".join(lines)
 
 
@@ -201,8 +236,8 @@ def granularity(rows: list[dict]) -> str:
     for r in rows:
         sim = ", ".join(f"{b} {1e3 * v:.0f} ms" for b, v in r["sim_per_trial"].items() if v == v)
         ident = ", ".join(f"{b} {1e3 * v:.0f} ms" for b, v in r["ident_per_trial"].items() if v == v)
-        lines.append(f"- {r['campaign']}, job_unit {r['unit']}: {r['sim_jobs']} simulation jobs, {r['jobs']} jobs in "
-                     f"all. Interpreter start-up + imports: {r['job_overhead']:.2f} s CPU per simulate/identify job; "
+        lines.append(f"- {r['campaign']} ({r['tree']}), job_unit {r['unit']}: {r['sim_jobs']} simulation jobs, "
+                     f"{r['jobs']} jobs in all. Interpreter start-up + imports: {r['job_overhead']:.2f} s CPU per job; "
                      f"per trial: simulation + writing {sim}; identification {ident} (CPU). Building the DAG "
                      f"(dry run): {r['dag']:.1f} s.")
     return "\n".join(lines)
@@ -230,9 +265,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cores", type=int, default=2, help="snakemake --cores (default: %(default)s)")
     parser.add_argument("--repeats", type=int, default=1,
                         help="runs of each campaign; the median wall time is shown (default: %(default)s)")
+    parser.add_argument("--before", type=Path,
+                        help="another source tree (its Snakefile and package) to run the same campaigns with, "
+                             "alternating with this one")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
     print(blas_line())
+    trees = [args.before, REPO] if args.before else [REPO]
     rows = []
     for name in args.campaigns.split(","):
         if name not in CONFIGS:
@@ -242,20 +281,24 @@ def main(argv: list[str] | None = None) -> int:
                 parser.error(f"--units: unknown job unit {unit!r}; expected sweep or cell")
             print(f"running campaign {name}, job_unit {unit} ...", file=sys.stderr, flush=True)
             try:
-                runs = sorted((bench_one(name, unit, args.cores) for _ in range(max(1, args.repeats))),
-                              key=lambda r: r["wall"])
-                median = runs[(len(runs) - 1) // 2]
-                rows.append({**median, "walls": [r["wall"] for r in runs]})
+                # old and new alternating, run by run, so that a change in the machine's load hits both
+                got: dict[Path, list[dict]] = {tree: [] for tree in trees}
+                for _ in range(max(1, args.repeats)):
+                    for tree in trees:
+                        got[tree].append(bench_one(name, unit, args.cores, tree))
             except RuntimeError as exc:
                 print(f"bench_campaign: {exc}", file=sys.stderr)
                 return 1
+            for runs in got.values():
+                runs = sorted(runs, key=lambda r: r["wall"])
+                median = runs[(len(runs) - 1) // 2]
+                split = {k: statistics.median(r["parts"][k] for r in runs) for k in median["parts"]}
+                rows.append({**median, "walls": [r["wall"] for r in runs], "split": split})
     body = "\n\n".join([
         f"Each campaign from a clean temporary directory with `snakemake --cores {args.cores}` (profile "
         "`profiles/default`), figures, tables and the archive manifest included; `+ report` adds "
         "`snakemake --report`. `CPU` is the CPU time of Snakemake and all its jobs (user + system, from "
-        "`getrusage`); the shares split it with the jobs' `TIMING` log lines (CPU seconds per stage), "
-        "`Snakemake` being the CPU not spent in any job (DAG, scheduling, spawning, the script preambles' "
-        "pickles). `CPU / cores` is what the run costs on an otherwise idle machine if both cores stay busy; "
+        "`getrusage`); the table below splits it by stage. `CPU / cores` is what the run costs on an otherwise idle machine if both cores stay busy; "
         "`load` is the machine's 1-minute load average when the run ended (other work on the machine "
         "stretches the wall time, not the CPU time). `xarray write probe` is the machine-speed reference of the rig's targets, "
         "one NetCDF4 group of a few channels written through xarray/h5netcdf (`campaign.bench.write_probe`; "
@@ -267,9 +310,14 @@ def main(argv: list[str] | None = None) -> int:
         f"`campaign.bench.naive_rk4` implements it; it is not used for scaling, since ours does more per step "
         f"than the one the targets were set against (about {BASELINE_AT_TARGETS * 1e3:.0f} ms there).",
         table(rows),
+        "CPU by stage [s] (the jobs' `TIMING` lines; `other job work` is the rest of the jobs' CPU, `Snakemake` "
+        "the CPU no job spent), the median of each over the runs"
+        + (f"; `before`: the workflow and package of `{args.before}`" if args.before else "") + ":\n\n"
+        + split_table(rows),
         "Per-job overhead against per-trial cost (the measurement behind `job_unit`):\n\n" + granularity(rows),
         machine() + " Rerun: `.venv/bin/python benchmarks/bench_campaign.py"
-        + (f" --repeats {args.repeats}" if args.repeats > 1 else "") + " --readme benchmarks/out/summary.md`.",
+        + (f" --repeats {args.repeats}" if args.repeats > 1 else "") + (" --before <old tree>" if args.before else "")
+        + " --readme benchmarks/out/summary.md`.",
     ])
     print(body)
     if args.readme:

@@ -3,8 +3,9 @@
 The command the README documents, run as a new user runs it: the default configuration
 (``config/config.yaml``), in a fresh folder laid out like a clone of the repository
 (``config/`` and the committed ``archive/reference``, read only), nothing simulated. Every
-product the archive's cells can make is made: identification, the lambda fits, Tables
-2-4, Figures 4-9 and the calibration report; the archive is verified. Measured around the
+product the archive's cells can make is made into ``results/reuse-reference/``:
+identification, the lambda fits, Tables 2-4, Figures 4-9 and the calibration report; the
+archive is verified. Measured around the
 command: the wall time and the CPU time of Snakemake and all its jobs, split with the
 jobs' ``TIMING`` lines (``campaign.pipeline.joblog.job_log``); the machine's load average beside
 it, since other work on the machine stretches the wall time, not the CPU time.
@@ -33,7 +34,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bench_campaign import REPO, SNAKEMAKE, machine, run, timings
+from bench_campaign import REPO, SNAKEMAKE, machine, run, stage_split, timings
 
 from campaign.bench.common import blas_line
 
@@ -52,23 +53,11 @@ def bench_once(cores: int) -> dict:
                "--config", "simulate=false"]
         wall, cpu = run(cmd, work)
         load = os.getloadavg()[0]
-        recs = timings(work / "results" / "full")
+        recs = timings(work / "results" / "reuse-reference")
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    stages: dict[str, float] = {}
-    for r in recs:
-        job = r["job"].split()[0]
-        kind = ("identify" if job.startswith("identify") else "fit" if job.startswith("fit") else
-                "figures" if job.startswith("fig") else "tables" if job.startswith("table") else job)
-        for key, value in r["cpu"].items():
-            if key in ("total", "children"):
-                continue
-            part = "start-up + imports" if key in ("startup", "imports") else kind
-            stages[part] = stages.get(part, 0.0) + value
-        stages[kind] = stages.get(kind, 0.0) + r["cpu"].get("children", 0.0)
-    jobs_cpu = sum(r["cpu"]["total"] for r in recs)
-    stages["Snakemake"] = max(0.0, cpu - jobs_cpu)
-    return {"wall": wall, "cpu": cpu, "load": load, "jobs": len(recs), "stages": stages}
+    stages = {k: v for k, v in stage_split(recs, cpu).items() if k != "simulation"}
+    return {"wall": wall, "cpu": cpu, "load": load, "jobs": sum("part_of" not in r for r in recs), "stages": stages}
 
 
 def table(runs: list[dict], cores: int) -> str:
@@ -104,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
                 "`Snakemake` being what no job spent. `load` is the 1-minute load average when the run ended: "
                 "other work on the machine stretches the wall time, not the CPU time. `CPU / cores` is what the "
                 "run needs of an otherwise idle 2-core machine if both cores stay busy, the floor of its wall "
-                "time there; start-up + imports (a fresh interpreter per job) is the largest part.\n\n"
+                "time there.\n\n"
                 f"{body}\n\n{machine()}")
         write_section(args.readme, HEADING, text)
     return 0

@@ -1,5 +1,7 @@
-"""Misfiled trials are caught: by ``archive verify`` and ``finalize``, by identification and
-by reuse, each naming both paths, even after the manifest was re-hashed to match.
+"""Misfiled and duplicate trials are caught: by ``archive verify`` and ``finalize``, by
+identification and by reuse, each naming both paths, even after the manifest was re-hashed to
+match; a file outside the cell layout is refused and no reader counts it (they all take their
+trials from one source: the index once finalized, else the cell layout).
 
 Every case works on a copy of the committed reference archive.
 """
@@ -7,14 +9,16 @@ Every case works on a copy of the committed reference archive.
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 from pathlib import Path
 
 import pytest
 
-from campaign.archive import finalize_campaign, verify, write_manifest
+from campaign.archive import finalize_campaign, list_trials, verify, write_manifest
 from campaign.cli.main import main
 from campaign.core.errors import TrialFileError
+from campaign.identify import find_trials
 from campaign.identify.table import identify_trials
 from campaign.pipeline.paths import index_cells
 
@@ -105,3 +109,62 @@ def test_reuse_refuses_an_index_whose_row_contradicts_its_path(archive):
     index.write_text(text)
     with pytest.raises(ValueError, match=f"path {HIGH} contradicts its row"):
         index_cells(archive)
+
+
+# ------------------------------------------------------------------------------------------
+# a duplicate outside the cell layout, and one source of truth for every reader
+# ------------------------------------------------------------------------------------------
+EXTRA = "fixed/extra/x.nc"
+
+
+def _reader_counts(archive: Path, tmp_path: Path, capsys) -> dict[str, int]:
+    """How many trials each reader of an archive takes: the index, ``archive ls``, the
+    workflow's reuse (index_cells), identification's file list, ``fit-lambda`` and ``tables``."""
+    counts = {"index": len(list(csv.DictReader((archive / "index.csv").open()))),
+              "archive ls": len(list_trials(archive)),
+              "workflow": sum(len(paths) for paths in index_cells(archive).values()),
+              "find_trials": len(find_trials(archive))}
+    capsys.readouterr()
+    assert main(["fit-lambda", str(archive), "--json", "--bootstrap", "0"]) == 0
+    counts["fit-lambda"] = json.loads(capsys.readouterr().out)["trials"]
+    assert main(["tables", str(archive), "--out", str(tmp_path / "tables"), "--bootstrap", "0"]) == 0
+    counts["tables"] = len(list(csv.DictReader((tmp_path / "tables" / "identification.csv").open())))
+    return counts
+
+
+def test_a_duplicate_outside_the_layout_is_refused_flagged_and_counted_by_no_reader(archive, tmp_path, capsys):
+    (archive / EXTRA).parent.mkdir()
+    shutil.copyfile(archive / R00, archive / EXTRA)
+    write_manifest(archive)  # even listed in the manifest, verify names it
+    found = _messages(verify(archive))
+    assert any(m.startswith(f"{EXTRA}: outside the archive layout") and f"same content (group digests) as {R00}" in m
+               for m in found), found
+    with pytest.raises(TrialFileError) as info:
+        finalize_campaign(archive)
+    assert str(archive / EXTRA) in str(info.value) and R00 in str(info.value)
+    assert main(["archive", "verify", str(archive)]) == 1
+    assert EXTRA in capsys.readouterr().out
+    counts = _reader_counts(archive, tmp_path, capsys)
+    assert set(counts.values()) == {26}, counts
+
+
+def test_readers_of_an_archive_not_finalized_take_its_cell_layout(archive, tmp_path, capsys):
+    (archive / EXTRA).parent.mkdir()
+    shutil.copyfile(archive / R00, archive / EXTRA)
+    for name in ("index.csv", "MANIFEST.sha256"):
+        (archive / name).unlink()
+    assert len(find_trials(archive)) == len(list_trials(archive)) == 26
+    assert EXTRA not in {r.path for r in list_trials(archive)}
+
+
+def test_a_content_duplicate_inside_the_layout_is_refused_and_flagged(archive):
+    """A copy of a trial into a cell of its own (a speed the campaign did not run) holds no
+    other trial's cell, but the same content: finalize refuses it and verify names both."""
+    copy = "fixed/config1/zero/v3.000/r00.nc"
+    (archive / copy).parent.mkdir()
+    shutil.copyfile(archive / R00, archive / copy)
+    found = _messages(verify(archive))
+    assert any(m.startswith(copy) and "same content" in m and R00 in m for m in found), found
+    with pytest.raises(TrialFileError) as info:
+        finalize_campaign(archive)
+    assert str(archive / copy) in str(info.value)

@@ -103,3 +103,22 @@ def test_map_cli_writes_the_direction_map(capsys, tmp_path):
     out = tmp_path / "dirs.png"
     assert main(["map", "directions", "--config", "3", "--out", str(out), "--base", "fixed"]) == 0
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and out.with_suffix(".pdf").read_bytes()[:5] == b"%PDF-"
+
+
+def test_a_grid_too_fine_is_refused_before_anything_is_allocated(capsys, tmp_path, monkeypatch):
+    """``campaign map workspace --resolution 1e-6`` would need 4e12 points (tens of TiB): one
+    line naming the resolution, exit 2, before the planner is built or a grid allocated."""
+    from campaign.plan.grid import MAX_GRID_POINTS, grid_points
+
+    assert grid_points(0.05) == 41 * 41 and grid_points(0.0025) <= MAX_GRID_POINTS
+    with pytest.raises(ValueError, match=r"resolution = 1e-06 m gives a workspace grid of 2000001 x 2000001"):
+        grid_points(1e-6)
+
+    def no_planner(**kwargs):
+        raise AssertionError("the planner was built for a grid that cannot be sampled")
+
+    monkeypatch.setattr(plan_maps, "_setup", no_planner)
+    status = main(["map", "workspace", "--resolution", "1e-6", "--out", str(tmp_path / "ws.png")])
+    _, err = capsys.readouterr()
+    assert status == 2 and "resolution" in err and len(err.strip().splitlines()) == 1, err
+    assert not list(tmp_path.iterdir())

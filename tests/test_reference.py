@@ -1,15 +1,19 @@
 """The committed reference archive as a regression baseline.
 
-``archive/reference`` was produced by the project's own commands (the reduced campaign,
-see archive/README.md). Re-simulating its stored scenes must reproduce its channels, and
-identification on it must reproduce the results stored beside it; a change to the rig or
-to identification that moves a number shows up here, and the archive is then regenerated
-deliberately, not silently.
+``archive/reference`` is made by the project's own command (``config/reference.yaml``: the
+reduced campaign, see archive/README.md). Re-simulating its stored scenes must reproduce its
+channels, identification on it must reproduce the results stored beside it, and its
+documented command must rewrite none of its files; a change to the rig or to identification
+that moves a number shows up here, and the archive is then regenerated deliberately, not
+silently. Finalizing an intact copy changes nothing.
 """
 
 from __future__ import annotations
 
 import math
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -94,3 +98,53 @@ def test_the_reference_reproduces_the_papers_fixed_base_effective_masses_within_
         assert abs(m3 / t2["m3"][config] - 1) < 0.10, (config, m3)
     assert abs(fixed.e.mean() - 0.55) < 0.03
     assert np.all(np.isfinite(df.m_eff)) and np.all((df.e > 0) & (df.e < 1))
+
+
+# ------------------------------------------------------------------------------------------
+# reproducible by its documented command; finalize idempotent on it
+# ------------------------------------------------------------------------------------------
+REPO = ROOT.parent
+
+
+def _documented_command() -> list[str]:
+    """The regeneration command config/reference.yaml documents (its ``snakemake`` line)."""
+    lines = [line.strip("# ").split() for line in (REPO / "config" / "reference.yaml").read_text().splitlines()
+             if line.startswith("#   snakemake ")]
+    assert len(lines) == 1, lines
+    return lines[0][1:]
+
+
+def _files(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*"))
+            if p.is_file() and ".jobs" not in p.parts}
+
+
+def test_finalize_on_an_intact_copy_changes_nothing(tmp_path):
+    copy = tmp_path / "reference"
+    shutil.copytree(REFERENCE, copy)
+    before = _files(copy)
+    archive.finalize_campaign(copy)
+    assert _files(copy) == before
+
+
+@pytest.mark.slow
+def test_the_reference_regenerates_from_its_documented_command_with_no_file_changed(tmp_path):
+    """The documented command, in a folder laid out like a fresh clone (config/ and copies of
+    the committed archive/reference and its identification): every trial is simulated again
+    and kept as it is, and the index, README, manifest and identification are written again
+    byte for byte. (Across CPUs whose floating point differs in the last bit this test names
+    the trials that moved: regenerate the reference there.)"""
+    (tmp_path / "config").symlink_to(REPO / "config")
+    shutil.copytree(REFERENCE, tmp_path / "archive" / "reference")
+    shutil.copyfile(STORED, tmp_path / "archive" / STORED.name)
+    before = _files(tmp_path / "archive")
+    cmd = [str(Path(sys.executable).parent / "snakemake"), "-s", str(REPO / "Snakefile"), "--directory", str(tmp_path),
+           *_documented_command()]
+    proc = subprocess.run(cmd, cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    kept = sum(log.read_text().count("kept (same trial)")
+               for log in (tmp_path / "results" / "reference" / "logs").glob("simulate_*/*/*.log"))
+    after = _files(tmp_path / "archive")
+    changed = sorted(rel for rel in before if after.get(rel) != before[rel])
+    assert changed == [] and set(after) == set(before), changed
+    assert kept == 26

@@ -3,8 +3,10 @@ through Snakemake in a temporary directory and its tables hold physically sensib
 
 Also: ``snakemake --lint`` has no findings, a bad configuration stops with a message naming
 the key, a rerun has nothing to do, editing one gain set reruns only what depends on it, a
-target runs only the jobs it needs, an archive is re-analysed without simulating, and a run
-killed mid-way completes on the rerun with an intact archive.
+target runs only the jobs it needs, a single trial file can be asked for, an archive is
+re-analysed without simulating into a results folder of its own (a simulated campaign's
+results stay byte-identical), the archive's finalisation refuses a trial changed since its
+job wrote it, and a run killed mid-way completes on the rerun with an intact archive.
 
 Nothing is written into the repository: every run uses ``--directory <tmp>`` with the
 repository's Snakefile (whose ``profiles/default`` Snakemake picks up by itself).
@@ -198,30 +200,52 @@ def test_editing_one_gain_reruns_only_its_dependents(ci_run, tmp_path):
     edited = write_config(tmp_path / "edited.yaml", gain_counts={"high": {"P": 400000}})
     out = snakemake(ci_run, "-n", config=edited)
     jobs = planned_jobs(out.stdout + out.stderr)
-    sims = sorted((rule, wc["gain"]) for rule, wc in jobs if rule.startswith(("simulate", "identify")))
-    assert sims == [("identify_fixed", "high"), ("identify_flexible", "high"),
-                    ("simulate_fixed", "high"), ("simulate_flexible", "high")], jobs
+    sims = sorted((rule, wc["gain"]) for rule, wc in jobs if rule.startswith("simulate"))
+    assert sims == [("simulate_fixed", "high"), ("simulate_flexible", "high")], jobs
     rules = {rule for rule, _ in jobs}
-    assert {("fit_lambda", "high")} == {(r, wc["gain_class"]) for r, wc in jobs if r == "fit_lambda"}
+    # each base's identification is one job, the fits, Tables 2-3 and Figures 6-7 another
+    assert {"identify_fixed", "identify_flexible", "fixed_base", "flexible_base", "fig9_base_motion",
+            "planner_maps"} <= rules
     # products that do not depend on the high gains stay as they are
-    assert not rules & {"fig4_arm_configurations", "fig5_joint3_motion", "fig8_flexible_setup"}, rules
-    assert {"table2_effective_mass", "table3_virtual_rotor_inertia", "table4_flexible_effective_mass",
-            "fig6_effective_mass", "fig7_restitution", "fig9_base_motion"} <= rules
+    assert not rules & {"model_figures", "fig5_joint3_motion"}, rules
 
 
 def test_reuse_reanalyses_an_archive_without_simulating(ci_run, tmp_path):
-    reuse = write_config(tmp_path / "reuse.yaml", campaign="ci-reuse", simulate=False,
-                         reuse_archive=str(ci_run / "archive" / "ci"))
-    out = snakemake(tmp_path, "-n", config=reuse)
+    """Re-analysing the campaign's own archive in its own folder: the products go to
+    results/reuse-ci, the simulated campaign's results/ci stay byte-identical (and untouched),
+    and identification from the archive reproduces every number."""
+    reuse = write_config(tmp_path / "reuse.yaml", simulate=False, reuse_archive="archive/ci")
+    out = snakemake(ci_run, "-n", config=reuse)
     dry = planned_jobs(out.stdout + out.stderr)
     rules = {rule for rule, _ in dry}
     assert not any(r.startswith("simulate") or r == "finalize_archive" for r in rules), rules
-    assert "verify_archive" in rules and "table4_flexible_effective_mass" in rules
-    snakemake(tmp_path, "table2", "results/ci-reuse/archive_verify.txt", config=reuse)
-    assert not (tmp_path / "archive").exists()  # nothing simulated, nothing archived
-    ours = read_csv(tmp_path / "results" / "ci-reuse" / "tables" / "table2.csv")
+    assert {"verify_archive", "identify_fixed", "fixed_base", "flexible_base"} <= rules
+    before = _digest_tree(ci_run / "results" / "ci")
+    archive = _digest_tree(ci_run / "archive" / "ci")
+    snakemake(ci_run, "table2", "results/reuse-ci/archive_verify.txt", config=reuse)
+    assert _digest_tree(ci_run / "results" / "ci") == before
+    assert _digest_tree(ci_run / "archive" / "ci") == archive  # nothing simulated, nothing archived
+    ours = read_csv(ci_run / "results" / "reuse-ci" / "tables" / "table2.csv")
     original = read_csv(ci_run / "results" / "ci" / "tables" / "table2.csv")
     assert ours == original  # identification from the archive reproduces every number
+    verified = (ci_run / "results" / "reuse-ci" / "archive_verify.txt").read_text()
+    assert verified.startswith(f"archive {ci_run / 'archive' / 'ci'}: intact, 26 trials checked")
+
+
+def test_reuse_refuses_to_mix_the_results_of_two_archives_of_one_name(ci_run, tmp_path):
+    """results/reuse-ci already holds the re-analysis of <ci_run>/archive/ci: another folder
+    named ci is refused at start-up, naming the key and both archives."""
+    other = tmp_path / "elsewhere" / "ci"
+    other.mkdir(parents=True)
+    (other / "index.csv").write_text("path,base,config,gain,speed,repeat\n")
+    (ci_run / "results" / "reuse-ci").mkdir(parents=True, exist_ok=True)
+    stamp = ci_run / "results" / "reuse-ci" / "archive_verify.txt"
+    if not stamp.exists():
+        stamp.write_text(f"archive {ci_run / 'archive' / 'ci'}: intact, 26 trials checked\n")
+    reuse = write_config(tmp_path / "reuse.yaml", simulate=False, reuse_archive=str(other))
+    out = snakemake(ci_run, "-n", config=reuse, check=False)
+    said = [line for line in (out.stdout + out.stderr).splitlines() if "configuration key reuse_archive" in line]
+    assert out.returncode != 0 and said and str(other) in said[0], out.stdout + out.stderr
 
 
 def _digest_tree(root: Path) -> dict[str, tuple[str, int]]:
@@ -231,25 +255,29 @@ def _digest_tree(root: Path) -> dict[str, tuple[str, int]]:
             for p in sorted(root.rglob("*")) if p.is_file()}
 
 
-def test_reuse_of_the_reference_archive_as_documented(tmp_path):
+def test_reuse_of_the_reference_archive_as_documented(ci_run, tmp_path):
     """``snakemake --cores 2 --config simulate=false`` with the default configuration, in a
-    folder laid out like a fresh clone (config/ and the committed archive/reference):
-    the cells come from the archive's index.csv, every product it can make is made, and
-    nothing is written into the archive."""
+    folder laid out like a fresh clone (config/ and the committed archive/reference) where a
+    campaign was run before (its results in results/full): the cells come from the archive's
+    index.csv, every product it can make is made into results/reuse-reference, nothing is
+    written into the archive, and the earlier campaign's results stay byte-identical."""
+    import shutil
+
     (tmp_path / "config").symlink_to(REPO / "config")
     (tmp_path / "archive").mkdir()
     (tmp_path / "archive" / "reference").symlink_to(REPO / "archive" / "reference")
+    shutil.copytree(ci_run / "results" / "ci", tmp_path / "results" / "full")   # the campaign run before
+    campaign = _digest_tree(tmp_path / "results" / "full")
     before = _digest_tree(REPO / "archive" / "reference")
     out = snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None)
     assert _digest_tree(REPO / "archive" / "reference") == before
-    # the reference holds stiff-mast flexible trials (their stored scenes say so) while the
-    # default flexible sweep is the space class: said in one line, and Table 4 names it
-    said = [line for line in out.stderr.splitlines() if line.startswith("reuse_archive: its flexible-base trials")]
-    assert said and "structure stiff_mast" in said[0] and "not space_class" in said[0]
-    assert "structure of the flexible-base trials: stiff_mast" in \
-        (tmp_path / "results" / "full" / "tables" / "table4.md").read_text()
+    assert _digest_tree(tmp_path / "results" / "full") == campaign
+    # the reference holds the structure the default configuration names: nothing to say
+    assert not [line for line in out.stderr.splitlines() if line.startswith("reuse_archive:")]
+    assert "structure of the flexible-base trials: space_class" in \
+        (tmp_path / "results" / "reuse-reference" / "tables" / "table4.md").read_text()
     assert [p.name for p in (tmp_path / "archive").iterdir()] == ["reference"]
-    results = tmp_path / "results" / "full"
+    results = tmp_path / "results" / "reuse-reference"
     assert (results / "archive_verify.txt").is_file()
     for name in ("table2", "table3", "table4"):
         assert (results / "tables" / f"{name}.csv").is_file()
@@ -277,21 +305,45 @@ def test_lint_has_no_findings(tmp_path):
     ({"bases": {"fixed": {"configurations": [1, 4], "gains": ["zero"]}}}, "configurations"),
     ({"figures": {"fig5": {"speed": 3.0, "repeat": 0}}}, "figures.fig5.speed"),
     ({"simulate": False, "reuse_archive": "no/such/archive"}, "reuse_archive"),
+    ({"simulate": False, "reuse_archive": "a_file"}, "reuse_archive"),
+    ({"plan_maps": {"resolution": 0.1, "config": 7}}, "plan_maps.config"),
+    ({"plan_maps": {"resolution": 0.000001, "config": 1}}, "plan_maps.resolution"),
+    ({"rig": "missing.yaml"}, "configuration key rig"),
+    ({"archive_root": "a_file"}, "configuration key archive_root"),
+    ({"results_root": "a_file"}, "configuration key results_root"),
 ])
 def test_bad_config_stops_naming_the_key(tmp_path, changes, key):
+    """At start-up, a dry run included: one line naming the key, nothing planned or written."""
+    (tmp_path / "a_file").write_text("not a folder\n")
     bad = write_config(tmp_path / "bad.yaml", **changes)
     out = snakemake(tmp_path, "fig5", "-n", config=bad, check=False)
     assert out.returncode != 0
-    assert key in out.stdout + out.stderr, out.stdout + out.stderr
+    said = [line for line in (out.stdout + out.stderr).splitlines() if key in line]
+    assert said, out.stdout + out.stderr
+    assert "Traceback" not in out.stderr and not planned_jobs(out.stdout + out.stderr)
     assert not (tmp_path / "archive").exists()
 
 
+def test_planning_sees_jobs_not_trials(tmp_path):
+    """A campaign of 108,000 trials (3000 speeds, 2 repeats) plans the same jobs as the reduced
+    one, and no trial file: each simulation job's output is its job manifest."""
+    speeds = [round(0.1 + 0.001 * i, 3) for i in range(3000)]
+    big = write_config(tmp_path / "big.yaml", speeds=speeds, repeats=2, figures={})
+    out = snakemake(tmp_path, "-n", config=big)
+    text = out.stdout + out.stderr
+    assert ".nc" not in text
+    jobs = planned_jobs(text)
+    assert sorted(r for r, _ in jobs if r.startswith("simulate")) == ["simulate_fixed"] * 3 + ["simulate_flexible"] * 2
+    assert len(jobs) == 15
+
+
 def test_table2_alone_runs_no_flexible_trial(tmp_path):
+    """Table 2 is made by the fixed base's job (with the fits, Table 3 and Figures 6-7, from the
+    same identification): no flexible-base job, no other figure."""
     out = snakemake(tmp_path, "table2", "-n")
     jobs = planned_jobs(out.stdout + out.stderr)
     rules = {rule for rule, _ in jobs}
-    assert "simulate_fixed" in rules and "table2_effective_mass" in rules
-    assert not any("flexible" in r or r.startswith(("fit", "fig")) for r in rules), rules
+    assert rules == {"simulate_fixed", "identify_fixed", "fixed_base", "table2"}, rules
 
 
 @pytest.mark.parametrize("unit, expected", [
@@ -304,6 +356,37 @@ def test_fig5_runs_one_simulation_job(tmp_path, unit, expected):
     jobs = planned_jobs(out.stdout + out.stderr)
     assert [j for j in jobs if j[0].startswith("simulate")] == expected
     assert {r for r, _ in jobs} == {"simulate_fixed", "fig5_joint3_motion", "fig5"}
+
+
+def test_a_single_trial_can_be_asked_for(ci_run, tmp_path):
+    """``snakemake <archive>/<base>/config<N>/<gain>/v<speed>/r<NN>.nc`` runs one job for that
+    trial, the same trial its sweep's job writes; a trial the campaign does not run is refused."""
+    from campaign.archive.filing import group_digests
+
+    target = "archive/ci/fixed/config2/low/v1.500/r00.nc"
+    out = snakemake(tmp_path, target)
+    assert [r for r, _ in planned_jobs(out.stdout + out.stderr)] == ["simulate_trial"]
+    assert group_digests(tmp_path / target) == group_digests(ci_run / target)
+    assert sorted(p.name for p in (tmp_path / "archive" / "ci").rglob("*.nc")) == ["r00.nc"]
+    out = snakemake(tmp_path, "archive/ci/fixed/config2/low/v3.000/r00.nc", "-n", check=False)
+    assert out.returncode != 0 and "is not a trial of campaign ci" in out.stdout + out.stderr, out.stdout
+
+
+def test_finalize_after_a_trial_changed_on_disk_fails_naming_it(tmp_path):
+    """The archive's finalisation takes each trial's digests from the job that wrote it (it
+    opens no trial), and still refuses a file changed since, naming it."""
+    cfg = write_config(tmp_path / "tiny.yaml", campaign="tiny", speeds=[1.5, 2.5], repeats=1,
+                       bases={"fixed": {"configurations": [1], "gains": ["zero"]}})
+    snakemake(tmp_path, "trials", config=cfg)
+    changed = "archive/tiny/fixed/config1/zero/v2.500/r00.nc"
+    data = bytearray((tmp_path / changed).read_bytes())
+    data[-64] ^= 0x01
+    (tmp_path / changed).write_bytes(bytes(data))
+    out = snakemake(tmp_path, "archive", config=cfg, check=False)
+    assert out.returncode != 0
+    said = [line for line in (out.stdout + out.stderr).splitlines() if "changed since its simulation job" in line]
+    assert said and changed in said[0] and "v1.500" not in said[0], out.stdout + out.stderr
+    assert not (tmp_path / "archive" / "tiny" / "MANIFEST.sha256").exists()
 
 
 def test_killed_run_completes_on_rerun(tmp_path):

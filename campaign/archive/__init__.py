@@ -6,7 +6,8 @@ records) and ``/truth`` (what only the simulator knows), readable with plain xar
 with h5py in the layout xarray's h5netcdf engine writes, because going through xarray takes
 about ten times as long to write and 5-8 times as long to read; each group carries a content digest its readers check. One
 module per concept (file format and digest, writer, reader and checks, decoding, campaign
-folders, manifest and verification); this package re-exports their public names.
+folders, the workflow's job manifests, manifest and verification); this package re-exports
+their public names.
 
 The file format, the campaign folder and the integrity checks: user guide, *The archive
 format* (``docs/archive.rst``).
@@ -29,7 +30,16 @@ from .fileformat import (
     prepare_trial,
     provenance,
 )
-from .folder import TrialRecord, list_trials, open_campaign, to_cell_dataset
+from .folder import TrialRecord, list_trials, open_campaign, outside_layout, to_cell_dataset, trial_files
+from .jobs import (
+    JOBS,
+    TrialEntry,
+    intact_trials,
+    job_trial_paths,
+    read_job_manifests,
+    write_job_manifest,
+    write_trial_entry,
+)
 from .manifest import (
     Problem,
     finalize_campaign,
@@ -45,6 +55,8 @@ __all__ = [
     "REFERENCES", "TRIAL_BYTES",
     "TrialRecord", "Problem", "ChannelArray", "GroupArrays", "TrialArrays",
     "provenance", "prepare_trial", "write_trial", "open_trial", "open_trial_arrays", "open_trial_tree", "trial_path",
-    "list_trials", "open_campaign", "to_cell_dataset",
+    "list_trials", "trial_files", "outside_layout", "open_campaign", "to_cell_dataset",
+    "JOBS", "TrialEntry", "write_trial_entry", "intact_trials", "write_job_manifest", "read_job_manifests",
+    "job_trial_paths",
     "write_manifest", "write_index", "write_readme", "finalize_campaign", "verify",
 ]

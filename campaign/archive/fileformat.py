@@ -41,6 +41,8 @@ TRIAL_SUFFIX = ".nc"
 MANIFEST = "MANIFEST.sha256"
 INDEX = "index.csv"
 README = "README.md"
+#: folder of the workflow's job manifests inside a campaign folder (:mod:`campaign.archive.jobs`)
+JOBS = ".jobs"
 
 #: the campaign cell: the dimensions of :func:`open_campaign` and :func:`to_cell_dataset`
 CELL_KEYS = ("base", "config", "gain", "speed", "repeat")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import dataclasses
 import json
 import math
@@ -21,11 +22,15 @@ from ..scene.schema import MEASURED, SCHEMA_VERSION, TRUTH
 from .decode import _plain, open_trial
 from .fileformat import (
     _STRUCTURAL,
+    _TEMP_RE,
     CELL_KEYS,
     FILTER_KEYS,
     GROUPS,
+    INDEX,
     INDEX_COLUMNS,
+    JOBS,
     MANIFEST,
+    README,
     TRIAL_SUFFIX,
 )
 from .read import _inspect
@@ -101,9 +106,65 @@ def _campaign(campaign_dir: str | os.PathLike) -> Path:
 
 
 def _trial_files(campaign: Path) -> Iterator[Path]:
-    """Trial files at the Scene.cell layout, sorted."""
+    """Trial files at the Scene.cell layout (``<base>/<pose>/<gain>/v<speed>/<file>.nc``), sorted."""
     for base in bases():
         yield from sorted((campaign / base).glob(f"*/*/*/*{TRIAL_SUFFIX}"))
+
+
+def _archive_file(rel: str) -> bool:
+    """A file of a campaign folder's own: its index, README or manifest, or a job manifest
+    of the workflow (:mod:`campaign.archive.jobs`)."""
+    parts = rel.split("/")
+    return rel in (INDEX, README, MANIFEST) or (parts[0] == JOBS and rel.endswith(".json"))
+
+
+def outside_layout(campaign_dir: str | os.PathLike) -> list[str]:
+    """Files of a campaign folder that are neither a trial at the cell layout nor one of the
+    folder's own files (:data:`INDEX`, :data:`README`, :data:`MANIFEST`, ``.jobs/*.json``), nor
+    a temporary file of an interrupted write: a copy in a folder of its own, notes, anything
+    a reader would not count. Relative paths, sorted."""
+    campaign = Path(campaign_dir)
+    trials = {_rel(campaign, f) for f in _trial_files(campaign)}
+    out = []
+    for file in sorted(campaign.rglob("*")):
+        if file.is_dir():
+            continue
+        rel = _rel(campaign, file)
+        if rel not in trials and not _archive_file(rel) and not _TEMP_RE.match(file.name):
+            out.append(rel)
+    return out
+
+
+def trial_files(campaign_dir: str | os.PathLike) -> list[Path]:
+    """The trials of a folder, as every reader takes them (identification, the lambda fits,
+    the tables, ``archive ls``, the workflow's reuse), so that they all count the same:
+
+    * a finalized campaign folder: the trials its ``index.csv`` lists, in its order;
+    * a campaign folder not finalized: its trial files at the cell layout, sorted;
+    * any other folder: every ``*.nc`` file under it, sorted (loose trial files).
+
+    A file outside the layout is never a trial of a campaign folder: ``archive finalize``
+    refuses it and ``archive verify`` names it.
+
+    Raises
+    ------
+    TrialFileError
+        The folder does not exist, or an ``index.csv`` without a ``path`` column.
+    """
+    root = Path(campaign_dir)
+    if not root.is_dir():
+        raise TrialFileError(f"{root}: not an archive folder")
+    index = root / INDEX
+    if index.is_file():
+        try:
+            with open(index, newline="", encoding="utf-8") as fh:
+                return [root / row["path"] for row in csv.DictReader(fh)]
+        except (KeyError, csv.Error, UnicodeDecodeError) as exc:
+            raise TrialFileError(f"{index}: unreadable ({exc})") from None
+    at_layout = list(_trial_files(root))
+    if at_layout:
+        return at_layout
+    return sorted(p for p in root.rglob(f"*{TRIAL_SUFFIX}") if p.is_file())
 
 
 def _rel(campaign: Path, file: Path) -> str:
@@ -117,6 +178,11 @@ def _record(campaign: Path, file: Path) -> TrialRecord:
             attrs = {k: _plain(f.attrs[k]) for k in f.attrs.keys() if k not in _STRUCTURAL}
     except Exception as exc:  # noqa: BLE001 - see _CORRUPT
         raise TrialFileError(f"{file}: not a readable HDF5 file (truncated or corrupt): {exc}") from exc
+    return _record_from_attrs(campaign, file, attrs)
+
+
+def _record_from_attrs(campaign: Path, file: Path, attrs: Mapping[str, Any]) -> TrialRecord:
+    """A trial's record from root attributes (as stored, or as the writer is about to store them)."""
     try:
         scene = json.loads(attrs["scene_json"])
         return TrialRecord(
@@ -146,7 +212,8 @@ def _filter_values(key: str, value: Any) -> set:
 
 
 def list_trials(campaign_dir: str | os.PathLike, **filters: Any) -> list[TrialRecord]:
-    """The trials of a campaign folder, optionally filtered, sorted by path.
+    """The trials of a campaign folder (:func:`trial_files`: the ones its ``index.csv`` lists
+    once it is finalized, else the files at the cell layout), optionally filtered, in path order.
 
     Parameters
     ----------
@@ -174,7 +241,7 @@ def list_trials(campaign_dir: str | os.PathLike, **filters: Any) -> list[TrialRe
     wanted = {k: _filter_values(k, v) for k, v in filters.items()}
     campaign = _campaign(campaign_dir)
     out = []
-    for file in progress(list(_trial_files(campaign)), desc="read"):
+    for file in progress(trial_files(campaign), desc="read"):
         rec = _record(campaign, file)
         if all((f"{rec.speed:.3f}" if k == "speed" else getattr(rec, k)) in vals for k, vals in wanted.items()):
             out.append(rec)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import hashlib
 import io
 import json
 import os
@@ -21,12 +20,14 @@ from .fileformat import (
     _TEMP_RE,
     INDEX,
     INDEX_COLUMNS,
+    JOBS,
     MANIFEST,
     README,
     TRIAL_SUFFIX,
 )
-from .filing import filing_problems
-from .folder import TrialRecord, _campaign, _record, _rel, _trial_files, list_trials
+from .filing import filing_problems, group_digests
+from .folder import TrialRecord, _archive_file, _campaign, _record, _rel, _trial_files
+from .jobs import TrialEntry, entry_problems, outside_problems, read_job_manifests, sha256_file
 from .read import _inspect_isolated_many
 from .write import _replace_atomically
 
@@ -45,16 +46,11 @@ class Problem:
 # ---------------------------------------------------------------------------------------
 # manifest, index, README
 # ---------------------------------------------------------------------------------------
-def _sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _all_files(campaign: Path) -> list[Path]:
-    return sorted(p for p in campaign.rglob("*") if p.is_file() and p.name != MANIFEST)
+    """Every file the manifest lists: all but the manifest itself and the workflow's job manifests."""
+    return sorted(p for p in campaign.rglob("*")
+                  if p.is_file() and p.name != MANIFEST and not (_archive_file(_rel(campaign, p))
+                                                                 and _rel(campaign, p).startswith(f"{JOBS}/")))
 
 
 def _write_text(path: Path, text: str) -> Path:
@@ -64,11 +60,14 @@ def _write_text(path: Path, text: str) -> Path:
     return _replace_atomically(path, write)
 
 
-def write_manifest(campaign_dir: str | os.PathLike) -> Path:
+def write_manifest(campaign_dir: str | os.PathLike, *, known: dict[str, str] | None = None) -> Path:
     """Write ``MANIFEST.sha256``: the sha256 of every file of the campaign folder.
 
     The format is ``sha256sum``'s (``<hex>  <relative path>``, sorted), so
     ``cd <campaign_dir> && sha256sum -c MANIFEST.sha256`` checks it without this package.
+    ``known`` maps relative paths to a sha256 already taken (finalize hashes the trials
+    while it checks them), so no file is read twice. The workflow's job manifests
+    (``.jobs/``) are not listed: they are its bookkeeping, not part of the archive.
 
     Raises
     ------
@@ -85,21 +84,32 @@ def write_manifest(campaign_dir: str | os.PathLike) -> Path:
                              "(or rerun that trial) before finalizing")
         if "\n" in rel or "\\" in rel:
             raise InputError(f"{campaign / rel}: file names with newlines or backslashes cannot be listed")
-        lines.append(f"{_sha256_file(file)}  {rel}\n")
+        lines.append(f"{(known or {}).get(rel) or sha256_file(file)}  {rel}\n")
     return _write_text(campaign / MANIFEST, "".join(lines))
 
 
 def write_index(campaign_dir: str | os.PathLike, *, records: Sequence[TrialRecord] | None = None) -> Path:
     """Write ``index.csv``: one row per trial (:data:`INDEX_COLUMNS`), sorted by path.
 
-    ``records`` are the folder's :func:`list_trials`, when the caller has them already."""
+    ``records`` are the records of the folder's trial files at the cell layout, when the
+    caller has them already."""
     campaign = _campaign(campaign_dir)
+    return _write_index_rows(campaign, [rec.row() for rec in (_layout_records(campaign) if records is None
+                                                                else records)])
+
+
+def _write_index_rows(campaign: Path, rows: Iterable[dict[str, Any]]) -> Path:
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=INDEX_COLUMNS, lineterminator="\n")
     writer.writeheader()
-    for rec in (list_trials(campaign) if records is None else records):
-        writer.writerow(rec.row())
+    for row in rows:
+        writer.writerow(row)
     return _write_text(campaign / INDEX, buf.getvalue())
+
+
+def _layout_records(campaign: Path) -> list[TrialRecord]:
+    """The records of the trial files at the cell layout (what finalize indexes), in path order."""
+    return [_record(campaign, f) for f in progress(list(_trial_files(campaign)), desc="read")]
 
 
 def _md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
@@ -108,14 +118,28 @@ def _md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
     return "\n".join(lines)
 
 
-def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
+def _readme_facts(records: Sequence[TrialRecord]) -> tuple[dict[str, int], dict[str, set]]:
+    """What the README says of the trials: their count per base and the rates of each clock."""
     rates: dict[str, set] = {dim: set() for dim in CLOCKS}
     for rec in records:
         params = json.loads(rec.scene_json)["params"]
         for dim, clock in CLOCKS.items():
             if clock.rate_key in params:
                 rates[dim].add(float(params[clock.rate_key]))
-    counts = {b: sum(r.base == b for r in records) for b in bases()}
+    return {b: sum(r.base == b for r in records) for b in bases()}, rates
+
+
+def _entry_facts(entries: Sequence[TrialEntry]) -> tuple[dict[str, int], dict[str, set]]:
+    """:func:`_readme_facts` of the trials of job manifests."""
+    rates: dict[str, set] = {dim: set() for dim in CLOCKS}
+    for e in entries:
+        for dim, clock in CLOCKS.items():
+            if clock.rate_key in e.rates:
+                rates[dim].add(e.rates[clock.rate_key])
+    return {b: sum(e.row["base"] == b for e in entries) for b in bases()}, rates
+
+
+def _readme_text(name: str, counts: dict[str, int], rates: dict[str, set]) -> str:
     clock_rows = [(f"`{dim}`", c.long_name, f"`{c.rate_key}`",
                    ", ".join(f"{r:g}" for r in sorted(rates[dim])) or "-") for dim, c in CLOCKS.items()]
 
@@ -132,7 +156,7 @@ def _readme_text(name: str, records: Sequence[TrialRecord]) -> str:
         f"Generated from `campaign/scene/schema.py` (schema {SCHEMA_VERSION}) by `campaign archive finalize`; "
         "do not edit, regenerate it.",
         "",
-        f"{len(records)} trials: " + ", ".join(f"{counts[b]} {b}-base" for b in bases()) + ".",
+        f"{sum(counts.values())} trials: " + ", ".join(f"{counts[b]} {b}-base" for b in bases()) + ".",
         "",
         "## Files",
         "",
@@ -191,12 +215,25 @@ def write_readme(campaign_dir: str | os.PathLike, *, records: Sequence[TrialReco
     campaign always gets the same README. ``records`` as in :func:`write_index`.
     """
     campaign = _campaign(campaign_dir)
-    return _write_text(campaign / README, _readme_text(campaign.resolve().name,
-                                                       list_trials(campaign) if records is None else records))
+    counts, rates = _readme_facts(_layout_records(campaign) if records is None else records)
+    return _write_text(campaign / README, _readme_text(campaign.resolve().name, counts, rates))
 
 
-def finalize_campaign(campaign_dir: str | os.PathLike) -> dict[str, Path]:
+def finalize_campaign(campaign_dir: str | os.PathLike, *,
+                      job_manifests: Sequence[str | os.PathLike] | None = None) -> dict[str, Path]:
     """Check every trial, then write ``index.csv``, ``README.md`` and ``MANIFEST.sha256`` (last).
+
+    Parameters
+    ----------
+    campaign_dir : path-like
+        The campaign folder.
+    job_manifests : sequence of path-like, optional
+        The job manifests of the simulation jobs that wrote the campaign (the workflow's
+        :mod:`campaign.archive.jobs`). With them no trial is opened: each file is hashed
+        once (for the manifest) and must have the sha256 its job took when it wrote it;
+        every trial file must be one a job wrote. Without them every trial file is read
+        and checked from scratch (schema, content digests, filing), as ``archive verify``
+        does.
 
     Returns
     -------
@@ -206,27 +243,50 @@ def finalize_campaign(campaign_dir: str | os.PathLike) -> dict[str, Path]:
     Raises
     ------
     TrialFileError
-        A trial fails its schema or content check (each named): a broken file is never
-        entered into the manifest.
+        Nothing is written when a trial fails its checks, a file lies outside the archive
+        layout (a copy in a folder of its own, notes), two trials hold the same cell or the
+        same content, or (with job manifests) a file changed since its job wrote it or no
+        job wrote it; every such file is named.
     InputError
-        Not a campaign folder, or a leftover temporary file.
+        Not a campaign folder, or a leftover temporary file of an interrupted write.
     """
     campaign = _campaign(campaign_dir)
+    for file in _all_files(campaign):
+        if _TEMP_RE.match(file.name):
+            raise InputError(f"{file} is a temporary file of an interrupted write: delete it "
+                             "(or rerun that trial) before finalizing")
+    if job_manifests is None:
+        rows, (counts, rates), known = _checked_from_files(campaign)
+    else:
+        entries = read_job_manifests(job_manifests)
+        known = {}
+        problems = entry_problems(campaign, entries, hashes=known)
+        if problems:
+            raise TrialFileError("cannot finalize: " + "; ".join(f"{campaign / rel}: {m}" for rel, m in problems))
+        entries = sorted(entries, key=lambda e: e.path)
+        rows, (counts, rates) = [e.row for e in entries], _entry_facts(entries)
+    return {"index": _write_index_rows(campaign, rows),
+            "readme": _write_text(campaign / README, _readme_text(campaign.resolve().name, counts, rates)),
+            "manifest": write_manifest(campaign, known=known)}
+
+
+def _checked_from_files(campaign: Path):
+    """Every trial file of the folder read and checked: (index rows, README facts, no known hashes)."""
     bad = []
     files = list(_trial_files(campaign))
-    for file, found in zip(files, _inspect_isolated_many(files)):
+    for file, found in zip(files, _inspect_isolated_many(files), strict=True):
         bad += [f"{file}: {p}" for p in found]
     if bad:
         raise TrialFileError("cannot finalize, broken trial files: " + "; ".join(bad))
     # the index and the README describe the same trials: their root attributes are read once
     # (a few ms per file; 216 files in the full campaign)
-    records = list_trials(campaign)
+    records = _layout_records(campaign)
     misfiled = filing_problems(campaign, [_filing_record(r) for r in records])
+    misfiled += outside_problems(campaign, {group_digests(r.file): r.path for r in records})
     if misfiled:
         raise TrialFileError("cannot finalize, misfiled or duplicate trials: "
                              + "; ".join(f"{campaign / rel}: {message}" for rel, message in misfiled))
-    return {"index": write_index(campaign, records=records), "readme": write_readme(campaign, records=records),
-            "manifest": write_manifest(campaign)}
+    return [r.row() for r in records], _readme_facts(records), {}
 
 
 _MANIFEST_LINE = re.compile(r"^([0-9a-f]{64}) [ *](.+)$")
@@ -273,7 +333,7 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
             file = campaign / rel
             if not file.is_file():
                 problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
-            elif _sha256_file(file) != digest:
+            elif sha256_file(file) != digest:
                 problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
     on_disk = {_rel(campaign, f) for f in _all_files(campaign)}
     for rel in sorted(on_disk - set(listed)):
@@ -308,6 +368,8 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
     elif manifest.is_file():
         problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
     problems += [Problem(rel, message) for rel, message in filing_problems(campaign, readable, rows)]
+    known = {group_digests(campaign / r["path"]): r["path"] for r in readable}
+    problems += [Problem(rel, message) for rel, message in outside_problems(campaign, known)]
     return problems
 
 

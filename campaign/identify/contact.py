@@ -6,7 +6,6 @@ import dataclasses
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from .options import IdentifyOptions
 
@@ -103,6 +102,10 @@ def _edge_power(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_line: float, si
     def resid(x):
         u = np.clip(sign * (tt - x[1]), 0.0, None) / span
         return x[0] * u ** x[2] - rr
+
+    # lazily: scipy.optimize costs 0.1-0.2 s to import, and the jobs that only read or
+    # write trials (simulation, tables) import this package without fitting an edge
+    from scipy.optimize import least_squares
 
     x0 = np.array([max(rr.max(), 1e-12), t_line, 1.0])
     lo = [0.0, t_line - 5.0 * span, 0.3]

@@ -8,8 +8,6 @@ import math
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import expm as _expm
-from scipy.optimize import minimize_scalar
 
 from .contact import Contact, _ContactInput
 from .ft_momentum import _zoh_integral
@@ -195,6 +193,8 @@ class _LinearJointModel:
     def propagate(self, kB: float, U: np.ndarray, X0: np.ndarray) -> np.ndarray:
         """Node states (K+1, 2nv, m) of m input columns U (K, nv, m) from X0 (2nv, m): the
         model integrated exactly over each step (matrix exponential of the augmented system)."""
+        from scipy.linalg import expm  # lazily: see campaign.identify.contact._edge_power
+
         nv, K, steps, Minv = self.nv, self.K, self.steps, self.Minv
         A = np.zeros((2 * nv, 2 * nv))
         A[:nv, nv:] = np.eye(nv)
@@ -209,7 +209,7 @@ class _LinearJointModel:
         for k in range(K):
             key = round(float(steps[k]) * 1e10)
             if key not in cache:
-                E = _expm(aug * steps[k])
+                E = expm(aug * steps[k])
                 cache[key] = (E[:2 * nv, :2 * nv], E[:2 * nv, 2 * nv:])
             Phi, Gam = cache[key]
             X[k + 1] = Phi @ X[k] + Gam @ U[k]
@@ -286,6 +286,8 @@ class _LinearJointModel:
         without viscous friction in the drive file)."""
         if not np.any(self.visc > 0):
             return 0.0
+        from scipy.optimize import minimize_scalar  # lazily: see campaign.identify.contact._edge_power
+
         res = minimize_scalar(lambda k: self.solve(k, signs).cost, bounds=(0.0, self.opt.joint_viscous_max),
                               method="bounded", options={"xatol": 1e-3})
         return float(res.x)

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
+from ..archive import trial_files
 from ..core.errors import InputError, TrialFileError
 from ..core.lazy import LazyModule
 from ..model.robot import load_robot
@@ -112,17 +113,17 @@ def identify_files(paths: Iterable, *, options: IdentifyOptions | None = None) -
 
 
 def find_trials(archive) -> list[Path]:
-    """All trial files (``*.nc``) under an archive folder, recursively, sorted.
+    """The trial files of an archive folder, as every reader counts them
+    (:func:`campaign.archive.trial_files`): a finalized campaign's ``index.csv``, else its
+    files at the cell layout, else (a folder of loose trial files) every ``*.nc`` under it.
 
     Raises
     ------
     TrialFileError
-        The folder does not exist or holds no ``*.nc`` file.
+        The folder does not exist or holds no trial file.
     """
     root = Path(archive)
-    if not root.is_dir():
-        raise TrialFileError(f"{root}: not an archive folder")
-    files = sorted(p for p in root.rglob("*.nc") if p.is_file())
+    files = trial_files(root)
     if not files:
         raise TrialFileError(f"{root}: no trial files (*.nc) found")
     return files

@@ -6,7 +6,6 @@ import math
 
 import numpy as np
 import pinocchio as pin
-from scipy.optimize import least_squares
 
 from ..model.exiit import impact_jacobian
 from .contact import _ContactInput
@@ -172,6 +171,8 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: d
     def resid(x):
         p, A, _ = solve(x)
         return A @ p - s
+
+    from scipy.optimize import least_squares  # lazily: see campaign.identify.contact._edge_power
 
     best = None
     for x0 in _LTI_STARTS:

@@ -7,7 +7,7 @@ every start); the scene is imported when a check needs it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +16,8 @@ import yaml
 from ..core.errors import InputError
 from ..core.files import source_date_epoch
 
-__all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_workflow_config"]
+__all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_paths", "check_workflow_config",
+           "trial_pick_problem", "check_products"]
 # ---------------------------------------------------------------------------------------
 # the workflow's configuration
 # ---------------------------------------------------------------------------------------
@@ -90,8 +91,6 @@ def check_workflow_config(config: Mapping[str, Any], *, sweeps: Mapping[str, Map
     from ..scene.description import make_scene
 
     rig = config.get("rig") or None
-    if rig is not None and not Path(rig).is_file():
-        raise InputError(f"configuration key rig: rig parameter file {rig!r} does not exist")
     params = dict(config.get("rig_params") or {})
     values = check_rig_params(params, rig=rig, key="configuration key rig_params")
     for base, sweep in sweeps.items():
@@ -108,3 +107,72 @@ def check_workflow_config(config: Mapping[str, Any], *, sweeps: Mapping[str, Map
 
         check_identify_options(config["identify"], key="configuration key identify")
 
+
+
+def check_paths(config: Mapping[str, Any]) -> None:
+    """The folders and files a configuration names, before anything reads or writes them:
+    ``archive_root`` and ``results_root`` are folders (or do not exist yet), ``rig`` is an
+    existing file, ``reuse_archive`` (when nothing is simulated) and ``identification_csv``
+    are not folders of the wrong kind. One line naming the key."""
+    for key in ("archive_root", "results_root"):
+        value = config.get(key)
+        if value is not None and Path(value).exists() and not Path(value).is_dir():
+            raise InputError(f"configuration key {key}: {value!r} is a file, not a folder")
+    rig = config.get("rig")
+    if rig is not None and not Path(rig).is_file():
+        what = "is a folder, not" if Path(rig).is_dir() else "does not exist: it names"
+        raise InputError(f"configuration key rig: {rig!r} {what} a rig parameter file (null = config/rig.yaml)")
+    reuse = config.get("reuse_archive")
+    if not config.get("simulate", True) and reuse and Path(reuse).exists() and not Path(reuse).is_dir():
+        raise InputError(f"configuration key reuse_archive: {reuse!r} is a file, not an archive folder")
+    export = config.get("identification_csv")
+    if export and Path(export).is_dir():
+        raise InputError(f"configuration key identification_csv: {export!r} is a folder, not a CSV file")
+
+
+def trial_pick_problem(base: str, config: int, gain: str, speed: float, repeat: int, *,
+                       sweeps: Mapping[str, Mapping[str, Any]], key: str, held: Sequence[tuple] = ()) -> str:
+    """Why the trial a figure shows (configuration key ``key``: ``figures.fig5``) is not one
+    of the campaign's, or "". ``sweeps`` as :func:`check_workflow_config`; ``held`` are the
+    cells (base, configuration, gain) the campaign holds."""
+    if (base, config, gain) not in held:
+        return f"configuration key {key} needs cell {base}/config{config}/{gain}, which bases.{base} does not list"
+    sweep = sweeps[base]
+    if float(speed) not in [float(s) for s in sweep["speeds"]]:
+        return (f"configuration key {key}.speed: {speed:g} m/s is not one of the {base}-base speeds "
+                f"{[float(s) for s in sweep['speeds']]}")
+    if not 0 <= int(repeat) < int(sweep["repeats"]):
+        return f"configuration key {key}.repeat: {repeat} but the {base} base runs {sweep['repeats']} repeat(s)"
+    return ""
+
+
+def check_products(config: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[str, Any]],
+                   held: Mapping[str, Sequence[tuple]], wanted: Mapping[str, bool]) -> None:
+    """The configuration of the products, at start-up (one line naming the key): the trial
+    each single-trial figure shows (``figures.fig5``, ``figures.fig9``, for a figure the
+    campaign makes: ``wanted``), and the planner's maps (``plan_maps.config`` a paper
+    configuration, ``plan_maps.resolution`` a grid the map can sample)."""
+    # the paper's tables and the map's grid limit: standard library and PyYAML only
+    from ..core.yamlfile import config_file, read_yaml
+    from ..plan.grid import grid_points
+
+    figures = config.get("figures") or {}
+    for name, (base, picks) in {"fig5": ("fixed", [(1, "zero")]),
+                                "fig9": ("flexible", [(c, g) for c in (1, 2) for g in ("low", "high")])}.items():
+        if not wanted.get(name) or base not in sweeps:
+            continue
+        pick = figures.get(name) or {}
+        speed = float(pick.get("speed", max(sweeps[base]["speeds"])))
+        repeat = int(pick.get("repeat", 0))
+        for c, g in picks:
+            why = trial_pick_problem(base, c, g, speed, repeat, sweeps=sweeps, key=f"figures.{name}",
+                                     held=held.get(base, ()))
+            if why:
+                raise InputError(why)
+    maps = config.get("plan_maps") or {}
+    known = sorted(int(c) for c in read_yaml(config_file("paper.yaml"))["configurations"])
+    if "config" in maps and maps["config"] not in known:
+        raise InputError(f"configuration key plan_maps.config: {maps['config']!r} is not a paper configuration "
+                         f"(known: {', '.join(map(str, known))})")
+    if wanted.get("plan_maps") and "resolution" in maps:
+        grid_points(maps["resolution"], key="configuration key plan_maps.resolution")

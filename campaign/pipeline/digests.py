@@ -11,6 +11,7 @@ from __future__ import annotations
 import ast
 import functools
 import hashlib
+import os
 from pathlib import Path
 
 from ..core.errors import InputError
@@ -27,19 +28,59 @@ def module_name(path: Path, *, root: Path = PACKAGE) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+def _stamp(root: Path) -> tuple:
+    """What the package's modules are now: each ``.py`` file with its modification time and size."""
+    out = []
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+        for name in sorted(files):
+            if name.endswith(".py"):
+                st = os.stat(os.path.join(folder, name))
+                out.append((os.path.join(folder, name), st.st_mtime_ns, st.st_size))
+    return tuple(out)
+
+
+def _import_statements(tree: ast.AST):
+    """The ``import`` and ``from ... import`` statements of a module, at any depth (in a
+    function, a class, a ``try``), without visiting expressions: imports are statements."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        for _, value in ast.iter_fields(node):
+            if isinstance(value, list):
+                for item in value:
+                    if isinstance(item, (ast.Import, ast.ImportFrom)):
+                        yield item
+                    elif isinstance(item, (ast.stmt, ast.excepthandler, ast.match_case)):
+                        todo.append(item)
+
+
+@functools.lru_cache(maxsize=4)
+def _index(root: Path, stamp: tuple) -> tuple[dict[str, Path], dict[str, frozenset[str]]]:
+    """({module: file}, {module: the package modules it imports}) of the package at ``root``
+    as ``stamp`` describes it; built once per state of the files."""
+    parent = root.parent
+    known = {}
+    for path, _, _ in stamp:
+        parts = Path(path).relative_to(parent).with_suffix("").parts
+        known[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = Path(path)
+    return known, {name: frozenset(imports(name, path, known)) for name, path in known.items()}
+
+
 def modules(*, root: Path = PACKAGE) -> dict[str, Path]:
     """Every module of the package at ``root`` (default: campaign) by dotted name."""
-    return {module_name(p, root=root): p for p in sorted(Path(root).rglob("*.py"))}
+    root = Path(root).resolve()
+    return dict(_index(root, _stamp(root))[0])
 
 
 def imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
     """The package modules ``name`` imports (absolute or relative, anywhere in the file)."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     out = set()
-    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+    for node in _import_statements(ast.parse(path.read_text(), filename=str(path))):
         if isinstance(node, ast.Import):
             targets = [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom):
+        else:
             if node.level:
                 base = package.split(".")
                 base = base[:len(base) - (node.level - 1)]
@@ -48,28 +89,20 @@ def imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
                 stem = node.module or ""
             # `from pkg import sub` imports the module pkg.sub when it is one, else a name of pkg
             targets = [stem] + [f"{stem}.{alias.name}" for alias in node.names]
-        else:
-            continue
         out.update(t for t in targets if t in known and t != name)
     return out
 
 
-@functools.lru_cache(maxsize=4)
-def _cached_graph(root: Path, stamp: tuple) -> dict[str, frozenset[str]]:
-    known = modules(root=root)
-    return {name: frozenset(imports(name, path, known)) for name, path in known.items()}
-
-
 def graph(*, root: Path = PACKAGE) -> dict[str, frozenset[str]]:
     """{module: the package modules it imports} over the whole package at ``root``."""
-    known = modules(root=root)
-    return _cached_graph(Path(root), tuple((n, p.stat().st_mtime_ns, p.stat().st_size) for n, p in known.items()))
+    root = Path(root).resolve()
+    return dict(_index(root, _stamp(root))[1])
 
 
 def closure(paths) -> list[Path]:
     """The package files ``paths`` and every package module they import, directly or not,
     with the ``__init__`` of each package on the way (Python runs it on import), sorted."""
-    known, g = modules(), graph()
+    known, g = _index(PACKAGE, _stamp(PACKAGE))
     todo = [module_name(p) for p in paths if Path(p).suffix == ".py"]
     seen: set[str] = set()
     while todo:
@@ -107,7 +140,13 @@ def code_digest(*patterns: str) -> str:
     files = source_files(*patterns)
     digest = hashlib.sha256()
     for f in sorted(set(files) | set(closure(files))):
-        data = f.read_bytes()
+        data = _content(f, os.stat(f).st_mtime_ns)
         digest.update(f"{f.relative_to(PACKAGE).as_posix()}\0{len(data)}\0".encode())
         digest.update(data)
     return digest.hexdigest()
+
+
+@functools.lru_cache(maxsize=1024)
+def _content(path: Path, mtime_ns: int) -> bytes:
+    """A source file's bytes, read once per modification (the stages share most of their modules)."""
+    return path.read_bytes()

@@ -1,6 +1,9 @@
 """A workflow job's log: everything it prints, ended by one ``TIMING`` line.
 
-``benchmarks/bench_campaign.py`` sums the ``TIMING`` lines over a campaign.
+A job that makes several products (``identify_<base>``, ``fixed_base``, ...) writes one log
+per product, each ended by the product's own ``TIMING`` line (``part_of`` the job), beside
+the job's log, which holds its start-up and imports. ``benchmarks/bench_campaign.py`` sums
+the ``TIMING`` lines over a campaign.
 """
 
 from __future__ import annotations
@@ -55,7 +58,8 @@ def _children_cpu() -> float:
 
 
 @contextlib.contextmanager
-def job_log(path: str | os.PathLike | None, *, job: str = "job", exit_process: bool = False) -> Iterator[Timer]:
+def job_log(path: str | os.PathLike | None, *, job: str = "job", exit_process: bool = False,
+            part_of: str | None = None) -> Iterator[Timer]:
     """Send everything a job prints to its log file; end the log with a ``TIMING`` line.
 
     Parameters
@@ -73,6 +77,10 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job", exit_process: b
         block runs, and ``atexit`` handlers do not either, so every output must be written
         and closed inside the block (the campaign's writers close their files and rename
         them into place there). A failing job still raises as usual.
+    part_of : str, optional
+        This log is one product's of the job named here, opened inside that job's own
+        ``job_log``: what the block prints goes to this log, then back to the job's; its
+        ``TIMING`` line holds no start-up and says ``part_of`` (its CPU is part of the job's).
 
     Yields
     ------
@@ -88,9 +96,14 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job", exit_process: b
     ``cpu`` (its ``total`` includes the CPU of child processes the job waited for, listed
     as ``children``). A failing job writes its traceback to the log and re-raises.
     """
+    if part_of is not None and exit_process:
+        raise ValueError("a product's log (part_of) cannot end the process")
     timer = Timer()
-    startup = _process_age()
-    startup_cpu = time.process_time()  # CPU of this process so far: interpreter, preamble, this module
+    startup = _process_age() if part_of is None else 0.0
+    # CPU of this process so far: interpreter, preamble, this module (a part: from its start)
+    startup_cpu = time.process_time() if part_of is None else 0.0
+    c0 = time.process_time()
+    children0 = _children_cpu() if part_of is not None else 0.0
     t0 = time.perf_counter()
     stream: TextIO | None = open(path, "w", encoding="utf-8", buffering=1) if path is not None else None
     old = sys.stdout, sys.stderr
@@ -104,11 +117,14 @@ def job_log(path: str | os.PathLike | None, *, job: str = "job", exit_process: b
         raise
     finally:
         total = time.perf_counter() - t0 + (startup if math.isfinite(startup) else 0.0)
+        children = _children_cpu() - children0
         record = {"job": job, "startup": round(startup, 4), **{k: round(v, 4) for k, v in timer.seconds.items()},
                   "total": round(total, 4),
                   "cpu": {"startup": round(startup_cpu, 4), **{k: round(v, 4) for k, v in timer.cpu.items()},
-                          "children": round(_children_cpu(), 4),
-                          "total": round(time.process_time() + _children_cpu(), 4)}}
+                          "children": round(children, 4),
+                          "total": round(startup_cpu + time.process_time() - c0 + children, 4)}}
+        if part_of is not None:
+            record["part_of"] = part_of
         print(f"TIMING {json.dumps(record, sort_keys=True)}")
         if stream is not None:
             sys.stdout, sys.stderr = old

@@ -1,4 +1,5 @@
-"""Where a campaign's trials are: the trials of a sweep cell, declared or found in an archive.
+"""Where a campaign's trials and results are: the trials of a sweep cell, declared or found
+in an archive, and the results folder of a re-analysed archive.
 
 Standard library only: the workflow's helpers call these while Snakemake builds the DAG.
 """
@@ -10,9 +11,16 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..core.errors import InputError
 from ..core.vocabulary import TRIAL_SUFFIX, cell_dir, trial_relpath
 
-__all__ = ["cell_trials", "find_cell_trials", "index_cells"]
+__all__ = ["cell_trials", "find_cell_trials", "index_cells", "REUSE_PREFIX", "VERIFY_FILE", "reuse_results",
+           "check_reuse_results"]
+
+#: results of re-analysing the archive ``<x>`` go to ``<results_root>/reuse-<x>``
+REUSE_PREFIX = "reuse-"
+#: the re-analysed archive's verification, in its results folder: it names the archive
+VERIFY_FILE = "archive_verify.txt"
 def cell_trials(archive_dir: str | os.PathLike, base: str, config: int, gain: str,
                 speeds: Sequence[float], repeats: int) -> list[str]:
     """Paths of every trial of a cell: each speed x repeat ``0 .. repeats-1``, speed-major."""
@@ -70,3 +78,26 @@ def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], li
         raise ValueError(f"{index}: lists no trial")
     return {cell: [p for _, _, p in sorted(rows)] for cell, rows in sorted(cells.items())}
 
+
+
+def reuse_results(results_root: str | os.PathLike, archive_dir: str | os.PathLike) -> str:
+    """The results folder of re-analysing ``archive_dir``: ``<results_root>/reuse-<its folder name>``,
+    never a simulated campaign's ``<results_root>/<campaign>``."""
+    name = Path(os.path.abspath(archive_dir)).name
+    return f"{str(results_root).rstrip('/')}/{REUSE_PREFIX}{name}"
+
+
+def check_reuse_results(results_dir: str | os.PathLike, archive_dir: str | os.PathLike) -> None:
+    """Refuse to mix: the results folder of a re-analysis may hold only products of the same
+    archive. Its verification file (:data:`VERIFY_FILE`, written by the re-analysis) names the
+    archive it checked; another archive's (two archives of the same folder name) raises
+    InputError naming both. A folder without it holds nothing yet, or only an interrupted
+    re-analysis's jobs of the same name."""
+    stamp = Path(results_dir) / VERIFY_FILE
+    if not stamp.is_file():
+        return
+    first = stamp.read_text(encoding="utf-8", errors="replace").split("\n", 1)[0]
+    mine = os.path.abspath(archive_dir)
+    if not first.startswith(f"archive {mine}:"):
+        raise InputError(f"{results_dir} holds the results of re-analysing another archive ({first.split(':')[0]}), "
+                         f"not {mine}: remove {results_dir} or reuse under another results_root")

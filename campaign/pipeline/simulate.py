@@ -2,7 +2,9 @@
 
 :func:`run_cells` simulates the trials of one or more sweep cells (base x configuration x
 gain set) together with the batched rig and writes one file per trial with
-:func:`campaign.archive.write_trial` (atomic), printing one progress line per trial.
+:func:`campaign.archive.write_trial` (atomic), printing one progress line per trial; given
+a job manifest, it lists there what it wrote with the digests taken as it wrote
+(:mod:`campaign.archive.jobs`). :func:`run_trial` simulates one trial of a cell.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..archive import trial_path, write_trial
+from ..archive import intact_trials, trial_path, write_job_manifest, write_trial, write_trial_entry
 from ..core.errors import SimulationError
 from ..core.timing import Timer
 from ..model.paper import gain_counts
@@ -22,14 +24,16 @@ from ..rig.batch import simulate_batch
 from ..scene.checks import check_rig_params, check_speeds, pendulum_reach
 from ..scene.description import Scene, make_scene
 
-__all__ = ["run_cells", "run_cell"]
+__all__ = ["run_cells", "run_cell", "run_trial"]
 
 
 def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike, speeds: Sequence[float],
               repeats: int, campaign_seed: int = 0, gain_overrides: Mapping | None = None,
               rig: str | os.PathLike | None = None, params: Mapping[str, Any] | None = None,
               timer: Timer | None = None, threads: int = 1,
-              progress: Callable[[int, int, str], None] | None = None) -> list[Path]:
+              progress: Callable[[int, int, str], None] | None = None,
+              job_manifest: str | os.PathLike | None = None, job: str = "simulate",
+              repeat_indices: Sequence[int] | None = None) -> list[Path]:
     """Simulate every speed x repeat of sweep cells and write one trial file per trial.
 
     The trials are integrated together, in lock-step, by the batched rig
@@ -60,6 +64,16 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     progress : callable, optional
         Called as ``progress(done, total, cell)`` as each trial finishes (``campaign sweep``
         draws its progress line from it).
+    job_manifest : path-like, optional
+        Write the job manifest of :mod:`campaign.archive.jobs` here, once every trial is
+        written: each trial's path, file sha256, content digests and index row. A trial
+        file already there that holds the same trial (checked from scratch first) is
+        kept as it is, so a rerun that reproduces the campaign changes no file.
+    job : str
+        The job's name in its manifest.
+    repeat_indices : sequence of int, optional
+        Only these repeat indices (each ``< repeats``), e.g. ``[1]`` for one trial
+        (:func:`run_trial`); default all.
 
     Returns
     -------
@@ -78,7 +92,7 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     # every speed within the pendulum's reach and distinct in its path, before any trial
     speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
     plan = _plan_trials(cells, archive_dir=archive_dir, speeds=speeds, repeats=repeats, campaign_seed=campaign_seed,
-                        gain_overrides=gain_overrides, rig=rig, params=params)
+                        gain_overrides=gain_overrides, rig=rig, params=params, repeat_indices=repeat_indices)
     n = len(plan)
     finished = [0]
     t_start = time.perf_counter()
@@ -91,20 +105,39 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     with timer("simulate"):
         results = simulate_batch([scene for scene, _ in plan], threads=threads, on_done=done)
     per_trial = 1e3 * (time.perf_counter() - t_start) / max(n, 1)
-    return _write_trials(plan, results, timer=timer, per_trial_ms=per_trial)
+    if job_manifest is None:
+        return _write_trials(plan, results, timer=timer, per_trial_ms=per_trial)
+    with timer("write"):
+        # files a previous run left: kept where they hold the same trial (checked from scratch, in a child)
+        present = [path for _, path in plan if path.is_file()]
+        intact = {p for p, ok in zip(present, intact_trials(present), strict=True) if ok}
+    entries: list = []
+
+    def write(trial, path):
+        entries.append(write_trial_entry(trial, path, campaign_dir=archive_dir, keep_identical=path in intact))
+        return "kept (same trial)" if entries[-1].kept else "written"
+
+    written = _write_trials(plan, results, timer=timer, per_trial_ms=per_trial, write=write)
+    with timer("write"):
+        write_job_manifest(job_manifest, entries, job=job)
+    return written
 
 
 def _plan_trials(cells, *, archive_dir, speeds, repeats, campaign_seed, gain_overrides, rig,
-                 params) -> list[tuple[Scene, Path]]:
+                 params, repeat_indices=None) -> list[tuple[Scene, Path]]:
     """Every trial's scene and file path, cell by cell, speed by speed, repeat by repeat; each
     flexible-base scene's stroke checked (:func:`campaign.plan.stroke.check_scene_stroke`)
     before any trial is simulated."""
     cells = [(str(b), int(c), str(g)) for b, c, g in cells]
+    indices = range(int(repeats)) if repeat_indices is None else [int(r) for r in repeat_indices]
+    wrong = [r for r in indices if not 0 <= r < int(repeats)]
+    if wrong:
+        raise ValueError(f"repeat {wrong[0]} is not one of the {int(repeats)} repeat(s) 0..{int(repeats) - 1}")
     plan = []
     for base, config, gain in cells:
         counts = gain_counts(gain, gain_overrides)
         for speed in speeds:
-            for repeat in range(int(repeats)):
+            for repeat in indices:
                 scene = make_scene(base=base, config=config, gain=gain, speed=float(speed), repeat=repeat,
                                    gains_counts=counts, rig=rig, params=dict(params or {}),
                                    campaign_seed=int(campaign_seed))
@@ -113,9 +146,11 @@ def _plan_trials(cells, *, archive_dir, speeds, repeats, campaign_seed, gain_ove
     return plan
 
 
-def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float) -> list[Path]:
+def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float,
+                  write: Callable[[Any, Path], str] | None = None) -> list[Path]:
     """Write each simulated trial to its path with one progress line; SimulationError naming
-    every trial that failed, after the others are written."""
+    every trial that failed, after the others are written. ``write(trial, path)`` writes one
+    and says what it did (default :func:`campaign.archive.write_trial`: "written")."""
     n = len(plan)
     written, failed = [], []
     for i, ((scene, path), trial) in enumerate(zip(plan, results, strict=True), 1):
@@ -125,12 +160,12 @@ def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float) -> list[P
             continue
         t1 = time.perf_counter()
         with timer("write"):
-            write_trial(trial, path)
+            done = (write or _write_plain)(trial, path)
         t2 = time.perf_counter()
         truth = trial["truth"].data_vars
         duration = 1e3 * float(truth["contact_end"].values - truth["contact_start"].values)
         print(f"[{i}/{n}] {scene.cell}: seed {scene.seed}, contact {duration:.1f} ms, peak "
-              f"{float(truth['peak_force'].values):.1f} N; simulated {per_trial_ms:.0f} ms (batch mean), written "
+              f"{float(truth['peak_force'].values):.1f} N; simulated {per_trial_ms:.0f} ms (batch mean), {done} "
               f"{1e3 * (t2 - t1):.0f} ms -> {path}", flush=True)
         written.append(path)
     if failed:
@@ -139,6 +174,21 @@ def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float) -> list[P
     return written
 
 
+def _write_plain(trial, path: Path) -> str:
+    write_trial(trial, path)
+    return "written"
+
+
 def run_cell(base: str, config: int, gain: str, out_dir: str | os.PathLike, **kwargs: Any) -> list[Path]:
     """Simulate one sweep cell: :func:`run_cells` with ``cells=[(base, config, gain)]``."""
     return run_cells([(base, config, gain)], archive_dir=out_dir, **kwargs)
+
+
+def run_trial(base: str, config: int, gain: str, speed: float, repeat: int, *, archive_dir: str | os.PathLike,
+              repeats: int, **kwargs: Any) -> Path:
+    """Simulate one trial of a sweep cell, the same one (same seed, same numbers) its sweep's
+    job writes: :func:`run_cells` with one speed and one repeat index. ``repeats`` is the
+    sweep's (a repeat index must be below it); ``kwargs`` as :func:`run_cells`."""
+    (path,) = run_cells([(base, config, gain)], archive_dir=archive_dir, speeds=[speed], repeats=repeats,
+                        repeat_indices=[repeat], **kwargs)
+    return path

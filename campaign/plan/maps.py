@@ -9,7 +9,6 @@ peak on the flexible one); :mod:`campaign.report.figures.plan_maps` draws them.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -18,13 +17,14 @@ from ..core.errors import InputError
 from ..model.robot import Robot
 from ..model.robot.ik import position_branches_many
 from .directions import horizontal_directions, unit_directions
+from .grid import WORKSPACE_RANGE, grid_points
 from .prediction import pose_terms, predict
 
 __all__ = ["workspace_map", "direction_map"]
 
 
 def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
-                  restitution: float, direction, y: float, x_range=(-1.0, 1.0), z_range=(-1.0, 1.0),
+                  restitution: float, direction, y: float, x_range=WORKSPACE_RANGE, z_range=WORKSPACE_RANGE,
                   resolution: float = 0.05, beam=None, arm=None) -> dict:
     """m* (eq 7) and, on a flexible base, the structure's peak displacement over a vertical plane.
 
@@ -41,9 +41,8 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
         ``m_eff`` (fixed base, eq 7) and, with ``beam``, ``m_eff_flexible`` (eq 8) and
         ``structure_peak`` [m]: ``<q>_best`` and ``<q>_worst`` of shape (G, nz, nx).
     """
+    grid_points(resolution, x_range, z_range)
     res = float(resolution)
-    if not (math.isfinite(res) and res > 0):
-        raise InputError(f"map resolution = {resolution!r} m must be > 0")
     x = np.arange(x_range[0], x_range[1] + 0.5 * res, res)
     z = np.arange(z_range[0], z_range[1] + 0.5 * res, res)
     if x.size < 2 or z.size < 2:

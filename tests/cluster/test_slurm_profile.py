@@ -22,7 +22,9 @@ SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 PROFILE = yaml.safe_load((REPO / "profiles" / "slurm" / "config.yaml").read_text())
 # rules that stay one SLURM job each (simulations, the calibration fit, the designed campaign's plan and
 # trials) or only name targets
-NOT_GROUPED = re.compile(r"simulate_\w+|\w+_study|study_\w+|studies|calibrate|all|trials|identification|fig\d|table\d|plan_maps|eq8_validity|table4_structures|plan_rig_check|designed|designed_plan|designed_trials")
+NOT_GROUPED = re.compile(r"simulate_\w+|\w+_study|study_\w+|studies|calibrate|all|trials|identification|archive|fig\d|"
+                         r"table\d|plan_maps|eq8_validity|table4_structures|plan_rig_check|designed|designed_plan|"
+                         r"designed_trials")
 
 
 def workflow_rules(*config: str) -> set[str]:

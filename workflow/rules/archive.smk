@@ -1,20 +1,23 @@
-# The archive folder: once every trial is written, index.csv, README.md and MANIFEST.sha256
-# (campaign.archive.finalize_campaign, which checks every trial first). When the campaign
-# reuses an archive, that archive is verified instead (manifest, schema, content digests).
+# The archive folder: once every simulation job is done, index.csv, README.md and
+# MANIFEST.sha256 (campaign.archive.finalize_campaign). Finalize opens no trial: it reads the
+# job manifests, hashes each file once (the manifest needs the hash) and refuses, naming it, a
+# file changed since its job wrote it, a trial no job wrote, a file outside the archive layout
+# and two trials of the same cell or content; `campaign archive verify` checks every file from
+# scratch. When the campaign reuses an archive, that archive is verified instead (manifest,
+# schema, content digests, filing).
 
 if SIMULATE:
 
     rule finalize_archive:
         input:
-            all_trials(),
+            all_job_manifests(),
         output:
             index=f"{ARCHIVE}/index.csv",
             readme=f"{ARCHIVE}/README.md",
             manifest=f"{ARCHIVE}/MANIFEST.sha256",
         params:
             archive=lambda wc: ARCHIVE,
-        # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
-        priority: 1
+        priority: PRIORITY["finalize_archive"]
         log:
             log_file("finalize_archive"),
         resources:
@@ -25,15 +28,35 @@ if SIMULATE:
         script:
             "../scripts/finalize_archive.py"
 
+    # the campaign's identification as one CSV, every trial in path order: where the
+    # configuration key identification_csv says (then part of `all`; config/reference.yaml:
+    # archive/reference.identification.csv), else results/<campaign>/identification.csv on demand
+    rule identification_csv:
+        input:
+            [t for base in SWEEPS for t in ident_tables(base)],
+        output:
+            IDENTIFICATION_CSV,
+        priority: PRIORITY["identification_csv"]
+        log:
+            log_file("identification_csv"),
+        resources:
+            runtime=5,
+            mem_mb=1000,
+        conda:
+            "../envs/campaign.yaml"
+        script:
+            "../scripts/identification_csv.py"
+
 else:
 
     rule verify_archive:
         input:
-            all_trials(),
+            [t for ts in REUSED.values() for t in ts],
         output:
-            f"{RESULTS}/archive_verify.txt",
+            f"{RESULTS}/{paths.VERIFY_FILE}",
         params:
             archive=lambda wc: TRIAL_ROOT,
+        priority: PRIORITY["verify_archive"]
         log:
             log_file("verify_archive"),
         resources:

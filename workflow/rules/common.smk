@@ -1,13 +1,17 @@
 # Helpers of the campaign workflow: the configuration (validated at start-up), where every
-# file lives, which trials and identification tables each product needs, and the targets.
+# file lives, which job manifests, trials and identification tables each product needs, and
+# the targets.
 #
 # Only the standard library, PyYAML and the package's start-up modules (campaign.core.vocabulary,
 # campaign.model.conventions, campaign.pipeline.paths, .config, .digests: standard library and
 # PyYAML at import) are imported
 # here: Snakemake evaluates this file every time it starts, a dry run included, so the heavy
 # stages (numpy, pinocchio, xarray, matplotlib) load in the jobs only.
+#
+# What Snakemake plans grows with the jobs, not with the trials: a simulation job's only
+# declared output is its job manifest (campaign.archive.jobs), which lists the trial files it
+# wrote; the jobs downstream take the manifests as input and read their trials from them.
 
-import hashlib
 import os
 import sys
 from pathlib import Path
@@ -44,6 +48,8 @@ config_checks.parse_typed_strings(config, _schema, given=workflow.config_setting
 try:
     config_checks.check_environment()
     config_checks.check_schema(config, _schema)
+    # the folders and files the configuration names, before anything reads them
+    config_checks.check_paths(config)
 except InputError as _exc:
     raise WorkflowError(str(_exc)) from None
 validate(config, schema="../schemas/config.schema.yaml")
@@ -62,7 +68,6 @@ wildcard_constraints:
 # ----------------------------------------------------------------------------------------
 CAMPAIGN = config["campaign"]
 ARCHIVE = f"{config['archive_root']}/{CAMPAIGN}"
-RESULTS = f"{config['results_root']}/{CAMPAIGN}"
 SIMULATE = bool(config["simulate"])
 JOB_UNIT = config["job_unit"]
 GAIN_ORDER = vocabulary.gain_sets()
@@ -79,7 +84,7 @@ def code_digest(*patterns):
 
 # the code behind each stage (see code_digest)
 CODE_SIMULATE = code_digest("pipeline/simulate.py", "model/robot/*/*")
-CODE_IDENTIFY = code_digest("identify/table.py", "model/robot/*/*")
+CODE_IDENTIFY = code_digest("pipeline/stages.py", "identify/table.py", "model/robot/*/*")
 CODE_FIT = code_digest("pipeline/fit.py", "model/robot/*/*")
 CODE_TABLES = code_digest("pipeline/tabulate.py", "model/robot/*/*")
 
@@ -142,14 +147,19 @@ def _held_sweeps(held):
 
 
 
+def _rig_file_data():
+    """The rig parameter file's content (its existence was checked at start-up)."""
+    with open(RIG_FILE, encoding="utf-8") as fh:
+        return yaml.safe_load(fh) or {}
+
+
 def _structure():
     """The flexible sweep's named structure (bases.flexible.structure), checked against the
     rig file's ``structures:``; None keeps the rig file's default."""
     name = (config["bases"].get("flexible") or {}).get("structure")
     if name is None:
         return None
-    with open(RIG_FILE) as fh:
-        known = sorted((yaml.safe_load(fh).get("structures") or {}))
+    known = sorted(_rig_file_data().get("structures") or {})
     if name not in known:
         _config_error("bases.flexible.structure", f"unknown structure {name!r}; the rig file {RIG_FILE} names {known}")
     return name
@@ -200,6 +210,7 @@ def sweep_params(base):
 
 if SIMULATE:
     TRIAL_ROOT = ARCHIVE
+    RESULTS = f"{config['results_root']}/{CAMPAIGN}"
     SWEEPS = _sweeps()
     REUSED = {}
 else:
@@ -208,6 +219,13 @@ else:
     TRIAL_ROOT = config["reuse_archive"].rstrip("/")
     if not Path(TRIAL_ROOT).is_dir():
         _config_error("reuse_archive", f"{TRIAL_ROOT!r} is not a folder (simulate is false: nothing is simulated)")
+    # a results folder of its own, named for the archive read: a simulated campaign's results
+    # (results/<campaign>) are never written over, nor mixed with another archive's
+    RESULTS = paths.reuse_results(config["results_root"], TRIAL_ROOT)
+    try:
+        paths.check_reuse_results(RESULTS, TRIAL_ROOT)
+    except InputError as _exc:
+        _config_error("reuse_archive", str(_exc))
     REUSED = _reuse_cells(TRIAL_ROOT)
     SWEEPS = _held_sweeps(REUSED)
 
@@ -215,19 +233,18 @@ def _configured_structure():
     """The structure the flexible sweep simulates: the config's, else the rig file's default."""
     if STRUCTURE is not None:
         return STRUCTURE
-    with open(RIG_FILE) as fh:
-        leaf = (yaml.safe_load(fh).get("flexible") or {}).get("structure")
+    leaf = (_rig_file_data().get("flexible") or {}).get("structure")
     return leaf.get("value") if isinstance(leaf, dict) else leaf
 
 
-# the structure Table 4 and Figure 9 show: a reused archive's own, read from its flexible
-# trials' stored scenes (an archive made before the default changed holds another one), else
-# the one the flexible sweep simulates
+# the structure Table 4 and Figure 9 show: a reused archive's own, read from the stored scene of
+# one flexible trial per cell (an archive made before the default changed holds another one),
+# else the one the flexible sweep simulates
 FLEX_STRUCTURE = _configured_structure()
 if not SIMULATE and any(c[0] == "flexible" for c in REUSED):
     from campaign.scene.description import trial_structures   # numpy and h5py: only when reusing an archive
 
-    _held = ", ".join(trial_structures([p for c, ps in REUSED.items() if c[0] == "flexible" for p in ps]))
+    _held = ", ".join(trial_structures([ps[0] for c, ps in REUSED.items() if c[0] == "flexible"]))
     if _held != FLEX_STRUCTURE:
         print(f"reuse_archive: its flexible-base trials emulate the structure {_held} (their stored scenes), not "
               f"{FLEX_STRUCTURE} that the campaign config names; Table 4 and Figure 9 show {_held}", file=sys.stderr)
@@ -249,47 +266,17 @@ def cells(base, configs=None, gains=None):
             and (SIMULATE or (base, c, g) in REUSED)]
 
 
-def cell_trials(base, config_, gain):
-    """Trial files of one cell: declared outputs when simulating, the archive's index when reusing."""
-    if SIMULATE:
-        sweep = SWEEPS[base]
-        return paths.cell_trials(TRIAL_ROOT, base, config_, gain, sweep["speeds"], sweep["repeats"])
-    return REUSED[(base, config_, gain)]
-
-
-def trial_file(base, config_, gain, speed, repeat, key):
-    """One trial a figure shows; ``key`` names the configuration entry that chose it."""
-    if (base, config_, gain) not in cells(base):
-        raise WorkflowError(f"{key} needs cell {vocabulary.cell_dir(base, config_, gain)}, which bases.{base} does not list")
-    path = f"{TRIAL_ROOT}/{vocabulary.trial_relpath(base, config_, gain, speed, repeat)}"
-    if SIMULATE:
-        sweep = SWEEPS[base]
-        if float(speed) not in sweep["speeds"]:
-            raise WorkflowError(f"{key}.speed = {speed} m/s is not one of the {base}-base speeds {sweep['speeds']}")
-        if int(repeat) >= sweep["repeats"]:
-            raise WorkflowError(f"{key}.repeat = {repeat} but the {base} base runs {sweep['repeats']} repeat(s)")
-    elif not Path(path).is_file():
-        raise WorkflowError(f"{key}: trial {path} is not in reuse_archive {TRIAL_ROOT!r}")
-    return path
-
-
-FIGURE_BASE = {"fig5": "fixed", "fig9": "flexible"}
-
-
-def figure_pick(name):
-    """(speed, repeat) of the trial a single-trial figure shows: configuration key
-    figures.<name>, by default the base's highest speed and repeat 0."""
-    pick = config.get("figures", {}).get(name, {})
-    speeds = SWEEPS.get(FIGURE_BASE[name], {}).get("speeds") or config["speeds"]
-    return float(pick.get("speed", max(speeds))), int(pick.get("repeat", 0))
-
-
 # ----------------------------------------------------------------------------------------
-# job units: what one simulation / identification job covers
+# job units: what one simulation job covers, and its job manifest
 # ----------------------------------------------------------------------------------------
 def unit_of(base, config_, gain):
     """Wildcard values of the job covering a cell (``job_unit`` sweep: base x gain; cell: + configuration)."""
     return {"gain": gain} if JOB_UNIT == "sweep" else {"config": config_, "gain": gain}
+
+
+def unit_name(base):
+    """Path pattern of one job of ``base`` (logs, job manifests, identification tables)."""
+    return f"{base}/{{gain}}" if JOB_UNIT == "sweep" else f"{base}/config{{config}}/{{gain}}"
 
 
 def unit_cells(base, wildcards):
@@ -299,22 +286,64 @@ def unit_cells(base, wildcards):
     return cells(base, configs=[int(wildcards.config)], gains=[wildcards.gain])
 
 
-def unit_trials(base, wildcards):
-    """Trial files of one job's cells (identification input)."""
-    return [t for b, c, g in unit_cells(base, wildcards) for t in cell_trials(b, c, g)]
+def units(base):
+    """The job units of ``base`` in sweep order, each as its wildcard values, each once."""
+    out = []
+    for b, c, g in cells(base):
+        unit = unit_of(b, c, g)
+        if unit not in out:
+            out.append(unit)
+    return out
 
 
-def unit_name(base):
-    """Path pattern of one job of ``base`` (logs, identification tables)."""
-    return f"{base}/{{gain}}" if JOB_UNIT == "sweep" else f"{base}/config{{config}}/{{gain}}"
+def job_manifest(base, unit):
+    """The job manifest of one simulation job (campaign.archive.jobs): its only declared output."""
+    return f"{ARCHIVE}/.jobs/{unit_name(base).format(**unit)}.json"
 
 
-def simulate_outputs(base):
-    """Declared trial files of one simulation job of ``base``, as patterns in its wildcards."""
-    sweep = SWEEPS[base]
-    configs = sweep["configurations"] if JOB_UNIT == "sweep" else ["{config}"]
-    return [str(Path(ARCHIVE, *vocabulary.layout(base, vocabulary.config_folder(c), "{gain}", s, r)))
-            for c in configs for s in sweep["speeds"] for r in range(sweep["repeats"])]
+def unit_sources(base, unit):
+    """What the jobs after the simulation read for one unit: its job manifest when simulating,
+    the reused archive's trial files of the unit's cells (from its index.csv) when not."""
+    if SIMULATE:
+        return [job_manifest(base, unit)]
+    return [t for b, c, g in cells(base, configs=[int(unit["config"])] if "config" in unit else None,
+                                   gains=[unit["gain"]]) for t in REUSED[(b, c, g)]]
+
+
+def base_sources(base):
+    """:func:`unit_sources` of every unit of ``base``."""
+    return [s for unit in units(base) for s in unit_sources(base, unit)]
+
+
+def single_trial(wc):
+    """The trial ``snakemake <archive>/<base>/config<N>/<gain>/v<speed>/r<NN>.nc`` asks for, checked
+    to be one of the campaign's (its cell, speed and repeat in the sweep)."""
+    trial = {"base": wc.base, "config": int(wc.config), "gain": wc.gain, "speed": float(wc.speed),
+             "repeat": int(wc.repeat)}
+    sweep = SWEEPS.get(wc.base)
+    if sweep is None or (wc.base, trial["config"], wc.gain) not in cells(wc.base) \
+            or trial["speed"] not in sweep["speeds"] or trial["repeat"] >= sweep["repeats"]:
+        runs = (f"bases.{wc.base} runs configurations {sweep['configurations']}, gains {sweep['gains']}, speeds "
+                f"{sweep['speeds']} m/s and repeats 0-{sweep['repeats'] - 1}") if sweep else f"it has no {wc.base} base"
+        raise WorkflowError(f"{ARCHIVE}/{vocabulary.trial_relpath(**trial)} is not a trial of campaign {CAMPAIGN}: "
+                            f"{runs}")
+    return {**trial, "repeats": sweep["repeats"]}
+
+
+def trial_source(base, config_, gain, speed, repeat, key):
+    """(input, trial path) of one trial a figure shows: the input is the job manifest of the
+    simulation job that writes it, or the reused trial file; ``key`` names the configuration
+    entry that chose it. A trial the campaign does not hold stops the run naming the key."""
+    why = config_checks.trial_pick_problem(base, config_, gain, speed, repeat, sweeps=SWEEPS, key=key,
+                                           held=cells(base))
+    if why:
+        raise WorkflowError(why)
+    path = f"{TRIAL_ROOT}/{vocabulary.trial_relpath(base, config_, gain, speed, repeat)}"
+    if SIMULATE:
+        return job_manifest(base, unit_of(base, config_, gain)), path
+    if not Path(path).is_file():
+        raise WorkflowError(f"{key}: trial {path} is not in reuse_archive {TRIAL_ROOT!r}")
+    return path, path
 
 
 def ident_table(base, config_, gain):
@@ -339,9 +368,45 @@ def fit_classes():
     return {k: [g for g in v if g in have] for k, v in GAIN_CLASSES.items() if any(g in have for g in v)}
 
 
-def all_trials():
-    """Every trial of the campaign (the archive's finalisation input)."""
-    return [t for base in SWEEPS for b, c, g in cells(base) for t in cell_trials(b, c, g)]
+#: the campaign's identification as one CSV (rule identification_csv)
+IDENTIFICATION_CSV = config.get("identification_csv") or f"{RESULTS}/identification.csv"
+
+
+def all_job_manifests():
+    """The job manifest of every simulation job of the campaign (the archive's finalisation input)."""
+    return [job_manifest(base, unit) for base in SWEEPS for unit in units(base)]
+
+
+FIGURE_BASE = {"fig5": "fixed", "fig9": "flexible"}
+
+
+def figure_pick(name):
+    """(speed, repeat) of the trial a single-trial figure shows: configuration key
+    figures.<name>, by default the base's highest speed and repeat 0."""
+    pick = config.get("figures", {}).get(name, {})
+    speeds = SWEEPS.get(FIGURE_BASE[name], {}).get("speeds") or config["speeds"]
+    return float(pick.get("speed", max(speeds))), int(pick.get("repeat", 0))
+
+
+def fig9_sources():
+    """{"c<config>_<gain>": (input, trial path)} of Figure 9's four trials (also the calibration report's)."""
+    return {f"c{c}_{g}": trial_source("flexible", c, g, *figure_pick("fig9"), key="figures.fig9")
+            for c in (1, 2) for g in ("low", "high")}
+
+
+# ----------------------------------------------------------------------------------------
+# scheduling
+# ----------------------------------------------------------------------------------------
+#: each job's priority: the work on the longest path from it to the end of a campaign, in
+#: seconds of the full campaign's CPU (rounded; docs/benchmarks.rst), so that of the jobs that
+#: can run, the one that holds up the most work after it starts first. The fixed base's
+#: simulations lead to identification, the lambda fits and the planner's maps (the longest
+#: job after the simulations); the archive's finalisation needs nothing after it.
+PRIORITY = {
+    "simulate_fixed": 16, "identify_fixed": 15, "simulate_flexible": 12, "fixed_base": 11, "planner_maps": 8,
+    "identify_flexible": 7, "model_figures": 2, "fig5_joint3_motion": 1, "fig9_base_motion": 1,
+    "flexible_base": 1, "finalize_archive": 0, "verify_archive": 0, "identification_csv": 0,
+}
 
 
 # ----------------------------------------------------------------------------------------
@@ -450,6 +515,8 @@ def default_targets():
         out += [f for f in fit_jsons().values() if f not in out]
     out += [f for f in study_targets() if f not in out]
     out.append(f"{ARCHIVE}/MANIFEST.sha256" if SIMULATE else f"{RESULTS}/archive_verify.txt")
+    if SIMULATE and config.get("identification_csv"):
+        out.append(config["identification_csv"])
     return out
 
 
@@ -517,6 +584,85 @@ def calibration_targets():
 
 
 # ----------------------------------------------------------------------------------------
+# the jobs after the simulations: what each makes (fixed_base.smk, flexible_base.smk, figures.smk)
+# ----------------------------------------------------------------------------------------
+def fixed_base_products():
+    """The products the fixed_base job makes for this configuration, in the order it makes
+    them (the fits first: Table 3 reads them)."""
+    out = [f"fit_{k}" for k in fit_classes()] if _fixed_complete() else []
+    out += [p for p in ("table2", "table3") if not missing_requirement(p)]
+    return out + [p for p in ("fig6", "fig7") if not missing_requirement(p)]
+
+
+def fixed_base_outputs():
+    """The fixed_base job's outputs, named ``<product>_<kind>`` (the fits ``fit_<class>``)."""
+    out = {}
+    for product in fixed_base_products():
+        if product.startswith("fit_"):
+            out[product] = fit_jsons()[product[len("fit_"):]]
+        elif product.startswith("table"):
+            n = product[len("table"):]
+            out[f"{product}_csv"], out[f"{product}_md"] = table_files(product)
+            out[f"{product}_html"] = report(f"{RESULTS}/tables/{product}.html", caption=f"../report/{product}.rst",
+                                            category="Fixed base" if n == "2" else "Virtual rotor inertia (lambda)",
+                                            subcategory="Tables", labels={"table": f"Table {n}"})
+        else:
+            png, pdf = figure_files(product)
+            labels = {"figure": f"Figure {product[len('fig'):]}"}
+            out[f"{product}_png"] = report(png, caption=f"../report/{product}.rst", category="Fixed base",
+                                           subcategory="Figures", labels={**labels, "format": "PNG"})
+            out[f"{product}_pdf"] = report(pdf, caption=f"../report/{product}.rst", category="Fixed base",
+                                           subcategory="Figures", labels={**labels, "format": "vector PDF"})
+    return out
+
+
+def fixed_base_logs():
+    """One log per product (the fits' under fit_lambda/<class>.log), then the job's own."""
+    out = {p: log_file("fit_lambda", p[len("fit_"):]) if p.startswith("fit_") else log_file(p)
+           for p in fixed_base_products()}
+    return {**out, "job": log_file("fixed_base")}
+
+
+def flexible_base_products():
+    """The products the flexible_base job makes for this configuration (Table 4 first: the
+    calibration report reads it)."""
+    return (["table4"] if not missing_requirement("table4") else []) + (["calibration"] if calibration_targets() else [])
+
+
+def flexible_base_outputs():
+    out = {}
+    if "table4" in flexible_base_products():
+        out["table4_csv"], out["table4_md"] = table_files("table4")
+        out["table4_html"] = report(f"{RESULTS}/tables/table4.html", caption="../report/table4.rst",
+                                    category="Flexible base", subcategory="Tables", labels={"table": "Table 4"})
+    if "calibration" in flexible_base_products():
+        out["calibration_md"] = f"{RESULTS}/calibration/calibration.md"
+        out["calibration_html"] = report(f"{RESULTS}/calibration/calibration.html",
+                                         caption="../report/calibration.rst", category="Calibration",
+                                         subcategory="Fitted and held-out observations",
+                                         labels={"report": "The simulated rig against the paper"})
+        out["calibration_csv"] = f"{RESULTS}/calibration/calibration.csv"
+    return out
+
+
+def flexible_base_inputs():
+    out = {"paper": PAPER_FILE, "rig": RIG_FILE, "tables": ident_tables("flexible"), **fit_jsons()}
+    if "calibration" in flexible_base_products():
+        out["trials"] = sorted({source for source, _ in fig9_sources().values()})
+    return out
+
+
+def figure_outputs(name, category):
+    """{<name>_png, <name>_pdf} of one figure, both shown in the report."""
+    labels = {"figure": f"Figure {name[len('fig'):]}"}
+    png, pdf = figure_files(name)
+    return {f"{name}_png": report(png, caption=f"../report/{name}.rst", category=category, subcategory="Figures",
+                                  labels={**labels, "format": "PNG"}),
+            f"{name}_pdf": report(pdf, caption=f"../report/{name}.rst", category=category, subcategory="Figures",
+                                  labels={**labels, "format": "vector PDF"})}
+
+
+# ----------------------------------------------------------------------------------------
 # the designed campaign (`snakemake designed`): its own settings file, checked at start-up
 # ----------------------------------------------------------------------------------------
 # the project's config/designed.yaml (like rig.yaml and paper.yaml, whatever the working
@@ -541,6 +687,16 @@ DESIGNED = _designed_settings()
 DESIGNED_RESULTS = f"{config['results_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ARCHIVE = f"{config['archive_root']}/{DESIGNED['campaign']}" if DESIGNED else None
 DESIGNED_ROLES = ("paper", "designed", "heldout")
+
+
+# what the configuration asks of its products (the trial each single-trial figure shows, the
+# planner's maps), checked at start-up with one line naming the key, not when a job's input
+# is first asked for
+try:
+    config_checks.check_products(config, sweeps=SWEEPS, held={b: cells(b) for b in SWEEPS},
+                                 wanted={name: not missing_requirement(name) for name in ("fig5", "fig9", "plan_maps")})
+except InputError as _exc:
+    raise WorkflowError(str(_exc)) from None
 CODE_DESIGNED = code_digest("design/designed_campaign.py", "model/robot/*/*")
 
 

@@ -1,45 +1,50 @@
-# Figures 4-9 of the paper and the impact planner's maps (campaign.report.figures: one module per
-# figure, one thin script each), PNG for the report and PDF beside it. eq 8's validity map,
+# Figures of the paper that need no identification, and the impact planner's maps
+# (campaign.report.figures: one module per figure), PNG for the report and PDF beside it:
+# Figures 4 and 8 from the robot model and the rig (one job, model_figures, each with its own
+# log), Figure 5 from one fixed-base trial and Figure 9 from four flexible-base trials (each
+# waits only for the simulation job holding its trials), the planner's maps from the lambda
+# fits. Figures 6-7 are made by the fixed_base job (fixed_base.smk); eq 8's validity map,
 # drawn from a study's data, is in studies.smk. Each figure is one row of the report with a
 # format toggle, which opens the first of its two values in sort order: "PNG" before
 # "vector PDF" (a PDF shows as a blank pane in Chromium's report frame).
 
 
-rule fig4_arm_configurations:
+rule model_figures:
     input:
+        rig=RIG_FILE,
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig4.png", caption="../report/fig4.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 4", "format": "PNG"}),
-        pdf=report(f"{RESULTS}/figures/fig4.pdf", caption="../report/fig4.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 4", "format": "vector PDF"}),
+        **figure_outputs("fig4", "Fixed base"),
+        **figure_outputs("fig8", "Flexible base"),
     params:
-        code=figure_code("fig4"),
+        code=[figure_code("fig4"), figure_code("fig8")],
+        rig=config["rig"],
+        rig_params=sweep_params("flexible"),
+    priority: PRIORITY["model_figures"]
     log:
-        log_file("fig4"),
+        fig4=log_file("fig4"),
+        fig8=log_file("fig8"),
+        job=log_file("model_figures"),
     resources:
         runtime=5,
         mem_mb=1000,
     conda:
         "../envs/campaign.yaml"
     script:
-        "../scripts/fig4.py"
+        "../scripts/model_figures.py"
 
 
 rule fig5_joint3_motion:
     input:
-        trial=lambda wc: trial_file("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5"),
+        trial=lambda wc: trial_source("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5")[0],
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig5.png", caption="../report/fig5.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 5", "format": "PNG"}),
-        pdf=report(f"{RESULTS}/figures/fig5.pdf", caption="../report/fig5.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 5", "format": "vector PDF"}),
+        **figure_outputs("fig5", "Fixed base"),
     params:
         code=figure_code("fig5"),
+        trial=lambda wc: trial_source("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5")[1],
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
-    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
-    priority: 1
+    priority: PRIORITY["fig5_joint3_motion"]
     log:
         log_file("fig5"),
     resources:
@@ -51,91 +56,17 @@ rule fig5_joint3_motion:
         "../scripts/fig5.py"
 
 
-rule fig6_effective_mass:
-    input:
-        tables=lambda wc: ident_tables("fixed"),
-        paper=PAPER_FILE,
-    output:
-        png=report(f"{RESULTS}/figures/fig6.png", caption="../report/fig6.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 6", "format": "PNG"}),
-        pdf=report(f"{RESULTS}/figures/fig6.pdf", caption="../report/fig6.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 6", "format": "vector PDF"}),
-    params:
-        code=figure_code("fig6"),
-    log:
-        log_file("fig6"),
-    resources:
-        runtime=5,
-        mem_mb=1000,
-    conda:
-        "../envs/campaign.yaml"
-    script:
-        "../scripts/fig6.py"
-
-
-rule fig7_restitution:
-    input:
-        tables=lambda wc: ident_tables("fixed"),
-        paper=PAPER_FILE,
-    output:
-        png=report(f"{RESULTS}/figures/fig7.png", caption="../report/fig7.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 7", "format": "PNG"}),
-        pdf=report(f"{RESULTS}/figures/fig7.pdf", caption="../report/fig7.rst", category="Fixed base",
-                   subcategory="Figures", labels={"figure": "Figure 7", "format": "vector PDF"}),
-    params:
-        code=figure_code("fig7"),
-    log:
-        log_file("fig7"),
-    resources:
-        runtime=5,
-        mem_mb=1000,
-    conda:
-        "../envs/campaign.yaml"
-    script:
-        "../scripts/fig7.py"
-
-
-rule fig8_flexible_setup:
-    input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
-    output:
-        png=report(f"{RESULTS}/figures/fig8.png", caption="../report/fig8.rst", category="Flexible base",
-                   subcategory="Figures", labels={"figure": "Figure 8", "format": "PNG"}),
-        pdf=report(f"{RESULTS}/figures/fig8.pdf", caption="../report/fig8.rst", category="Flexible base",
-                   subcategory="Figures", labels={"figure": "Figure 8", "format": "vector PDF"}),
-    params:
-        code=figure_code("fig8"),
-        rig=config["rig"],
-        rig_params=sweep_params("flexible"),
-    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
-    priority: 1
-    log:
-        log_file("fig8"),
-    resources:
-        runtime=5,
-        mem_mb=1000,
-    conda:
-        "../envs/campaign.yaml"
-    script:
-        "../scripts/fig8.py"
-
-
 rule fig9_base_motion:
     input:
-        unpack(lambda wc: {f"c{c}_{g}": trial_file("flexible", c, g, *figure_pick("fig9"), key="figures.fig9")
-                           for c in (1, 2) for g in ("low", "high")}),
+        trials=lambda wc: sorted({source for source, _ in fig9_sources().values()}),
         paper=PAPER_FILE,
     output:
-        png=report(f"{RESULTS}/figures/fig9.png", caption="../report/fig9.rst", category="Flexible base",
-                   subcategory="Figures", labels={"figure": "Figure 9", "format": "PNG"}),
-        pdf=report(f"{RESULTS}/figures/fig9.pdf", caption="../report/fig9.rst", category="Flexible base",
-                   subcategory="Figures", labels={"figure": "Figure 9", "format": "vector PDF"}),
+        **figure_outputs("fig9", "Flexible base"),
     params:
         code=figure_code("fig9"),
+        trials=lambda wc: {key.replace("_", "-")[1:]: path for key, (_, path) in fig9_sources().items()},
         pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
-    # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
-    priority: 1
+    priority: PRIORITY["fig9_base_motion"]
     log:
         log_file("fig9"),
     resources:
@@ -171,6 +102,8 @@ rule planner_maps:
         rig=config["rig"],
         resolution=config.get("plan_maps", {}).get("resolution", 0.05),
         config_=config.get("plan_maps", {}).get("config", 1),
+    # scheduling: the longest job after the simulations starts as soon as the fits exist (common.smk: PRIORITY)
+    priority: PRIORITY["planner_maps"]
     log:
         log_file("plan_maps"),
     resources:

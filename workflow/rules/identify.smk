@@ -1,6 +1,8 @@
 # Identification: per trial m* (eq 10) and e (eq 12) from the measured channels only, one
-# CSV row per trial, one table per job unit (the same unit as the simulation). The trials
-# come from this campaign's archive, or from `reuse_archive` when nothing is simulated.
+# CSV row per trial, one table per simulation job (the same unit). One job per base identifies
+# every trial of the base (one interpreter and one set of imports for all its tables), each
+# table with its own log; it reads its trials from the simulation jobs' manifests, or from
+# `reuse_archive` when nothing is simulated.
 
 for _base in SWEEPS:
 
@@ -8,18 +10,25 @@ for _base in SWEEPS:
         name:
             f"identify_{_base}"
         input:
-            trials=lambda wc, base=_base: unit_trials(base, wc),
+            base_sources(_base),
         output:
-            f"{RESULTS}/identify/{unit_name(_base)}.csv",
+            ident_tables(_base),
         params:
             code=CODE_IDENTIFY,
             options=config["identify"],
-        # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
-        priority: 1
+            archive=lambda wc: TRIAL_ROOT,
+            units=[{"name": unit_name(_base).format(**unit), "sources": unit_sources(_base, unit),
+                    "csv": f"{RESULTS}/identify/{unit_name(_base).format(**unit)}.csv",
+                    "log": log_file(f"identify_{_base}", unit_name(_base).format(**unit))}
+                   for unit in units(_base)],
+        # scheduling: the fixed base's identification leads to the fits and the maps (common.smk: PRIORITY)
+        priority: PRIORITY[f"identify_{_base}"]
         log:
-            log_file(f"identify_{_base}", unit_name(_base)),
+            # the job's own (start-up, imports), then one per table
+            [log_file(f"identify_{_base}")]
+            + [log_file(f"identify_{_base}", unit_name(_base).format(**unit)) for unit in units(_base)],
         benchmark:
-            bench_file(f"identify_{_base}", unit_name(_base))
+            bench_file(f"identify_{_base}")
         threads: 1
         resources:
             runtime=20,

@@ -1,9 +1,15 @@
 # Simulation: one job per unit of the sweep (job_unit sweep: base x gain set; cell: base x
 # configuration x gain set), writing one trial file per speed x repeat (atomically, through
-# campaign.archive.write_trial). A job integrates its trials together, in lock-step, through
-# Pinocchio's batched ABA (campaign.rig.batch); `threads:` is the OpenMP threads of those
-# calls: one, since Snakemake already runs jobs side by side (a profile giving a job more
-# cores may raise it; docs/benchmarks.rst, batched rig, measures 1 against 2). Absent when
+# campaign.archive.write_trial) and, as its only declared output, its job manifest
+# (campaign.archive.jobs: each trial's path, file sha256, content digests and index row), so
+# that what Snakemake plans grows with the jobs, not with the trials. A job integrates its
+# trials together, in lock-step, through Pinocchio's batched ABA (campaign.rig.batch);
+# `threads:` is the OpenMP threads of those calls: one, since Snakemake already runs jobs side
+# by side (a profile giving a job more cores may raise it; docs/benchmarks.rst, batched rig,
+# measures 1 against 2). A rerun keeps a trial file that holds the same trial.
+#
+# One trial alone: `snakemake archive/<campaign>/fixed/config1/zero/v1.000/r00.nc` runs
+# simulate_trial, the same trial its sweep's job writes. Both are absent when
 # `simulate: false`: the trials then come from `reuse_archive` as plain source files.
 #
 # A rerun is triggered by the rig or paper file (inputs) and by this unit's gain counts,
@@ -20,7 +26,7 @@ if SIMULATE:
                 rig=RIG_FILE,
                 paper=PAPER_FILE,
             output:
-                simulate_outputs(_base),
+                job_manifest(_base, {"gain": "{gain}", "config": "{config}"}),
             params:
                 code=CODE_SIMULATE,
                 cells=lambda wc, base=_base: [list(c) for c in unit_cells(base, wc)],
@@ -31,8 +37,9 @@ if SIMULATE:
                 rig=config["rig"],
                 rig_params=sweep_params(_base),
                 archive=lambda wc: ARCHIVE,
-            # scheduling: jobs that unlock others and long ones first, so a run ends on short jobs
-            priority: 2
+            # scheduling: the fixed base's jobs unlock the longest chain after them (identification,
+            # the lambda fits, the planner's maps), so they start first (common.smk: PRIORITY)
+            priority: PRIORITY[f"simulate_{_base}"]
             log:
                 log_file(f"simulate_{_base}", unit_name(_base)),
             benchmark:
@@ -45,3 +52,32 @@ if SIMULATE:
                 "../envs/campaign.yaml"
             script:
                 "../scripts/simulate.py"
+
+    rule simulate_trial:
+        input:
+            rig=RIG_FILE,
+            paper=PAPER_FILE,
+        output:
+            f"{ARCHIVE}/{{base}}/config{{config}}/{{gain}}/v{{speed}}/r{{repeat}}.nc",
+        params:
+            code=CODE_SIMULATE,
+            trial=lambda wc: single_trial(wc),
+            campaign_seed=config["campaign_seed"],
+            gain_counts=lambda wc: dict(config["gain_counts"].get(wc.gain, {})),
+            rig=config["rig"],
+            rig_params=lambda wc: sweep_params(wc.base),
+            archive=lambda wc: ARCHIVE,
+        wildcard_constraints:
+            base="|".join(vocabulary.bases()),
+            speed=r"[0-9]+\.[0-9]{3}",
+            repeat=r"[0-9]{2}",
+        log:
+            log_file("simulate_trial", "{base}/config{config}/{gain}/v{speed}/r{repeat}"),
+        threads: 1
+        resources:
+            runtime=5,
+            mem_mb=1000,
+        conda:
+            "../envs/campaign.yaml"
+        script:
+            "../scripts/simulate.py"

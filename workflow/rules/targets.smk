@@ -1,14 +1,23 @@
 # Named targets. `snakemake` makes everything the configuration can make (rule all, in the
 # root Snakefile); `snakemake <product>` (fig4 ... fig9, plan_maps, table2 ... table4, and the
 # studies' table4_structures, eq8_validity, plan_rig_check when the configuration lists their
-# study under `studies:`) makes one product and runs only the jobs it needs (table2 alone runs
-# no flexible-base trial; fig5 runs the one job holding its trial); `trials` and
-# `identification` stop after those stages. `study_<name>` and `studies`: studies.smk.
+# study under `studies:`) makes the product with the jobs it needs (table2 alone runs no
+# flexible-base trial; fig5 runs the one simulation job holding its trial); `trials` and
+# `identification` stop after those stages; `archive` makes the finalized archive (and the
+# identification CSV when identification_csv is set). `study_<name>` and `studies`: studies.smk.
 
 
 rule trials:
     input:
-        all_trials(),
+        all_job_manifests(),
+
+
+if SIMULATE:
+
+    rule archive:
+        input:
+            f"{ARCHIVE}/MANIFEST.sha256",
+            [config["identification_csv"]] if config.get("identification_csv") else [],
 
 
 rule identification:

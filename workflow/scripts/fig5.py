@@ -7,4 +7,5 @@ with job_log(snakemake.log[0], job="fig5", exit_process=True) as timer:  # noqa:
         from campaign.model.paper import load_paper
         from campaign.report.figures import fig5
     with timer("figure"):
-        print(fig5.make(snakemake.input.trial, snakemake.output.png, snakemake.output.pdf, paper=load_paper()))  # noqa: F821
+        out = snakemake.output  # noqa: F821
+        print(fig5.make(snakemake.params.trial, out.fig5_png, out.fig5_pdf, paper=load_paper()))  # noqa: F821

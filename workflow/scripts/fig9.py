@@ -7,5 +7,5 @@ with job_log(snakemake.log[0], job="fig9", exit_process=True) as timer:  # noqa:
         from campaign.model.paper import load_paper
         from campaign.report.figures import fig9
     with timer("figure"):
-        trials = {f"{c}-{g}": snakemake.input[f"c{c}_{g}"] for c in (1, 2) for g in ("low", "high")}  # noqa: F821
-        print(fig9.make(trials, snakemake.output.png, snakemake.output.pdf, paper=load_paper()))  # noqa: F821
+        out = snakemake.output  # noqa: F821
+        print(fig9.make(dict(snakemake.params.trials), out.fig9_png, out.fig9_pdf, paper=load_paper()))  # noqa: F821

@@ -1,4 +1,5 @@
-"""Snakemake script of rule finalize_archive: index, README and manifest of the campaign's archive."""
+"""Snakemake script of rule finalize_archive: index, README and manifest of the campaign's archive,
+from the simulation jobs' manifests (no trial is opened; each file is hashed once)."""
 
 from campaign.pipeline.joblog import job_log
 
@@ -6,6 +7,6 @@ with job_log(snakemake.log[0], job="finalize_archive", exit_process=True) as tim
     with timer.imports():
         from campaign.archive import finalize_campaign
     with timer("finalize"):
-        written = finalize_campaign(snakemake.params.archive)  # noqa: F821
+        written = finalize_campaign(snakemake.params.archive, job_manifests=list(snakemake.input))  # noqa: F821
     for kind, path in written.items():
         print(f"wrote {kind}: {path}")

@@ -6,7 +6,7 @@ with job_log(snakemake.log[0], job="plan_maps", exit_process=True) as timer:  # 
     with timer.imports():
         from campaign.plan.factory import planner_lambdas
         from campaign.report.figures import plan_maps
-    with timer("figure"):
+    with timer("maps"):
         out, p = snakemake.output, snakemake.params  # noqa: F821
         lambdas = planner_lambdas(fits=p.fits)
         print(plan_maps.make_workspace(out.workspace, out.workspace_pdf, lambdas=lambdas, rig=p.rig,

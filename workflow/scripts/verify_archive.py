@@ -5,6 +5,8 @@ also against its manifest and index. A damaged archive fails the job, listing ev
 in the log; an archive that was never finalized (no ``MANIFEST.sha256``) passes with a note.
 """
 
+import os
+
 from campaign.pipeline.joblog import job_log
 
 with job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer:  # noqa: F821
@@ -20,7 +22,8 @@ with job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer
     if problems:
         raise SystemExit(f"archive {archive} has {len(problems)} problem(s), listed above")
     note = " (not finalized: no manifest to check the files against)" if unfinalized else ""
-    text = f"archive {archive}: intact, {len(snakemake.input)} trials checked{note}\n"  # noqa: F821
+    # the archive's absolute path: the workflow refuses to mix another archive's results into this folder
+    text = f"archive {os.path.abspath(archive)}: intact, {len(snakemake.input)} trials checked{note}\n"  # noqa: F821
     with open(snakemake.output[0], "w", encoding="utf-8") as fh:  # noqa: F821
         fh.write(text)
     print(text, end="")

@@ -21,6 +21,7 @@ import numpy as np
 from ...model.paper import configuration_q, impact_direction, load_paper
 from ...model.robot.ik import impact_point
 from ...plan.factory import build_planner
+from ...plan.grid import grid_points
 from ...plan.maps import direction_map, workspace_map
 from ...rig.contact import Contact
 from . import style
@@ -138,7 +139,9 @@ def _setup(*, lambdas, rig=None, base="flexible", speed=2.0):
 def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas, rig=None,
                    resolution: float = 0.05, base: str = "flexible", y: float | None = None) -> str:
     """Compute the workspace map (the paper's n and plane by default) with the gain classes'
-    ``lambdas`` (:func:`campaign.plan.factory.planner_lambdas`) and save it; returns a summary line."""
+    ``lambdas`` (:func:`campaign.plan.factory.planner_lambdas`) and save it; returns a summary line.
+    A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused first (InputError)."""
+    grid_points(resolution)
     planner, kw = _setup(lambdas=lambdas, rig=rig, base=base)
     marks = paper_points(planner.robot)
     y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)

@@ -1,0 +1,38 @@
+"""The workspace map's grid: how many points a resolution gives, checked before anything is allocated.
+
+Standard library only: the workflow checks ``plan_maps.resolution`` with it at start-up.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..core.errors import InputError
+
+__all__ = ["MAX_GRID_POINTS", "WORKSPACE_RANGE", "grid_points"]
+
+#: the most points the workspace map samples: a finer grid is refused before anything is
+#: allocated (the map holds about 1 kB per point; a million points take tens of minutes)
+MAX_GRID_POINTS = 1_000_000
+#: the default x and z range of the workspace map [m], base frame
+WORKSPACE_RANGE = (-1.0, 1.0)
+
+
+def grid_points(resolution, x_range=WORKSPACE_RANGE, z_range=WORKSPACE_RANGE, *, key: str = "map resolution") -> int:
+    """The number of points of the workspace map's grid; InputError naming ``key`` (the
+    option or configuration key that set ``resolution``) when it is not a finite step > 0 or
+    the grid would exceed :data:`MAX_GRID_POINTS`. Arithmetic only: nothing is allocated."""
+    try:
+        res = float(resolution)
+    except (TypeError, ValueError):
+        res = math.nan
+    if isinstance(resolution, bool) or not (math.isfinite(res) and res > 0):
+        raise InputError(f"{key} = {resolution!r} m must be a finite grid step > 0")
+    nx = math.floor((x_range[1] - x_range[0]) / res + 0.5) + 1
+    nz = math.floor((z_range[1] - z_range[0]) / res + 0.5) + 1
+    if nx * nz > MAX_GRID_POINTS:
+        finest = max(x_range[1] - x_range[0], z_range[1] - z_range[0]) / (math.isqrt(MAX_GRID_POINTS) - 1)
+        raise InputError(f"{key} = {res:g} m gives a workspace grid of {nx} x {nz} = {nx * nz:.3g} points, over the "
+                         f"{MAX_GRID_POINTS:,} this map samples at most (a step of at least {finest:.4g} m over "
+                         f"x {list(x_range)}, z {list(z_range)} m)")
+    return nx * nz
