@@ -118,7 +118,7 @@ def test_merged_over_the_full_configuration_it_sweeps_no_flexible_base(tmp_path)
     switches off the PUMA's flexible sweep the full configuration lists."""
     proc = snakemake(tmp_path, "-n", configs=(REPO / "config" / "config.yaml", CONFIG))
     rules = planned_rules(proc)
-    assert "simulate_fixed" in rules and "fit_lambda" in rules
+    assert "simulate_fixed" in rules and "fixed_base" in rules and "/fit/lambda_" in proc.stdout
     assert not {r for r in rules if "flexible" in r}, rules
 
 
@@ -141,7 +141,7 @@ def test_too_few_configurations_for_the_joints_skip_the_fit(tmp_path):
     proc = snakemake(tmp_path, "-n", configs=(one,))
     assert ("skipping the lambda fits: it needs bases.fixed with at least 2 configurations (robot planar2 has 2 "
             "joints, one lambda_j each)") in proc.stderr
-    assert "fit_lambda" not in planned_rules(proc)
+    assert "fixed_base" in planned_rules(proc) and "/fit/lambda_" not in proc.stdout
 
 
 # ------------------------------------------------------------------------------------------

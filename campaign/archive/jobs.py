@@ -35,7 +35,7 @@ from .fileformat import _STRUCTURAL, GROUPS, JOBS, _digest, _plan, provenance
 from .filing import group_digests
 from .folder import _record_from_attrs, _rel, _trial_files, outside_layout
 from .read import _inspect_isolated_many
-from .write import _replace_atomically, _write_h5
+from .write import _replace_atomically, _write_plan
 
 __all__ = ["JOBS", "JOB_MANIFEST_FORMAT", "TrialEntry", "sha256_file", "write_trial_entry", "intact_trials",
            "write_job_manifest", "read_job_manifests", "job_trial_paths", "entry_problems", "outside_problems"]
@@ -159,7 +159,7 @@ def write_trial_entry(tree: Any | TrialArrays, path: str | os.PathLike, *, campa
         old_root, old_content = _stored_content(path)
         kept = old_content == content and _what_it_holds(old_root) == _what_it_holds(root)
     if not kept:
-        _replace_atomically(path, lambda tmp: _write_h5((root, groups), tmp), fsync=fsync)
+        _write_plan((root, groups), path, fsync=fsync)
     rec = _record_from_attrs(Path(campaign_dir), path, root)
     params = json.loads(rec.scene_json).get("params", {})
     rates = {c.rate_key: float(params[c.rate_key]) for c in CLOCKS.values() if c.rate_key in params}

@@ -211,8 +211,14 @@ def write_trial(tree: xr.DataTree | TrialArrays, path: str | os.PathLike, *, fsy
     same ``path`` left behind. Rewriting a trial of a finalized campaign makes its manifest
     stale until ``finalize_campaign`` runs again (``verify`` reports the mismatch).
     """
-    plan = _plan(tree)
-    return _replace_atomically(Path(path), lambda tmp: write_file(tmp, _hdf5_image(plan, tmp), fsync=fsync))
+    return _write_plan(_plan(tree), Path(path), fsync=fsync)
+
+
+def _write_plan(plan: tuple[dict[str, Any], dict[str, _Group]], path: Path, *, fsync: bool) -> Path:
+    """A validated trial (:func:`.fileformat._plan`) written atomically to ``path``: its HDF5
+    image is built in memory, then written in one call (:func:`campaign.core.files.write_file`
+    names the file and the free space when the disk is full)."""
+    return _replace_atomically(path, lambda tmp: write_file(tmp, _hdf5_image(plan, tmp), fsync=fsync))
 
 
 def trial_path(campaign_dir: str | os.PathLike, scene: Scene) -> Path:
