@@ -17,8 +17,8 @@ from ..core.errors import InputError
 from ..rig.contact import pulse_shape
 from .terms import ArmTerms
 
-__all__ = ["Cases", "ContactPulse", "zoh", "foh", "second_order", "start_mass", "pulse_of", "mass_of",
-           "check_directions"]
+__all__ = ["Cases", "ContactPulse", "zoh", "foh", "second_order", "start_mass", "reduced_mass", "pulse_of",
+           "object_impulse", "mass_of", "check_directions"]
 
 
 @dataclasses.dataclass
@@ -34,6 +34,8 @@ class Cases:
     n : (C, D, 3) unit impact directions.
     speed, mass, restitution : (C, D)
     gravity : float [m/s^2]
+    object_stiffness : (C, D) or scalar: the object's restoring stiffness along n [N/m]
+        (the rig's pendulum under gravity), which eq 10's momentum of the object includes.
     Jn : (C, D, nv) ``n^T J``; Sn : (C, D, nv, nv) ``n . d^2 p / dq^2``.
     """
 
@@ -47,6 +49,7 @@ class Cases:
     mass: np.ndarray
     restitution: np.ndarray
     gravity: float
+    object_stiffness: np.ndarray = 0.0
     Jn: np.ndarray = None
     Sn: np.ndarray = None
 
@@ -85,6 +88,13 @@ class ContactPulse:
         self.area = float(cum[-1]) / (f.size - 1)           # integral of the shape over [0, 1]
         self.cum = cum / cum[-1]
         self.f = f
+        # the penetration x(tau) of the dimensionless contact x'' = -f, x(0) = 0, x'(0) = 1, and
+        # its integral over the contact (what an object's restoring force acts on)
+        tau_end, _ = pulse_shape(contact.damping, float(contact.exponent))
+        dtau = tau_end / (f.size - 1)
+        xd = 1.0 - np.concatenate([[0.0], np.cumsum(0.5 * (f[1:] + f[:-1]))]) * dtau
+        x = np.concatenate([[0.0], np.cumsum(0.5 * (xd[1:] + xd[:-1]))]) * dtau
+        self.penetration_integral = float(np.sum(0.5 * (x[1:] + x[:-1])) * dtau)
 
     def shares(self, t0, t1, T):
         """Impulse share delivered over ``[t0, t1]`` by a pulse of duration ``T`` starting at 0."""
@@ -149,12 +159,31 @@ def start_mass(cases: Cases) -> np.ndarray:
         return np.where(s > 0, 2.0 / s, np.inf)
 
 
+def reduced_mass(cases: Cases, m):
+    """``m m_b / (m + m_b)`` of the arm's ``m`` and the object (C, D); ``m_b`` where m is infinite."""
+    finite = np.isfinite(m)
+    return np.where(finite, m * cases.mass / np.where(finite, m + cases.mass, 1.0), cases.mass)
+
+
 def pulse_of(cases: Cases, contact, m):
     """Duration [s] and impulse (eq 14) [N s] of the contact law's pulse at the reduced mass
     of ``m`` and the object (C, D)."""
-    finite = np.isfinite(m)
-    mu = np.where(finite, m * cases.mass / np.where(finite, m + cases.mass, 1.0), cases.mass)
+    mu = reduced_mass(cases, m)
     return contact.duration(mu, cases.speed), (1.0 + cases.restitution) * cases.speed * mu
+
+
+def object_impulse(cases: Cases, pulse: ContactPulse, m, P):
+    """The object's momentum change over the contact [N s] (C, D): the contact's impulse ``P``
+    and its own restoring force's, ``k_o int delta dt`` with ``delta`` the contact law's
+    penetration (the impact device's pendulum under gravity, ``k_o = m g l_c / r^2``; zero
+    for a free object). Eq 10 measures m* with it."""
+    if not np.any(cases.object_stiffness):
+        return P
+    mu = reduced_mass(cases, m)
+    c = pulse.contact
+    p = float(c.exponent)
+    dstar = (mu * cases.speed ** 2 / c.stiffness) ** (1.0 / (p + 1.0))
+    return P + cases.object_stiffness * dstar * dstar / cases.speed * pulse.penetration_integral
 
 
 def mass_of(P, v):

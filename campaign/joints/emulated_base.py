@@ -32,7 +32,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
-from .cases import Cases, ContactPulse, foh, mass_of, pulse_of, second_order, zoh
+from .cases import Cases, ContactPulse, foh, mass_of, object_impulse, pulse_of, second_order, zoh
 from .friction import StickSlip
 
 __all__ = ["Loop", "LoopArm", "respond_loop", "LOOP_WINDOW_TICKS", "MIN_LOOP_TICKS", "TOUCH_PHASE"]
@@ -208,4 +208,4 @@ def respond_loop(cases: Cases, contact, loop: Loop, m, *, window: bool, continue
             Z = np.concatenate([s[:, :6], X[:, :nv], s[:, 6:], X[:, nv:2 * nv]], axis=1)
             peak = continue_ideal(Z, state["k"] * h, state["top"], state["modes"])
     v = end[..., 0]
-    return mass_of(P, v), P, T, v, end[..., 1:1 + nv], end[..., 1 + nv:], peak
+    return mass_of(object_impulse(cases, pulse, m, P), v), P, T, v, end[..., 1:1 + nv], end[..., 1 + nv:], peak

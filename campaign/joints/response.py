@@ -48,7 +48,17 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
-from .cases import Cases, ContactPulse, check_directions, mass_of, pulse_of, second_order, start_mass, zoh
+from .cases import (
+    Cases,
+    ContactPulse,
+    check_directions,
+    mass_of,
+    object_impulse,
+    pulse_of,
+    second_order,
+    start_mass,
+    zoh,
+)
 from .emulated_base import Loop, respond_loop
 from .friction import StickSlip
 from .terms import ArmTerms
@@ -220,7 +230,8 @@ def linear_response(sys: LinearArm, contact, m, *, h: float, doublings: int, win
     if flexible and window:
         peak = _window(sys, Z, t_now, 1.0 / cases.terms.base.first_mode, top, modes, h=h, samples=samples)
     v = end[..., 0]
-    return Response(m_eff=mass_of(P, v), impulse=P, duration=T, tip_velocity=v, dq=end[..., 1:1 + nv],
+    return Response(m_eff=mass_of(object_impulse(cases, pulse, m, P), v), impulse=P, duration=T, tip_velocity=v,
+                    dq=end[..., 1:1 + nv],
                     base_velocity=end[..., 1 + nv:] if flexible else None, base_peak=peak)
 
 
@@ -251,7 +262,8 @@ def _checked(terms, kp, kd, damping, coulomb_pos, coulomb_neg, coupling, loop):
 
 def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, directions, speed, mass, restitution,
             contact, gravity: float, servo_period: float, coupling: str | None = None, loop: Loop | None = None,
-            window: bool = True, steps: int = STEPS_PER_CONTACT, samples: int = WINDOW_SAMPLES) -> Response:
+            window: bool = True, steps: int = STEPS_PER_CONTACT, samples: int = WINDOW_SAMPLES,
+            object_stiffness=0.0) -> Response:
     """The response of C cases (one pose each) x D variants (direction, speed, object) to the contact.
 
     Parameters
@@ -283,6 +295,10 @@ def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, direc
     steps, samples : int
         Steps over the shortest contact (fixed base, ideal coupling); per first-mode period
         after it.
+    object_stiffness : array_like, shape (C, D) or scalar
+        The object's own restoring stiffness along n [N/m]: the rig's pendulum hammer under
+        gravity (``m g l_c / r^2``), whose impulse over the contact eq 10 counts; 0 for a
+        free object.
 
     Notes
     -----
@@ -298,8 +314,9 @@ def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, direc
     if not (np.all(np.isfinite(sp) & (sp > 0)) and np.all(np.isfinite(mb) & (mb > 0))):
         raise InputError("object speed and mass must be finite and > 0")
     damping_total = np.maximum(kd + vals["damping"] - 0.5 * float(servo_period) * kp, 0.0)
+    ko = np.broadcast_to(np.asarray(object_stiffness, float), (C, D))
     cases = Cases(terms=terms, kp=kp, damping=damping_total, tc_pos=vals["coulomb_pos"], tc_neg=vals["coulomb_neg"],
-                  n=n, speed=sp, mass=mb, restitution=e, gravity=float(gravity))
+                  n=n, speed=sp, mass=mb, restitution=e, gravity=float(gravity), object_stiffness=ko)
     sys = LinearArm(cases, flexible=coupling != "fixed")
     m0 = start_mass(cases)
     h = float(np.min(pulse_of(cases, contact, m0)[0])) / int(steps)
