@@ -9,8 +9,8 @@ The file (schema :data:`SCHEMA`, version :data:`SCHEMA_VERSION`) holds:
   as known (:class:`campaign.joints.setting.Setting`);
 * ``fit``: the archive the trials came from, the number of trials and the sha256 of their
   sorted list, the residual of each (``ln m*_model - ln m*_identified``, keyed by trial),
-  their rms and scatter (the intervals' part), and a scatter per flexible-base structure
-  where the fit was checked there;
+  their rms and scatter (the intervals' part), and per flexible-base structure where the
+  model was checked there the residuals and their scatter;
 * ``package_version``.
 
 No pickles: numbers are JSON numbers written with Python's shortest round-trip repr, so a
@@ -50,7 +50,7 @@ _KEYS = {"schema": str, "schema_version": int, "kind": str, "options": dict, "pa
          "rig": dict, "paper": dict, "fit": dict, "package_version": str}
 _FIT_KEYS = {"archive": (str, type(None)), "n_trials": int, "trial_list_sha256": str, "residuals": dict,
              "rms_log_residual": (float, int, type(None)), "residual_scatter": (float, int, type(None)),
-             "structure_scatter": dict}
+             "structure_scatter": dict, "structure_residuals": dict}
 
 
 class ModelFileError(InputError):
@@ -93,7 +93,8 @@ def model_document(model: ResponseModel, *, archive: str | None = None) -> dict[
                 "trial_list_sha256": trial_list_digest(keys), "residuals": residuals,
                 "rms_log_residual": json_numbers(model.rms_log_residual_),
                 "residual_scatter": json_numbers(model.residual_scatter_),
-                "structure_scatter": {k: float(v) for k, v in getattr(model, "structure_scatter_", {}).items()}},
+                "structure_scatter": {k: float(v) for k, v in getattr(model, "structure_scatter_", {}).items()},
+                "structure_residuals": {k: dict(v) for k, v in getattr(model, "structure_residuals_", {}).items()}},
         "package_version": __version__,
     }
 
@@ -190,7 +191,12 @@ def _restore(doc: dict, setting: Setting, where: str) -> ResponseModel:
     nan = math.nan
     model.rms_log_residual_ = nan if doc["fit"]["rms_log_residual"] is None else float(doc["fit"]["rms_log_residual"])
     model.residual_scatter_ = nan if doc["fit"]["residual_scatter"] is None else float(doc["fit"]["residual_scatter"])
-    model.structure_scatter_ = {str(k): float(v) for k, v in doc["fit"]["structure_scatter"].items()}
+    try:
+        model.structure_scatter_ = {str(k): float(v) for k, v in doc["fit"]["structure_scatter"].items()}
+        model.structure_residuals_ = {str(k): {str(t): (None if r is None else float(r)) for t, r in v.items()}
+                                      for k, v in doc["fit"]["structure_residuals"].items()}
+    except (AttributeError, TypeError, ValueError) as exc:
+        raise ModelFileError(f"{where}: fit.structure_scatter or fit.structure_residuals is malformed ({exc})") from None
     model.provenance_ = {k: doc[k] for k in ("robot", "rig", "paper", "package_version")}
     model.provenance_["archive"] = doc["fit"]["archive"]
     return model
