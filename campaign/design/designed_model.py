@@ -23,22 +23,13 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import write_atomic
-from ..core.yamlfile import config_file
 from ..identify.table import read_identification
 from ..joints.impacts import Impacts
 from ..joints.impedance_model import JointImpedance
-from ..joints.modelfile import save_model
+from ..joints.modelfile import save_model, shipped_model_path
 from ..joints.setting import Setting, display_path
 
-__all__ = ["SHIPPED_MODEL", "shipped_model_path", "fit_model", "model_markdown", "compare_shipped"]
-
-#: the shipped model's file name in the configuration folder
-SHIPPED_MODEL = "response_model.json"
-
-
-def shipped_model_path() -> Path:
-    """``config/response_model.json``: the model fitted by the designed campaign, shipped."""
-    return config_file(SHIPPED_MODEL)
+__all__ = ["fit_model", "model_markdown", "compare_shipped"]
 
 
 def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, Sequence], *, archive, out_json,

@@ -116,8 +116,9 @@ class Impacts:
     def from_records(cls, records: Iterable[Mapping], *, structure: str | None = None,
                      gain_sets: Sequence[str] | None = None) -> Impacts:
         """The usable identification records (not excluded, m* finite and > 0) as a table:
-        ``q_cmd``, ``impact_direction``, ``speed``, ``gain``, ``hammer_mass``, ``m_eff``,
-        ``e``, ``path``, ``base``; all of one base. ``gain_sets`` keeps those gain sets only."""
+        ``q_cmd``, ``impact_direction``, ``speed``, ``gain``, ``hammer_mass`` (the rig's hammer
+        where a record lacks it), ``m_eff``, ``e``, ``path``, ``base``; all of one base.
+        ``gain_sets`` keeps those gain sets only."""
         rows = [r for r in records if not r.get("excluded") and r.get("m_eff") is not None
                 and math.isfinite(float(r["m_eff"])) and float(r["m_eff"]) > 0
                 and (gain_sets is None or r.get("gain") in gain_sets)]
@@ -127,10 +128,12 @@ class Impacts:
         if len(base) != 1:
             raise InputError(f"the records mix bases {sorted(base)}; give one base at a time")
         nv = len(rows[0]["q_cmd"])
+        masses = [r.get("hammer_mass") for r in rows]
+        known = all(m is not None and math.isfinite(float(m)) for m in masses)
         return cls(q=np.array([_vector("q_cmd", r["q_cmd"], nv) for r in rows]),
                    direction=np.array([_vector("impact_direction", r["impact_direction"], 3) for r in rows]),
                    speed=np.array([float(r["speed"]) for r in rows]), gain=tuple(str(r["gain"]) for r in rows),
-                   mass=np.array([float(r["hammer_mass"]) for r in rows]), base=base.pop(), structure=structure,
+                   mass=np.array([float(m) for m in masses]) if known else None, base=base.pop(), structure=structure,
                    m_eff=np.array([float(r["m_eff"]) for r in rows]),
-                   restitution=np.array([float(r["e"]) for r in rows]),
+                   restitution=np.array([float(r.get("e", math.nan)) for r in rows]),
                    keys=tuple(str(r.get("path", "")) for r in rows))

@@ -86,7 +86,7 @@ class JointImpedance(ResponseModel):
         return f"JointImpedance(robot={self._the_setting().robot.name!r}, steps={self.steps!r})"
 
     # -- the response ----------------------------------------------------------------------
-    def _base(self, structure: str | None):
+    def setting_for(self, structure: str | None):
         """The setting whose flexible base is the named structure."""
         setting = self._the_setting()
         if structure is None or structure == setting.structure:
@@ -102,7 +102,7 @@ class JointImpedance(ResponseModel):
         gain sets ``gains`` (C names) x D variants (``directions`` (D, 3) or (C, D, 3); ``speed``,
         ``mass`` scalars or (C, D)), the object the rig's pendulum hammer or (``pendulum=False``)
         a free body; ``theta`` overrides ``[ln beta, ln s]``."""
-        setting = self._base(structure)
+        setting = self.setting_for(structure)
         th = self._theta() if theta is None else np.asarray(theta, float)
         nv = setting.robot.nv
         beta, s = np.exp(th[:nv]), math.exp(th[nv])
@@ -122,7 +122,7 @@ class JointImpedance(ResponseModel):
         """The full response of each impact (one case each): m*, impulse, duration, velocities
         and, on the flexible base, the structure's peak displacement (shapes (N, 1, ...))."""
         impacts = self._check_impacts(impacts)
-        setting = self._base(impacts.structure)
+        setting = self.setting_for(impacts.structure)
         if terms is None:
             terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == "flexible" else None)
         return self.respond_terms(terms, impacts.gain, impacts.direction[:, None, :], speed=impacts.speed[:, None],
@@ -141,7 +141,7 @@ class JointImpedance(ResponseModel):
     def parameter_sd(self, impacts: Impacts) -> np.ndarray:
         """``sqrt(g^T cov g)`` with ``g = d ln m* / d [ln beta, ln s]`` per impact (finite differences)."""
         impacts = self._check_impacts(impacts)
-        setting = self._base(impacts.structure)
+        setting = self.setting_for(impacts.structure)
         terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == "flexible" else None)
         th = self._theta()
         base = np.log(self.respond(impacts, theta=th, window=False, terms=terms).m_eff[:, 0])

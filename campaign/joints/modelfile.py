@@ -33,15 +33,18 @@ import numpy as np
 from .. import __version__
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.yamlfile import config_file
 from .coulomb import CoulombLambdaFit
 from .family import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
 from .impedance_model import JointImpedance
 from .setting import Setting, display_path
 
-__all__ = ["SCHEMA", "SCHEMA_VERSION", "KINDS", "ModelFileError", "model_document", "save_model", "load_model",
-           "trial_list_digest"]
+__all__ = ["SCHEMA", "SCHEMA_VERSION", "KINDS", "SHIPPED_MODEL", "ModelFileError", "model_document", "save_model",
+           "load_model", "shipped_model_path", "trial_list_digest"]
 
 SCHEMA = "campaign.response_model"
+#: the shipped model's file name in the configuration folder (fitted by the designed campaign)
+SHIPPED_MODEL = "response_model.json"
 SCHEMA_VERSION = 1
 #: the model kinds a file may hold
 KINDS = {"eq11": Eq11Model, "lambda": LambdaModel, "lambda_coulomb": CoulombModel, "joint_impedance": JointImpedance}
@@ -51,6 +54,12 @@ _KEYS = {"schema": str, "schema_version": int, "kind": str, "options": dict, "pa
 _FIT_KEYS = {"archive": (str, type(None)), "n_trials": int, "trial_list_sha256": str, "residuals": dict,
              "rms_log_residual": (float, int, type(None)), "residual_scatter": (float, int, type(None)),
              "structure_scatter": dict, "structure_residuals": dict}
+
+
+def shipped_model_path() -> Path:
+    """``config/response_model.json``: the model the designed campaign fits, which the
+    repository ships beside the rig file it was fitted for (the CLI's and the planner's default)."""
+    return config_file(SHIPPED_MODEL)
 
 
 class ModelFileError(InputError):

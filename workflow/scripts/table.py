@@ -18,5 +18,6 @@ with job_log(snakemake.log[0], job=name, exit_process=True) as timer:  # noqa: F
         fits={k: snakemake.input[k] for k in classes},  # noqa: F821
         out_html=snakemake.output.html,  # noqa: F821
         structure=getattr(snakemake.params, "structure", None),  # noqa: F821
+        model=getattr(snakemake.input, "model", None),  # noqa: F821
         timer=timer,
     )
