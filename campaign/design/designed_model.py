@@ -2,9 +2,11 @@
 
 :func:`fit_model` fits :class:`campaign.joints.impedance_model.JointImpedance` (the joints'
 damping and Coulomb friction over the contact) on the designed poses' fixed-base trials of
-every gain set, measures its residual scatter on the same poses struck on the flexible base
-under each named structure (the scatter its intervals carry there: the flexible base's m* is
-identified with about twice the fixed base's noise), and saves it as a model file
+every gain set, measures its residual scatter on the plan's held-out poses (seeded random
+poses none of the fits sees) struck on the flexible base under each named structure (the
+scatter its intervals carry there: at random poses the flexible base's m* is identified
+with about twice the fixed base's noise, up to +6 % at high gains, where its 50 Hz joint
+samples leave the tip-space velocity model), and saves it as a model file
 (:mod:`campaign.joints.modelfile`) with a Markdown summary. The workflow writes it to
 ``results/designed/model/response_model.json``; the repository ships the same file as
 ``config/response_model.json`` (the model the CLI and the planner use by default, beside
@@ -36,7 +38,7 @@ def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, S
               out_md) -> JointImpedance:
     """Fit the model on the designed trials (``fixed_tables``: identification CSVs of the
     designed role, every gain set), measure its scatter per structure on ``flexible_tables``
-    (structure -> CSVs of the same poses on the flexible base), save it and its summary."""
+    (structure -> CSVs of the held-out poses on the flexible base), save it and its summary."""
     with open(plan_json, encoding="utf-8") as fh:
         plan = json.load(fh)
     setting = Setting.from_rig(plan.get("rig"))
@@ -81,7 +83,7 @@ def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
               "fixed base).", ""]
     for name, s in sorted(getattr(model, "structure_scatter_", {}).items()):
         n = len(model.structure_residuals_.get(name, {}))
-        lines.append(f"- flexible base, {name}: scatter {s:.4f} over {n} trials of the designed poses (the "
+        lines.append(f"- flexible base, {name}: scatter {s:.4f} over {n} trials of the plan's held-out poses (the "
                      "intervals' part there).")
     return "\n".join(lines) + "\n"
 

@@ -130,6 +130,7 @@ class StickSlip:
             idx = np.flatnonzero(free)
             inv[:, sid][:, idx[:, None], idx[None, :]] = np.linalg.inv(A[:, idx][:, :, idx])
         self.inv = inv.reshape(C * subsets, nv, nv)           # case c, subset s at c * subsets + s
+        self._full = inv[:, subsets - 1]                       # A^-1: every joint slipping
         self._bits = 1 << np.arange(nv)
         self._offset = (np.arange(C) * subsets)[:, None]
         self._A = A[:, None]
@@ -161,14 +162,27 @@ class StickSlip:
                           np.broadcast_to(self._offset, (C, D)).reshape(-1))
         _, A, sid0 = self._rows
         vr = v.reshape(-1, nv)
-        b = _matvec(A, vr)
         kp = np.broadcast_to(np.asarray(kappa_pos, float), v.shape).reshape(-1, nv)
         kn = np.broadcast_to(np.asarray(kappa_neg, float), v.shape).reshape(-1, nv)
         mode = np.zeros((C * D, nv), int) if modes is None else np.asarray(modes, int).reshape(-1, nv)
-        x_out, ok, nxt = self._try(sid0, A, b, kp, kn, mode)
+        x_out = np.zeros((C * D, nv))
         m_out = mode.copy()
+        # the two common cases need no solve: every joint slipping on (x = v - A^-1 kappa(signs)),
+        # every joint held (x = 0 while the holding impulse A v stays within the static levels)
+        slipping = np.all(mode != 0, axis=1)
+        kappa = np.where(mode > 0, kp, -kn).reshape(C, D, nv)
+        x = vr - np.einsum("cij,cdj->cdi", self._full, kappa).reshape(-1, nv)
+        ok = slipping & np.all(x * mode > 0.0, axis=1)
+        x_out[ok] = x[ok]
+        b = _matvec(A, vr)
+        held = ~np.any(mode, axis=1) & np.all((b <= kp) & (b >= -kn), axis=1)
+        ok |= held
+        if ok.all():
+            return x_out.reshape(C, D, nv), m_out.reshape(C, D, nv)
         rows = np.flatnonzero(~ok)
-        mode = nxt[rows]
+        x, ok2, nxt = self._try(sid0[rows], A[rows], b[rows], kp[rows], kn[rows], mode[rows])
+        x_out[rows[ok2]] = x[ok2]
+        rows, mode = rows[~ok2], nxt[~ok2]
         # only the rows whose assignment changed go on: the active set, then enumeration
         for _ in range(ACTIVE_SET_ROUNDS):
             if rows.size == 0:

@@ -96,20 +96,23 @@ class JointImpedance(ResponseModel):
         return self._structures[structure]
 
     def respond_terms(self, terms, gains, directions, *, speed, mass, pendulum: bool = True, theta=None,
-                      window: bool = True, structure: str | None = None, restitution=None) -> Response:
+                      window: bool = True, structure: str | None = None, restitution=None,
+                      coupling: str | None = None) -> Response:
         """The response of C cases (``terms``: one pose each, from
         :func:`campaign.joints.terms.arm_terms`, with its base on the flexible base) under the
         gain sets ``gains`` (C names) x D variants (``directions`` (D, 3) or (C, D, 3); ``speed``,
         ``mass`` scalars or (C, D)), the object the rig's pendulum hammer or (``pendulum=False``)
-        a free body; ``theta`` overrides ``[ln beta, ln s]``."""
+        a free body; ``theta`` overrides ``[ln beta, ln s]``, ``coupling`` the flexible base's
+        (``ideal`` or ``loop``)."""
         setting = self.setting_for(structure)
         th = self._theta() if theta is None else np.asarray(theta, float)
         nv = setting.robot.nv
         beta, s = np.exp(th[:nv]), math.exp(th[nv])
         kp, kd = setting.servo(gains)
         e = self.restitution_ if restitution is None else restitution
-        coupling = None
-        if terms.base is not None:
+        if terms.base is None:
+            coupling = None
+        elif coupling is None:
             coupling = self.coupling or ("loop" if setting.loop is not None else "ideal")
         return respond(terms, kp=kp, kd=kd, damping=beta, coulomb_pos=s * setting.robot.coulomb_pos,
                        coulomb_neg=s * setting.robot.coulomb_neg, directions=directions, speed=speed, mass=mass,

@@ -5,7 +5,8 @@ With a model (:class:`campaign.joints.impedance_model.JointImpedance`, by defaul
 response to the contact law's pulse (:func:`campaign.joints.response.respond`): m* as eq 10
 measures it, the joints' velocities and the contact's duration at the contact's end, and on
 the flexible base the structure's tip twist then and its peak displacement over one
-first-mode period (through the VES-II loop where the rig emulates it). The impulse is eq 14
+first-mode period, the arm ideally coupled to the structure (a real structure has no VES-II
+loop; ``coupling="loop"`` follows the rig's emulation instead, at about four times the cost). The impulse is eq 14
 with that m*; the peak force is the contact law's at the arm's apparent mass over the
 compression (:mod:`campaign.plan.compression`, with the model's joint damping) on the fixed
 base, at the reduced mass of m* on the flexible base.
@@ -26,7 +27,8 @@ __all__ = ["predict_model"]
 
 
 def predict_model(robot, Q, model, gains, directions, *, mass: float, speed: float, restitution: float, contact,
-                  flexible: bool, structure: str | None = None, pendulum: bool = True) -> Predictions:
+                  flexible: bool, structure: str | None = None, pendulum: bool = True,
+                  coupling: str = "ideal") -> Predictions:
     """Every prediction over (pose, gain set, direction) from ``model``.
 
     Parameters
@@ -47,6 +49,9 @@ def predict_model(robot, Q, model, gains, directions, *, mass: float, speed: flo
         On the flexible base (the model's named ``structure``, default the rig file's).
     pendulum : bool
         The object is the rig's pendulum hammer (eq 10 counts its gravity's impulse).
+    coupling : {"ideal", "loop"}
+        The arm on the structure itself (default: what an impact on a real structure meets,
+        and a quarter of the loop's cost), or through the rig's VES-II loop.
     """
     if not hasattr(model, "respond_terms"):
         raise InputError(f"a {model.kind!r} model has no contact response; the planner needs a joint_impedance model "
@@ -60,7 +65,7 @@ def predict_model(robot, Q, model, gains, directions, *, mass: float, speed: flo
     terms = arm_terms(robot, Q, beam=setting.beam if flexible else None)
     cases = terms.take(np.repeat(np.arange(N), G))
     r = model.respond_terms(cases, gains * N, n, speed=speed, mass=mass, pendulum=pendulum, window=flexible,
-                            structure=structure, restitution=e)
+                            structure=structure, restitution=e, coupling=coupling if flexible else None)
     shape = (N, G, D)
     m_eff = r.m_eff.reshape(shape)
     imp = eq14(m_eff, mass, 0.0, speed, e)

@@ -85,8 +85,9 @@ if DESIGNED:
 
     # ------------------------------------------------------------------------------------
     # the response model (campaign.design.designed_model): fitted on the designed trials, its
-    # scatter measured on the same poses on the flexible base under each named structure,
-    # saved, and compared with the one the repository ships (config/response_model.json)
+    # scatter on the flexible base measured on the plan's held-out (random) poses struck there
+    # under each named structure, saved, and compared with the one the repository ships
+    # (config/response_model.json)
     # ------------------------------------------------------------------------------------
     with open(RIG_FILE) as _fh:
         DESIGNED_STRUCTURES = sorted((yaml.safe_load(_fh).get("structures") or {}))
@@ -94,7 +95,7 @@ if DESIGNED:
 
 
     def designed_flexible_tables():
-        """Identification CSVs of the designed poses on the flexible base, every structure and gain set."""
+        """Identification CSVs of the held-out poses on the flexible base, every structure and gain set."""
         return [f"{DESIGNED_RESULTS}/identification/flexible/{s}_{g}.csv" for s in DESIGNED_STRUCTURES
                 for g in GAIN_ORDER]
 
