@@ -190,7 +190,10 @@ def _restore(doc: dict, setting: Setting, where: str) -> ResponseModel:
             for cls_name, f in p.items():
                 est = CoulombLambdaFit(setting.robot, ci=float(f["ci"]))
                 est.lambda_, est.kappa_ = np.asarray(f["lambda"], float), np.asarray(f["kappa"], float)
+                est.lambda_ci_ = np.asarray(f["lambda_ci"], dtype=float)
+                est.kappa_ci_ = np.asarray(f["kappa_ci"], dtype=float)
                 est.e_, est.m_b_ = float(f["e"]), float(f["m_b"])
+                est.rms_log_residual_, est.n_trials_ = float(f["rms_log_residual"]), int(f["n_trials"])
                 model.fits_[str(cls_name)] = est
     except (KeyError, TypeError, ValueError) as exc:
         raise ModelFileError(f"{where}: parameters of the {doc['kind']} model are incomplete or malformed "
