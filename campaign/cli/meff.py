@@ -14,7 +14,7 @@ Examples
     campaign meff --q 0,150,90 --lambda 19.82,4.62,0.80 --json
     campaign meff --config 2 --base flexible
     campaign meff --table
-    campaign meff --config 2 --model config/response_model.json --gain high --speed 2.5 --base flexible
+    campaign meff --config 2 --model --gain high --speed 2.5 --base flexible
 """
 
 from __future__ import annotations
@@ -69,8 +69,8 @@ m* is infinite, i.e. n leaves the range of G*_33: then "m_eff_is_infinite" is tr
 Zero/Low gains) and m3 (Table 3 lambda of the High gains), each with the paper's value
 and the relative difference (model - paper) / paper.
 
---model FILE predicts instead with a saved response model (the repository ships
-config/response_model.json, fitted by the designed campaign: the joints' damping and Coulomb
+--model FILE predicts instead with a saved response model (--model alone: the one the
+repository ships, config/response_model.json, fitted by the designed campaign: the joints' damping and Coulomb
 friction over the contact law's pulse, the servo's gains of --gain): m* as eq 10 measures it
 for an object of --speed (the rig's hammer, or a free object of --mass), with its 95 %
 interval; on the flexible base the named --structure (default the rig file's) through the
@@ -112,8 +112,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--base", choices=bases(), default=None,
                    help="fixed: ground-fixed arm (eq 7, default); flexible: arm on the emulated "
                         "base body of config/rig.yaml (eq 8, see below)")
-    p.add_argument("--model", metavar="FILE",
-                   help="predict with a saved response model (e.g. config/response_model.json, shipped); "
+    p.add_argument("--model", metavar="FILE", nargs="?", const="",
+                   help="predict with a saved response model (alone: the shipped config/response_model.json); "
                         "needs --gain and --speed")
     p.add_argument("--gain", choices=gain_sets(), default=None, help="gain set of the servo (with --model)")
     p.add_argument("--speed", type=float, default=None, help="object speed along n [m/s] (with --model)")

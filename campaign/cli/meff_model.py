@@ -14,8 +14,8 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..joints.impacts import Impacts
-from ..joints.modelfile import load_model
-from ..joints.setting import Setting
+from ..joints.modelfile import load_model, shipped_model_path
+from ..joints.setting import Setting, display_path
 
 __all__ = ["check_model_options", "run_model"]
 
@@ -29,7 +29,8 @@ def check_model_options(args) -> None:
     if args.model is None:
         given = [f"--{k}" for k in MODEL_OPTIONS if getattr(args, k, None) is not None]
         if given:
-            raise InputError(f"{', '.join(given)} go with --model FILE (a saved response model)")
+            raise InputError(f"{', '.join(given)} {'go' if len(given) > 1 else 'goes'} with --model FILE "
+                             "(a saved response model)")
         return
     if args.table:
         raise InputError("--table reproduces the paper's Table 2 with eq 11 and takes no --model")
@@ -53,7 +54,9 @@ def _fmt(values, spec: str = "g") -> str:
 def run_model(args, *, robot, config, q_paper, q, n) -> int:
     """Predict with ``args.model`` at the DH pose ``q`` along ``n`` and print it."""
     setting = Setting.from_rig(structure=args.structure)
-    model = load_model(args.model, setting=setting)
+    path = args.model or shipped_model_path()
+    shown = display_path(path) + (" (shipped)" if not args.model else "")
+    model = load_model(path, setting=setting)
     base = args.base or "fixed"
     impacts = Impacts(q=np.asarray(q, float)[None], direction=np.asarray(n, float)[None], speed=float(args.speed),
                       gain=str(args.gain), mass=None if args.mass is None else float(args.mass),
@@ -72,15 +75,16 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
         print(json.dumps({
             "m_eff": m if math.isfinite(m) else None, "m_eff_is_infinite": not math.isfinite(m),
             "interval_95": [lo, hi] if math.isfinite(m) else None, "units": "kg", "base": base, "structure": structure,
-            "model": str(args.model), "kind": model.kind, "gain": args.gain, "speed": float(args.speed),
+            "model": display_path(path), "kind": model.kind, "gain": args.gain, "speed": float(args.speed),
             "object_mass": mass, "object": "the rig's hammer" if args.mass is None else "free object",
             "config": config, "q_paper_deg": q_paper, "q_dh_rad": np.asarray(q).tolist(), "direction": list(n),
             "robot": robot.name, **extra}))
         return 0
     where = f", configuration {config}" if config is not None else ""
-    value = "inf (the tip cannot move along n)" if not math.isfinite(m) else f"{m:.6g} kg (95 % interval {lo:.4g}-{hi:.4g})"
+    value = ("inf (the tip cannot move along n)" if not math.isfinite(m)
+             else f"{m:.6g} kg, 95 % interval [{lo:.4g}, {hi:.4g}] kg")
     print(f"m*        = {value}")
-    print(f"model     = {model.kind}, {args.model} (fitted on {model.n_trials_} trials)")
+    print(f"model     = {model.kind}, {shown}, fitted on {model.n_trials_} trials")
     print(f"base      = {base}" + (f" ({structure}, {coupling})" if structure else ""))
     print(f"arm       = {robot.name}{where}, q = {_fmt(q_paper)} deg (paper) = {_fmt(np.degrees(q))} deg (DH)")
     print(f"object    = {mass:.4g} kg at {float(args.speed):g} m/s, "

@@ -23,21 +23,14 @@ __all__ = ["Cases", "ContactPulse", "zoh", "foh", "second_order", "start_mass", 
 
 @dataclasses.dataclass
 class Cases:
-    """The inputs of a response, checked and broadcast.
-
-    Attributes
-    ----------
-    terms : ArmTerms (one pose per case).
-    kp : (C, nv) the servo's proportional gains [N m/rad].
-    damping : (C, nv) the joints' damping ``K_d + beta - K_p T_s / 2`` [N m s/rad].
-    tc_pos, tc_neg : (nv,) Coulomb levels against positive and negative motion [N m].
-    n : (C, D, 3) unit impact directions.
-    speed, mass, restitution : (C, D)
-    gravity : float [m/s^2]
-    object_stiffness : (C, D) or scalar: the object's restoring stiffness along n [N/m]
-        (the rig's pendulum under gravity), which eq 10's momentum of the object includes.
-    Jn : (C, D, nv) ``n^T J``; Sn : (C, D, nv, nv) ``n . d^2 p / dq^2``.
-    """
+    """The inputs of a response, checked and broadcast: the poses' ``terms`` (one per case),
+    per case the servo's proportional gains ``kp`` (C, nv) [N m/rad] and the joints' total
+    ``damping`` ``K_d + beta - K_p T_s / 2`` (C, nv) [N m s/rad]; the Coulomb levels ``tc_pos``,
+    ``tc_neg`` (nv) [N m]; per variant the unit directions ``n`` (C, D, 3), ``speed`` [m/s],
+    object ``mass`` [kg] and ``restitution`` (C, D); ``gravity`` [m/s^2]; the object's own
+    restoring stiffness along n ``object_stiffness`` [N/m] (the rig's pendulum under gravity,
+    whose impulse eq 10 counts); and, derived, ``Jn = n^T J`` (C, D, nv) and
+    ``Sn = n . d^2 p / dq^2`` (C, D, nv, nv)."""
 
     terms: ArmTerms
     kp: np.ndarray

@@ -71,7 +71,7 @@ class ResponseModel(Params):
 
     kind: ClassVar[str] = ""
     #: the bases the model predicts on
-    bases: ClassVar[tuple[str, ...]] = ("fixed", "flexible")
+    supported_bases: ClassVar[tuple[str, ...]] = ("fixed", "flexible")
     _PARAMS = ("setting",)
 
     def __init__(self, setting: Setting | None = None):
@@ -89,8 +89,8 @@ class ResponseModel(Params):
         nv = self._the_setting().robot.nv
         if impacts.q.shape[1] != nv:
             raise InputError(f"impacts have {impacts.q.shape[1]} joint angles; the robot has {nv}")
-        if impacts.base not in self.bases:
-            raise InputError(f"{type(self).__name__} predicts on the {' and '.join(self.bases)} base only, "
+        if impacts.base not in self.supported_bases:
+            raise InputError(f"{type(self).__name__} predicts on the {' and '.join(self.supported_bases)} base only, "
                              f"not the {impacts.base} base")
         if fitting and impacts.m_eff is None:
             raise InputError(f"{type(self).__name__}.fit needs identified m* (impacts.m_eff)")
@@ -261,7 +261,6 @@ class LambdaModel(Eq11Model):
     """
 
     kind = "lambda"
-    bases = ("fixed", "flexible")
     _PARAMS = ("setting", "n_bootstrap", "random_state")
 
     def __init__(self, setting: Setting | None = None, *, n_bootstrap: int = 200, random_state: int = 0):
@@ -318,7 +317,7 @@ class CoulombModel(ResponseModel):
     """
 
     kind = "lambda_coulomb"
-    bases = ("fixed",)
+    supported_bases = ("fixed",)
 
     def fit(self, impacts: Impacts) -> CoulombModel:
         impacts = self._check_impacts(impacts, fitting=True)

@@ -63,7 +63,7 @@ from .emulated_base import Loop, respond_loop
 from .friction import StickSlip
 from .terms import ArmTerms
 
-__all__ = ["Loop", "Response", "respond", "STEPS_PER_CONTACT", "GUESS_STEPS", "WINDOW_SAMPLES"]
+__all__ = ["Response", "respond", "STEPS_PER_CONTACT", "GUESS_STEPS", "WINDOW_SAMPLES"]
 
 #: steps over the shortest contact of a batch (fixed base, ideal coupling)
 STEPS_PER_CONTACT = 48

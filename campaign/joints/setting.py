@@ -70,8 +70,8 @@ class Setting:
 
     Attributes
     ----------
-    robot : Robot
-    contact : Contact
+    robot : campaign.model.robot.Robot
+    contact : campaign.rig.contact.Contact
         The contact law (``contact.*``).
     hammer_mass : float
         The hammer's effective mass at its head ``m_b`` [kg] (eq 10).
@@ -86,9 +86,9 @@ class Setting:
         Every gain set of the paper's Table 1 in joint units [N m/rad, N m s/rad].
     structure : str
         The flexible base's named structure.
-    beam : Beam
+    beam : campaign.rig.beam.Beam
         Its tip model (``M_s``, ``K_s``, ``B_s``).
-    loop : Loop or None
+    loop : campaign.joints.emulated_base.Loop or None
         The VES-II loop (``ves.mode = loop``); None when the rig couples ideally.
     rig_file, paper_file : str
         The files the values come from (relative to the project where inside it).

@@ -84,7 +84,8 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
         for q in ik.q:
             owner.append((iz, ix))
             Q.append(q)
-    out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0]}
+    out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0],
+           "predictor": "lambda" if model is None else "model"}
     if not Q:
         raise InputError(f"no point of the plane y = {y:g} m within x {list(x_range)}, z {list(z_range)} m "
                          "is reachable")
@@ -121,7 +122,8 @@ def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, ma
     n = horizontal_directions(count, start_deg=0.0)
     names = list(lambdas)
     lams = [lambdas[k] for k in names]
-    out = {"azimuth": np.arctan2(n[:, 1], n[:, 0]) % (2 * np.pi), "gain_classes": names, "q": q}
+    out = {"azimuth": np.arctan2(n[:, 1], n[:, 0]) % (2 * np.pi), "gain_classes": names, "q": q,
+           "predictor": "lambda" if model is None else "model"}
     out.update({k: v[0] for k, v in _quantities(
         robot, q[None], n, model=model, names=names, lams=lams, mass=mass, speed=speed, restitution=restitution,
         contact=contact, beam=beam, arm=arm, pendulum=pendulum).items()})

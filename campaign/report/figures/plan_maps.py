@@ -98,10 +98,11 @@ def draw_directions(d: dict, *, title: str = ""):
     hi = max(hi, lo + 1)
     for g, name in enumerate(d["gain_classes"]):
         color = _CLASS_COLOR[g % len(_CLASS_COLOR)]
-        ax1.plot(az, np.log10(np.append(d["m_eff"][g], d["m_eff"][g][0])), color=color, label=f"{name}, fixed (eq 7)")
+        eqs = ("", "") if d.get("predictor") == "model" else (" (eq 7)", " (eq 8)")
+        ax1.plot(az, np.log10(np.append(d["m_eff"][g], d["m_eff"][g][0])), color=color, label=f"{name}, fixed{eqs[0]}")
         if has_structure:
             ax1.plot(az, np.log10(np.append(d["m_eff_flexible"][g], d["m_eff_flexible"][g][0])), color=color,
-                     ls="--", label=f"{name}, flexible (eq 8)")
+                     ls="--", label=f"{name}, flexible{eqs[1]}")
     ax1.set_rorigin(lo - 0.3 * (hi - lo))
     ax1.set_rlim(lo, hi)
     ticks = np.arange(lo, hi + 0.5)
