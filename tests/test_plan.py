@@ -212,13 +212,22 @@ def run(capsys, *argv):
 def test_cli_returns_all_branches_with_their_predictions(capsys, puma):
     q = np.radians([30.0, 60.0, -60.0])
     p = impact_point(puma, q)
-    status, out, err = run(capsys, "--point", ",".join(f"{x:.12f}" for x in p), "--horizontal", "4", "--json")
+    point = ",".join(f"{x:.12f}" for x in p)
+    status, out, err = run(capsys, "--point", point, "--horizontal", "4", "--json")
     assert status == 0, err
     d = json.loads(out)
     branches = np.radians(d["branches_dh_deg"])
     assert len(branches) == position_branches(puma, p).n_branches == 4
     assert any(np.allclose(b, q, atol=1e-7) for b in branches)
     assert len(d["candidates"]) == 4 * 3 * 4   # branches x the paper's gain sets (zero, low, high) x directions
+    # the default predicts with the shipped response model
+    assert d["model"] == {"file": "config/response_model.json", "kind": "joint_impedance"}
+    assert d["gain_sets"] == ["zero", "low", "high"]
+    # with lambdas (the paper's Table 3 here) the candidates are eq 7's
+    status, out, err = run(capsys, "--point", point, "--horizontal", "4", "--json", "--lambda", "zero_low=19.82,4.62,0.80",
+                           "--lambda", "high=53.18,8.66,2.83")
+    assert status == 0, err
+    d = json.loads(out)
     c = d["candidates"][0]
     qb = np.radians(c["q_dh_deg"])
     lam = d["lambdas"][c["gain_class"]]

@@ -19,7 +19,7 @@ from ..core.vocabulary import bases
 from ..model.conventions import angle_count
 from ..model.paper import load_paper
 from ..model.robot import load_robot
-from ..plan.factory import planner_lambdas
+from ..plan.factory import planner_model
 from ..report.figures import plan_maps
 from ..scene.description import rig_values
 from .commands import HELP
@@ -40,8 +40,10 @@ marked.
 directions: at a pose (--config or --q), m* (eq 7 fixed, eq 8 flexible) and the predicted
 peak base displacement against the horizontal impact direction, on polar axes.
 
-Units: metres, kg, degrees (paper convention for --q, as in campaign meff). Gain classes as
-in campaign plan (--fit, --lambda; default the paper's Table 3).
+Units: metres, kg, degrees (paper convention for --q, as in campaign meff). The predictions
+as in campaign plan: the shipped response model (config/response_model.json; --model FILE
+another) for the gain sets zero, low and high, or eq 7/8 with the gain classes' lambda of
+--fit and --lambda.
 """
 
 
@@ -54,6 +56,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="PNG", help="figure file (PNG); a PDF is written beside it")
     p.add_argument("--base", choices=bases(), default="flexible",
                    help="flexible (default) adds eq 8 and the structure's displacement")
+    p.add_argument("--model", metavar="FILE", default=None,
+                   help="a saved response model (default: the shipped config/response_model.json)")
     p.add_argument("--fit", action="append", default=[], metavar="JSON", help="campaign lambda fit; repeatable")
     p.add_argument("--lambda", dest="lambdas", action="append", default=[], metavar="NAME=L1,L2,L3",
                    help="a gain class and its diagonal lambda [kg m^2]; repeatable")
@@ -78,9 +82,10 @@ def run(args) -> int:
     if not (args.resolution > 0):
         raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
-    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv), nv=nv)
+    model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
+                                   rig=args.rig, nv=nv)
     if args.kind == "workspace":
-        line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, rig=args.rig, resolution=args.resolution,
+        line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, model=model, rig=args.rig, resolution=args.resolution,
                                         base=args.base, y=args.y)
     else:
         q = None
@@ -93,6 +98,6 @@ def run(args) -> int:
             if not args.config.isdigit() or int(args.config) not in table:
                 raise InputError(f"--config {args.config}: unknown configuration; known: {sorted(table)}")
             config = int(args.config)
-        line = plan_maps.make_directions(out, pdf, lambdas=lambdas, rig=args.rig, config=config, q=q, base=args.base)
+        line = plan_maps.make_directions(out, pdf, lambdas=lambdas, model=model, rig=args.rig, config=config, q=q, base=args.base)
     print(f"wrote {out} and {pdf}: {line}")
     return 0

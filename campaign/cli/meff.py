@@ -16,6 +16,7 @@ Examples
     campaign meff --robot planar2 --config 2
     campaign meff --config 2 --base flexible
     campaign meff --table
+    campaign meff --config 2 --model --gain high --speed 2.5 --base flexible
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import re
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases
+from ..core.vocabulary import bases, gain_sets
 from ..model.conventions import configurations
 from ..model.exiit import effective_mass
 from ..model.paper import configuration_q, impact_direction, load_paper
@@ -37,6 +38,7 @@ from ..model.robot.floating import attach_to_floating_base
 from ..rig.beam import Beam
 from ..scene.description import make_scene
 from .commands import HELP
+from .meff_model import check_model_options, run_model
 
 __all__ = ["register", "run", "parse_vector", "flexible_base_body", "evaluate", "table2_rows", "format_table2"]
 
@@ -71,7 +73,15 @@ m* is infinite, i.e. n leaves the range of G*_33: then "m_eff_is_infinite" is tr
 Zero/Low gains) and m3 (Table 3 lambda of the High gains), each with the paper's value
 and the relative difference (model - paper) / paper.
 
-exit status: 0 on success, 2 on bad input (one line on stderr naming the value).
+--model FILE predicts instead with a saved response model (--model alone: the one the
+repository ships, config/response_model.json, fitted by the designed campaign: the joints' damping and Coulomb
+friction over the contact law's pulse, the servo's gains of --gain): m* as eq 10 measures it
+for an object of --speed (the rig's hammer, or a free object of --mass), with its 95 %
+interval; on the flexible base the named --structure (default the rig file's) through the
+VES-II loop, and the structure's peak base displacement.
+
+exit status: 0 on success, 2 on bad input (one line on stderr naming the value), including a
+model file that is corrupted, malformed or fitted for another robot or rig file.
 """
 
 #: Table 2 columns: (column, Table 3 gain class whose lambda it uses, or None for zero)
@@ -110,6 +120,15 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--base", choices=bases(), default=None,
                    help="fixed: ground-fixed arm (eq 7, default); flexible: arm on the emulated "
                         "base body of config/rig.yaml (eq 8, see below)")
+    p.add_argument("--model", metavar="FILE", nargs="?", const="",
+                   help="predict with a saved response model (alone: the shipped config/response_model.json); "
+                        "needs --gain and --speed")
+    p.add_argument("--gain", choices=gain_sets(), default=None, help="gain set of the servo (with --model)")
+    p.add_argument("--speed", type=float, default=None, help="object speed along n [m/s] (with --model)")
+    p.add_argument("--mass", type=float, default=None,
+                   help="a free object's mass [kg] (with --model; default the rig's pendulum hammer)")
+    p.add_argument("--structure", default=None,
+                   help="the flexible base's named structure of config/rig.yaml (with --model --base flexible)")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(func=run)
     return p
@@ -310,6 +329,7 @@ def run(args) -> int:
 
 
     paper = load_paper()
+    check_model_options(args)
     if args.table:
         extra = [f"{opt} {val}" for opt, val in (("--lambda", args.lam), ("--direction", args.direction),
                                                  ("--robot", args.robot)) if val is not None]
@@ -328,8 +348,10 @@ def run(args) -> int:
 
     robot = load_robot(paper["robot"] if args.robot is None else args.robot)
     config, q_paper, q = _arm_q(args, robot)
-    lam = _lambda(args, robot.nv)
     n = _direction(args)
+    if args.model is not None:
+        return run_model(args, robot=robot, config=config, q_paper=q_paper, q=q, n=n)
+    lam = _lambda(args, robot.nv)
     base = args.base or "fixed"
     m = evaluate(robot, q, lam=lam, n=n, base=base)
     infinite = math.isinf(m)

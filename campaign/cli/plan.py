@@ -7,6 +7,7 @@ Examples
     campaign plan --point -0.6,-0.15,-0.15 --speed 2
     campaign plan --point -0.6,-0.15,-0.15 --horizontal 12 --base flexible --objective displacement
     campaign plan --point 0.5,0.3,0.2 --cone -1,0,0,30 --count 9 --fit results/full/fit/lambda_high.json --json
+    campaign plan --point -0.6,-0.15,-0.15 --lambda zero_low=19.82,4.62,0.80 --lambda high=53.18,8.66,2.83
 """
 
 from __future__ import annotations
@@ -19,10 +20,12 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.vocabulary import bases
+from ..joints.modelfile import shipped_model_path
+from ..joints.setting import display_path
 from ..model.conventions import angle_count
 from ..model.paper import impact_direction
 from ..plan.directions import cone_directions, horizontal_directions
-from ..plan.factory import build_planner, planner_lambdas
+from ..plan.factory import build_planner, planner_model
 from ..plan.prediction import check_object
 from ..scene.description import rig_values
 from .commands import HELP
@@ -35,12 +38,15 @@ DESCRIPTION = """\
 Impact planner (paper, section 2: select configurations that reduce the impact). For a
 contact point, finds every pose of the arm's positioning chain that puts the impact point
 (the wrist centre) there within the joint limits (all inverse-kinematics branches, with
-Pinocchio's kinematics), and predicts for each pose x gain class x impact direction n:
-m* (eq 7 fixed base, eq 8 flexible base, eq 11), the impulse (eq 14), the post-impact joint
-velocities (eq 13), the contact's duration and peak force from the rig's contact law, and
-on the flexible base the base momentum and the peak base displacement of the structure,
-pushed through the arm by the contact's force pulse and followed while the servo, the
-joints' friction and gravity resist it and pass the arm's momentum to the base. The candidates are ranked by --objective (smallest first).
+Pinocchio's kinematics), and predicts for each pose x gain set x impact direction n: m* as
+eq 10 measures it, the impulse (eq 14), the post-impact joint velocities, the contact's
+duration and peak force from the rig's contact law, and on the flexible base the base
+momentum and the structure's peak base displacement. By default the predictions are the
+shipped response model's (config/response_model.json, fitted by the designed campaign): the
+arm's response to the contact law's pulse with the servo's gains, the joints' fitted damping
+and Coulomb friction and, on the flexible base, the named structure through the VES-II loop.
+With --lambda or --fit they are eq 7 (fixed) or eq 8 (flexible) with the given Virtual Rotor
+Inertia per gain class. The candidates are ranked by --objective (smallest first).
 
 Units: point in metres in the arm's base frame (DH frame 0); n is the direction of the
 force on the arm (the object moves along n), normalised; object mass in kg, speed in m/s;
@@ -48,33 +54,35 @@ lambda in kg m^2; angles printed in degrees (DH).
 """
 
 EPILOG = """\
-gain classes: the paper's Table 3 lambda (zero_low, high) by default; --fit reads a lambda
-fit of the campaign (results/<campaign>/fit/lambda_<class>.json, keys gain_class, lambda);
---lambda NAME=L1,L2,L3 names one directly. --fit and --lambda may repeat and replace the
-default.
+predictions: --model FILE names another saved response model; --fit reads a lambda fit of a
+campaign (results/<campaign>/fit/lambda_<class>.json, keys gain_class, lambda); --lambda
+NAME=L1,L2,L3 names one directly (the paper's Table 3: zero_low=19.82,4.62,0.80 and
+high=53.18,8.66,2.83). --fit and --lambda may repeat and replace the model. A model plans the
+paper's gain sets zero, low and high (its eq 14 restitution the fitted trials' mean unless
+--restitution is given; the object the rig's pendulum hammer unless --mass is given).
 
 contact and structure: the contact law F = k delta^p (1 + d ddelta/v0) with k, p from
-config/rig.yaml (contact.stiffness, contact.exponent) and d solved for --restitution; its
+config/rig.yaml (contact.stiffness, contact.exponent) and d solved for its restitution; its
 pulse (shape and duration) is that of two free bodies of reduced mass m* m_b / (m* + m_b).
 On the fixed base the peak force takes the arm's apparent mass over the compression instead
 of m*: the force peaks about a quarter into the contact, before the servo's proportional and
 derivative gains (the paper's Table 1 gains in joint units, controller.torque_per_unit of
-config/rig.yaml) and the joints' viscous friction have built up the resistance lambda
-averages over the whole contact. The flexible base is the rig's cantilever (flexible.* of
-config/rig.yaml): in the impulsive phase a free base body (eq 8). Its peak displacement
-(x_b) is that of the linearised arm on the structure pushed by eq 14's impulse spread over
-the contact's pulse and followed over one period of the first mode, under the servo, the
-joints' viscous friction and gravity: the contact lasts 70-200 ms and the structure peaks a
-quarter period after it starts, while the joints are still being slowed. The paper's pooled
-class zero_low is planned as its gain sets zero and low (same lambda, different servo); a
-class not named in Table 1 has no servo. --json also gives contact_duration,
-compression_mass (fixed base) and structure_peak_release: the structure's modes released
-with eq 8's base velocity change alone.
+config/rig.yaml) and the joints' damping have built up the resistance m* sums over the whole
+contact. The flexible base is the rig's cantilever (flexible.* of config/rig.yaml). With a
+model its peak displacement (x_b) is the structure's over one period of its first mode,
+driven by the arm's response to the pulse (through the VES-II loop as the rig emulates it);
+with lambdas, that of the linearised arm on the structure pushed by eq 14's impulse spread
+over the contact's pulse under the servo, the joints' viscous friction and gravity, and
+--json also gives structure_peak_release (the structure's modes released with eq 8's base
+velocity change alone); the paper's pooled class zero_low is planned as its gain sets zero
+and low (same lambda, different servo). --json also gives contact_duration and
+compression_mass (fixed base).
 
 output: the best --top candidates (all with --top 0); --json prints every candidate.
 
 exit status: 0 on success, 2 on bad input (one line on stderr naming the value), e.g. an
-unreachable point, a zero direction, a negative mass.
+unreachable point, a zero direction, a negative mass, a model file that is corrupted or
+fitted for another robot or rig file.
 """
 
 
@@ -99,6 +107,8 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="restitution e (default: contact.restitution of config/rig.yaml)")
     p.add_argument("--base", choices=bases(), default="fixed",
                    help="fixed: ground-fixed arm (eq 7); flexible: on the rig's cantilever (eq 8)")
+    p.add_argument("--model", metavar="FILE", default=None,
+                   help="a saved response model (default: the shipped config/response_model.json)")
     p.add_argument("--fit", action="append", metavar="JSON", default=[],
                    help="a campaign lambda fit (JSON with gain_class and lambda); repeatable")
     p.add_argument("--lambda", dest="lambdas", action="append", metavar="NAME=L1,L2,L3", default=[],
@@ -155,6 +165,17 @@ def _directions(args):
     return impact_direction()[None]
 
 
+def _model_file(args) -> str:
+    return args.model if args.model is not None else display_path(shipped_model_path())
+
+
+def _predictor(args, model, planner) -> dict:
+    """What the candidates were predicted with, for the JSON output."""
+    if model is None:
+        return {"lambdas": planner.lambdas}
+    return {"model": {"file": _model_file(args), "kind": model.kind}, "gain_sets": list(planner.lambdas)}
+
+
 def _fmt(v, spec=".1f"):
     # + 0.0 turns a negative zero into zero, so "-0.0" is never printed
     return "[" + ", ".join(format(float(x) + 0.0, spec) for x in v) + "]"
@@ -172,8 +193,9 @@ def run(args) -> int:
     if args.objective == "displacement" and args.base != "flexible":
         raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
-    lambdas = planner_lambdas(fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv), nv=nv)
-    planner = build_planner(base=args.base, lambdas=lambdas, mass=args.mass, speed=args.speed,
+    model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
+                                   rig=args.rig, nv=nv)
+    planner = build_planner(base=args.base, lambdas=lambdas, model=model, mass=args.mass, speed=args.speed,
                             restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig)
     check_object(mass=planner.mass, speed=planner.speed, restitution=planner.restitution)
     planner.fit(point, dirs)
@@ -182,7 +204,7 @@ def run(args) -> int:
         print(json.dumps({
             "point": point, "base": args.base, "objective": args.objective, "weights": weights,
             "object_mass": planner.mass, "speed": planner.speed, "restitution": planner.restitution,
-            "lambdas": planner.lambdas, "branches_dh_deg": np.degrees(planner.q_).tolist(),
+            **_predictor(args, model, planner), "branches_dh_deg": np.degrees(planner.q_).tolist(),
             "structure_frequency_hz": None if planner.frequency_ is None else planner.frequency_.tolist(),
             "units": {"m_eff": "kg", "impulse": "N s", "peak_force": "N", "tip_velocity": "m/s", "dq": "rad/s",
                       "base_velocity": "m/s, rad/s", "base_momentum": "N s", "structure_peak": "m",
@@ -192,9 +214,13 @@ def run(args) -> int:
         }))
         return 0
     flex = args.base == "flexible"
-    print(f"point      = {_fmt(point, '.4g')} m, base {args.base} (eq {'8' if flex else '7'})")
+    how = f"(eq {'8' if flex else '7'})" if model is None else "(response model)"
+    print(f"point      = {_fmt(point, '.4g')} m, base {args.base} {how}")
     print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")
-    print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in planner.lambdas.items()))
+    if model is not None:
+        print(f"model      = {model.kind}, {_model_file(args)}; gain sets {', '.join(planner.lambdas)}")
+    else:
+        print("gains      = " + "; ".join(f"{k} lambda {_fmt(v, 'g')} kg m^2" for k, v in planner.lambdas.items()))
     print(f"branches   = {len(planner.q_)} poses reach the point (DH deg):")
     for i, q in enumerate(planner.q_, start=1):
         print(f"  {i}: {_fmt(np.degrees(q))}")

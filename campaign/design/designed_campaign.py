@@ -14,9 +14,9 @@ Three stages, each one function the workflow's thin scripts call (``snakemake de
   (:class:`campaign.joints.lambda_fit.LambdaFit`, each trial along its own direction), predicts the
   held-out trials' m* with eq 11 from each fit and compares it with the m* identified from
   their measured channels, and fits lambda per impact speed on the designed trials (is it
-  constant?); the speed-wise lambda predicts the held-out trials too, and so does the joint
-  impedance model (:class:`campaign.joints.impedance.ImpedanceFit`: damping, the servo's
-  gains and Coulomb friction with sticking over the contact), fitted on the designed trials.
+  constant?); the speed-wise lambda predicts the held-out trials too, and so does the
+  response model the campaign saved (:mod:`campaign.design.designed_model`: the joints'
+  impedance over the contact, fitted on the designed trials), with its 95 % intervals.
 
 Its measured results: user guide, *Experiment design for lambda*, "The designed campaign"
 and "Measured results" (``docs/design.rst``).
@@ -39,13 +39,15 @@ from ..core.timing import Timer
 from ..core.vocabulary import direction_azimuth, gain_classes, gain_sets
 from ..identify.table import identify_trials, read_identification
 from ..joints.coulomb import CoulombLambdaFit
-from ..joints.impedance import ImpedanceFit, measured_pulse_shape, servo_gains
+from ..joints.impacts import Impacts
+from ..joints.impedance import servo_gains
 from ..joints.lambda_fit import (
     IdentifiabilityWarning,
     LambdaFit,
     design_arrays,
     sensitivity_matrix,
 )
+from ..joints.modelfile import load_model
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..rig import simulate_arrays
@@ -164,38 +166,51 @@ def _key(q, n) -> tuple:
 # ----------------------------------------------------------------------------------------
 # trials
 # ----------------------------------------------------------------------------------------
-def scenes(the_plan: Mapping[str, Any], role: str, gain: str) -> list:
-    """The scenes of one role and gain set of a plan."""
+def scenes(the_plan: Mapping[str, Any], role: str, gain: str, *, structure: str | None = None) -> list:
+    """The scenes of one role and gain set of a plan; on the flexible base under the named
+    ``structure`` when one is given."""
 
     if role not in ROLES:
         raise InputError(f"unknown role {role!r}; expected one of {ROLES}")
+    base = "fixed" if structure is None else "flexible"
+    params = None if structure is None else {"flexible.structure": structure}
     out = []
     for p in the_plan["poses"][role]:
         for v in p["speeds"]:
             for r in range(int(the_plan["repeats"])):
                 if p["config"]:
-                    sc = make_scene(base="fixed", config=int(p["config"]), gain=gain, speed=float(v), repeat=r,
-                                    rig=the_plan.get("rig"), campaign_seed=int(the_plan["campaign_seed"]))
+                    sc = make_scene(base=base, config=int(p["config"]), gain=gain, speed=float(v), repeat=r,
+                                    rig=the_plan.get("rig"), campaign_seed=int(the_plan["campaign_seed"]),
+                                    params=params)
                 else:
-                    sc = make_scene(base="fixed", config=0, q_paper_deg=p["q_paper_deg"], direction=p["direction"],
+                    sc = make_scene(base=base, config=0, q_paper_deg=p["q_paper_deg"], direction=p["direction"],
                                     gain=gain, speed=float(v), repeat=r, rig=the_plan.get("rig"),
-                                    campaign_seed=int(the_plan["campaign_seed"]))
+                                    campaign_seed=int(the_plan["campaign_seed"]), params=params)
                 out.append(sc)
     return out
 
 
-def run_trials(plan_json, role: str, gain: str, *, archive_dir, out_csv, timer=None) -> list[dict]:
-    """Simulate and identify one role x gain set of a plan; one trial file per trial, one CSV."""
+def run_trials(plan_json, role: str, gain: str, *, archive_dir, out_csv, timer=None,
+               structure: str | None = None) -> list[dict]:
+    """Simulate and identify one role x gain set of a plan; one trial file per trial, one CSV.
+    With ``structure`` the trials are on the flexible base under that named structure, and a
+    trial the rig refuses (the platform's stroke) is left out with a line saying why."""
 
     timer = timer if timer is not None else Timer()
     with open(plan_json, encoding="utf-8") as fh:
         the_plan = json.load(fh)
-    todo = scenes(the_plan, role, gain)
+    todo = scenes(the_plan, role, gain, structure=structure)
     paths = []
     for i, sc in enumerate(todo, 1):
         path = trial_path(archive_dir, sc)
         with timer("simulate"):
-            trial = simulate_arrays(sc)
+            try:
+                trial = simulate_arrays(sc)
+            except InputError as exc:
+                if structure is None:
+                    raise
+                print(f"[{i}/{len(todo)}] {sc.cell}: refused by the rig ({exc})", flush=True)
+                continue
         with timer("write"):
             write_trial(trial, path)
         print(f"[{i}/{len(todo)}] {sc.cell}: seed {sc.seed} -> {path}", flush=True)
@@ -236,25 +251,6 @@ def impedance_arrays(robot, rows, rig):
                 m_b=col("hammer_mass"), duration=col("contact_end") - col("contact_start"),
                 stiffness=np.array([gains[r["gain"]][0] for r in rows]),
                 damping=np.array([gains[r["gain"]][1] for r in rows]))
-
-
-def _impedance_fit(robot, rows, rig):
-    """:class:`campaign.joints.impedance.ImpedanceFit` on trials, with their mean measured force pulse."""
-
-    a = impedance_arrays(robot, rows, rig)
-    shape = measured_pulse_shape([r["path"] for r in rows], [r["contact_start"] for r in rows],
-                                 [r["contact_end"] for r in rows])
-    return ImpedanceFit(robot).fit(a["Q"], a["D"], a["m"], speed=a["speed"], e=a["e"], m_b=a["m_b"],
-                                   duration=a["duration"], stiffness=a["stiffness"], damping=a["damping"],
-                                   pulse_shape=shape)
-
-
-def _impedance_predict(est, robot, rows, rig):
-    """The model's m* of each trial from what a user has before striking: pose, direction,
-    speed, hammer mass and the gain set (not the trial's own contact or restitution)."""
-    a = impedance_arrays(robot, rows, rig)
-    return est.predict(a["Q"], a["D"], speed=a["speed"], m_b=a["m_b"], stiffness=a["stiffness"],
-                       damping=a["damping"])
 
 
 def _fit_summary(est) -> dict[str, Any]:
@@ -303,7 +299,7 @@ def _errors(pred, meas) -> dict[str, Any]:
             "mean": float(np.mean(e)), "errors": e}
 
 
-def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_md) -> dict[str, Any]:
+def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_md, *, model_json) -> dict[str, Any]:
     """Fit, predict the held-out trials, fit per speed; write JSON and Markdown.
 
     Parameters
@@ -312,6 +308,8 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
     ident_tables : mapping
         Role -> identification CSVs of that role (all gain sets).
     out_json, out_md : path-like
+    model_json : path-like
+        The response model the campaign saved (:func:`campaign.design.designed_model.fit_model`).
     """
 
     with open(plan_json, encoding="utf-8") as fh:
@@ -325,14 +323,11 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
     seed = int(the_plan["campaign_seed"])
     out: dict[str, Any] = {"classes": {}, "excluded": excluded, "speeds": the_plan["speeds"],
                            "n_heldout_poses": len(the_plan["poses"]["heldout"]), "fit_options": options}
-    # joint impedance over the contact (campaign.joints.impedance): damping and Coulomb friction
-    # are the joints' own, the servo enters through its known gains, so one fit on every
-    # designed trial serves all gain classes; a fit per class beside it shows whether the
-    # classes agree on them
-    rig = the_plan.get("rig")
-    pooled = {g for gains in the_plan["gain_classes"].values() for g in gains}
-    imp = _impedance_fit(robot, [r for r in rows["designed"] if r["gain"] in pooled], rig)
-    out["impedance"] = imp.summary()
+    # the response model the campaign saved: one fit on every designed trial (the joints'
+    # damping and friction serve every gain set), read back as any user would
+    model = load_model(model_json, rig=the_plan.get("rig"))
+    out["response_model"] = {**model.summary(), "file": str(model_json),
+                             "structure_scatter": dict(getattr(model, "structure_scatter_", {}))}
     for name, gains in the_plan["gain_classes"].items():
         pick = {role: [r for r in rows[role] if r["gain"] in gains] for role in ROLES}
         if not pick["paper"] or not pick["designed"] or not pick["heldout"]:
@@ -375,15 +370,14 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
         cls["coulomb"] = cf.summary()
         cls["prediction"]["designed_coulomb"] = _errors(
             cf.predict(Qh, Dh, speed=np.array([r["speed"] for r in ho], float)), mh)
-        m_imp = _impedance_predict(imp, robot, ho, rig)
-        cls["prediction"]["designed_impedance"] = _errors(m_imp, mh)
-        imp_cls = _impedance_fit(robot, pick["designed"], rig)
-        cls["impedance_class_fit"] = imp_cls.summary()
-        cls["prediction"]["designed_impedance_class"] = _errors(_impedance_predict(imp_cls, robot, ho, rig), mh)
+        m_imp, lo, hi = model.predict_interval(Impacts.from_records(ho))
+        cls["prediction"]["response_model"] = _errors(m_imp, mh)
+        cls["response_model_coverage"] = float(np.mean((mh >= lo) & (mh <= hi)))
         cls["heldout"] = [{"q_paper_deg": _paper_deg(r["q_cmd"]), "direction": list(r["impact_direction"]),
                            "gain": r["gain"], "speed": r["speed"], "m_eff_identified": r["m_eff"],
                            **{f"m_eff_{k}": float(fits[k].predict(Qh[i][None], directions=Dh[i][None])[0])
-                              for k in fits}, "m_eff_impedance": float(m_imp[i])} for i, r in enumerate(ho)]
+                              for k in fits}, "m_eff_response_model": float(m_imp[i]), "interval_response_model": [float(lo[i]), float(hi[i])]}
+                          for i, r in enumerate(ho)]
         out["classes"][name] = cls
     _write_json(out_json, out)
     md = report_markdown(out)
@@ -402,13 +396,13 @@ def _ci_cell(lam, lo, hi, rel) -> str:
     return f"{lam:.4g} [{lo:.4g}, {hi:.4g}] (+-{100 * rel:.3g} %)" if math.isfinite(rel) else f"{lam:.4g} [unbounded]"
 
 
-def _impedance_cell(im) -> str:
-    lo, hi = im["params_ci"]
-    nv = len(im["damping"])
-    return ("damping beta = [" + ", ".join(f"{im['damping'][j]:.4g} [{lo[j]:.4g}, {hi[j]:.4g}]" for j in range(nv))
-            + f"] N m s/rad, friction scale c = {im['friction_scale']:.3g} [{lo[nv]:.3g}, {hi[nv]:.3g}] s, identifiable: "
-            + ", ".join("yes" if x else "no" for x in im["identifiable"])
-            + f", condition number {im['condition_number']:.3g}, rms log residual {im['rms_log_residual']:.3g}")
+def _model_cell(m) -> str:
+    p = m["parameters"]
+    lo, hi = p["params_ci"]
+    nv = len(p["damping"])
+    return ("damping beta = [" + ", ".join(f"{p['damping'][j]:.4g} [{lo[j]:.4g}, {hi[j]:.4g}]" for j in range(nv))
+            + f"] N m s/rad, Coulomb scale s = {p['friction_scale']:.4g} [{lo[nv]:.4g}, {hi[nv]:.4g}] of the drive "
+            f"file's levels, rms log residual {m['rms_log_residual']:.3g}")
 
 
 def report_markdown(out: Mapping[str, Any]) -> str:
@@ -418,11 +412,10 @@ def report_markdown(out: Mapping[str, Any]) -> str:
              f"bootstrap interval ({out['fit_options'].get('n_bootstrap')} resamples, stratified by pose); held-out: "
              f"{out['n_heldout_poses']} poses with random horizontal directions, in neither fit, m* predicted with "
              "eq 11 and compared with m* identified from their measured channels.", ""]
-    im = out["impedance"]
-    lines += ["Joint impedance over the contact (damping, the servo's known gains, Coulomb friction with sticking; "
-              f"{im['n_trials']} designed trials of every gain set, 95 % asymptotic intervals): " + _impedance_cell(im)
-              + "; measured pulse " + ", ".join(f"{1000 * d:.1f} ms at {v:g} m/s"
-                                              for v, d in zip(im["speeds"], im["durations"], strict=True)) + ".", ""]
+    rm = out["response_model"]
+    lines += ["Response model (the joints' impedance over the contact law's pulse: damping, the servo's known gains, "
+              f"Coulomb friction with sticking; read from {rm['file']}, fitted on {rm['n_trials']} designed trials of "
+              "every gain set, 95 % intervals): " + _model_cell(rm) + ".", ""]
     for name, cls in out["classes"].items():
         nv = len(cls["fits"]["paper"]["lambda"])
         lines += [f"## {name} (gains {', '.join(cls['gains'])})", "",
@@ -441,9 +434,8 @@ def report_markdown(out: Mapping[str, Any]) -> str:
         for key, label in (("paper", "lambda of the paper design"), ("designed", "lambda of the designed campaign"),
                            ("designed_per_speed", "designed, lambda fitted per speed"),
                            ("designed_coulomb", "designed, lambda + Coulomb impulse per joint"),
-                           ("designed_impedance", "designed, joint impedance over the contact (damping, servo, "
-                            "Coulomb with sticking; one fit, every gain set)"),
-                           ("designed_impedance_class", "designed, joint impedance fitted on this class alone"),
+                           ("response_model", "the response model (joint impedance over the contact; one fit, "
+                            "every gain set)"),
                            ("constant_in_sample", "a constant lambda fitted on designed + held-out trials (in-sample)")):
             e = cls["prediction"][key]
             lines.append(f"| {label} | {len(e['errors'])} | {100 * e['median']:.2f} % | {100 * e['p90']:.2f} % | "
@@ -459,8 +451,8 @@ def report_markdown(out: Mapping[str, Any]) -> str:
         lines += ["", "Lambda + Coulomb impulse model on the designed trials: lambda = ["
                   + ", ".join(f"{x:.4g}" for x in c["lambda"]) + "] kg m^2, kappa = ["
                   + ", ".join(f"{x:.3g}" for x in c["kappa"]) + f"] N m s, rms log residual {c['rms_log_residual']:.3g}."]
-        im = cls["impedance_class_fit"]
-        lines += ["", "Joint impedance fitted on this class's designed trials alone: " + _impedance_cell(im) + "."]
+        lines += ["", f"The response model's 95 % intervals hold {100 * cls['response_model_coverage']:.0f} % of the "
+                  "held-out trials' identified m*."]
         lines += ["", f"Per speed: {cls['per_speed'][next(iter(cls['per_speed']))].get('interval', '')} 95 % intervals "
                   "(one trial per pose and speed leaves a stratified bootstrap nothing to resample)."]
         d = cls["drift"]

@@ -5,19 +5,32 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Mapping
 
+from ..core.errors import InputError
 from ..core.files import write_atomic
 from ..core.timing import Timer
 from ..identify.table import read_identification
 from ..joints.lambda_fit import load_fits
+from ..joints.modelfile import load_model
+from ..joints.setting import display_path
 from ..model.paper import load_paper
 from ..report import tables
 from ..report.html import markdown_page
 
 __all__ = ["make_table"]
+
+
+def _response_model(path, structure):
+    """(the response model of ``path`` or None, the note Table 4 carries about it)."""
+    if path is None:
+        return None, None
+    try:
+        return load_model(path), f"response model: {display_path(path)}."
+    except InputError as exc:
+        return None, f"no response model column: {exc}"
 def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike, *,
                ident_tables: Iterable[str | os.PathLike] = (), fits: Mapping[str, str | os.PathLike] | None = None,
                source: str | os.PathLike | None = None, out_html: str | os.PathLike | None = None,
-               structure: str | None = None, timer: Timer | None = None):
+               structure: str | None = None, model: str | os.PathLike | None = None, timer: Timer | None = None):
     """Write Table 2, 3, 4 or Table 4 under both structures (:mod:`campaign.report.tables`) as CSV,
     Markdown and HTML, each atomically.
 
@@ -37,6 +50,10 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
         writes; for ``plan_rig_check``: the CSV :mod:`campaign.studies.plan_rig_check` writes.
     structure : str, optional
         For ``table4``: the structure its flexible-base trials emulate (a note names it).
+    model : path-like, optional
+        For ``table4``: a response model file (:mod:`campaign.joints.modelfile`) whose
+        predictions fill its model column; one fitted for another rig or robot leaves the
+        column empty with a note saying why.
     timer : Timer, optional
 
     Returns
@@ -53,7 +70,9 @@ def make_table(name: str, out_csv: str | os.PathLike, out_md: str | os.PathLike,
         elif name == "table3":
             table = tables.table3(loaded, paper=paper)
         elif name == "table4":
-            table = tables.table4(records, loaded, paper=paper, structure=structure)
+            response_model, note = _response_model(model, structure)
+            table = tables.table4(records, loaded, paper=paper, structure=structure, model=response_model,
+                                  model_note=note)
         elif name == "table4_structures":
             table = tables.structures_table(source, paper=paper)
         elif name == "plan_rig_check":

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.vocabulary import gain_classes
+from ..joints.modelfile import load_model, shipped_model_path
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot
 from ..rig.beam import Beam
@@ -29,7 +30,7 @@ from ..scene.description import rig_values
 from .planner import ImpactPlanner
 from .post_contact import ArmAfterImpact
 
-__all__ = ["planner_lambdas", "object_defaults", "gain_sets", "arm_after_impact", "build_planner"]
+__all__ = ["planner_lambdas", "planner_model", "object_defaults", "gain_sets", "arm_after_impact", "build_planner"]
 
 
 def planner_lambdas(*, fits: Sequence[str | Path] = (), named: Mapping[str, Sequence[float]] | None = None,
@@ -58,6 +59,20 @@ def planner_lambdas(*, fits: Sequence[str | Path] = (), named: Mapping[str, Sequ
             raise InputError(f"the paper's Table 3 lambda is for its {len(next(iter(out.values())))}-joint robot: "
                              f"give the lambda of this {nv}-joint robot (--fit or --lambda)")
     return out
+
+
+def planner_model(*, model=None, fits: Sequence[str | Path] = (), named: Mapping[str, Sequence[float]] | None = None,
+                  rig=None, nv: int = 3) -> tuple[Any, dict[str, list[float]] | None]:
+    """What the planner predicts with: ``(model, None)``, the response model of the file
+    ``model`` (default the shipped ``config/response_model.json``), or ``(None, lambdas)``
+    when lambda fits or named lambdas are given (eq 7/8 with them, :func:`planner_lambdas`,
+    ``nv`` lambdas each).
+    A model file that is unreadable or fitted for another robot or rig is named (InputError)."""
+    if fits or named:
+        if model is not None:
+            raise InputError("give either a response model (--model) or lambdas (--fit, --lambda), not both")
+        return None, planner_lambdas(fits=fits, named=named, nv=nv)
+    return load_model(shipped_model_path() if model is None else model, rig=rig), None
 
 
 def object_defaults(values: Mapping[str, Any]) -> dict[str, float]:
@@ -98,16 +113,20 @@ def arm_after_impact(values: Mapping[str, Any], robot: Robot) -> ArmAfterImpact:
                           gravity=float(values["gravity"]))
 
 
-def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=None, objective="impulse",
-                  weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None, params=None,
+def build_planner(*, base: str, lambdas=None, model=None, mass=None, speed: float, restitution=None,
+                  objective="impulse", weights=(1.0, 1.0, 1.0), rig=None, robot=None, structure=None, params=None,
                   post_contact: bool = True) -> ImpactPlanner:
     """An :class:`~campaign.plan.planner.ImpactPlanner` with the rig's contact law and structure.
 
     Parameters
     ----------
     base : {"fixed", "flexible"}
-    lambdas : mapping
-        Gain class -> lambda [kg m^2] (:func:`planner_lambdas`).
+    lambdas : mapping, optional
+        Gain class -> lambda [kg m^2] (:func:`planner_lambdas`): eq 7/8 with them.
+    model : campaign.joints.impedance_model.JointImpedance, optional
+        A fitted response model instead (:func:`planner_model`): it plans the gain sets of the
+        paper's Table 1, the object the rig's hammer unless ``mass`` is given, eq 14's
+        restitution the model's unless ``restitution`` is.
     mass, restitution : float, optional
         The object [kg] and the restitution; default the rig's hammer (:func:`object_defaults`).
     speed : float
@@ -123,13 +142,24 @@ def build_planner(*, base: str, lambdas, mass=None, speed: float, restitution=No
         let the arm's servo, friction and gravity (:func:`arm_after_impact`) act over the
         contact's pulse and after it.
     """
+    if (lambdas is None) == (model is None):
+        raise InputError("the planner predicts with lambdas or with a response model: give exactly one")
     over = dict(params or {})
+    if model is not None and over:
+        raise InputError(f"rig overrides {sorted(over)} do not apply to a fitted response model (it is tied to its "
+                         "rig file)")
     if structure is not None:
         over["flexible.structure"] = structure
     values = rig_values(rig=rig, params=over or None)
     robot = load_robot(str(values["robot"])) if robot is None else robot
     d = object_defaults(values)
     beam = Beam.from_values(values) if base == "flexible" else None
+    if model is not None:
+        return ImpactPlanner(robot, model=model, mass=d["mass"] if mass is None else mass, speed=speed,
+                             restitution=model.restitution_ if restitution is None else restitution,
+                             contact_stiffness=d["contact_stiffness"], contact_exponent=d["contact_exponent"],
+                             beam=beam, objective=objective, weights=weights, structure=structure,
+                             pendulum=mass is None, contact_restitution=d["restitution"])
     arm = None
     if post_contact:
         lambdas = gain_sets(lambdas)

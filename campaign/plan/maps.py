@@ -18,21 +18,43 @@ from ..model.robot import Robot
 from ..model.robot.ik import position_branches_many
 from .directions import horizontal_directions, unit_directions
 from .grid import WORKSPACE_RANGE, grid_points
+from .model_prediction import predict_model
 from .prediction import pose_terms, predict
 
 __all__ = ["workspace_map", "direction_map"]
 
 
+def _quantities(robot, Q, n, *, model, names, lams, mass, speed, restitution, contact, beam, arm, pendulum):
+    """m* on the fixed base and, with ``beam``, on the flexible base with the structure's peak
+    (N, G, D): from the response ``model`` when given, else eq 7/8 with ``lams``."""
+    if model is not None:
+        kw = dict(mass=mass, speed=speed, restitution=restitution, contact=contact, pendulum=pendulum)
+        out = {"m_eff": predict_model(robot, Q, model, names, n, flexible=False, **kw).m_eff}
+        if beam is not None:
+            P = predict_model(robot, Q, model, names, n, flexible=True, **kw)
+            out.update(m_eff_flexible=P.m_eff, structure_peak=P.structure_peak)
+        return out
+    out = {"m_eff": predict(pose_terms(robot, Q), lams, n, mass=mass, speed=speed, restitution=restitution,
+                            contact=contact).m_eff}
+    if beam is not None:
+        P = predict(pose_terms(robot, Q, beam=beam), lams, n, mass=mass, speed=speed, restitution=restitution,
+                    contact=contact, arm=arm, gain_names=names)
+        out.update(m_eff_flexible=P.m_eff, structure_peak=P.structure_peak)
+    return out
+
+
 def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
                   restitution: float, direction, y: float, x_range=WORKSPACE_RANGE, z_range=WORKSPACE_RANGE,
-                  resolution: float = 0.05, beam=None, arm=None) -> dict:
+                  resolution: float = 0.05, beam=None, arm=None, model=None, pendulum: bool = True) -> dict:
     """m* (eq 7) and, on a flexible base, the structure's peak displacement over a vertical plane.
 
     The plane ``y = const`` of the arm's base frame is sampled every ``resolution`` metres;
     at each point every IK branch is evaluated, and the best (smallest) and worst branch of
     each quantity are kept per gain class. Unreachable points hold NaN (they are masked in
     the figures, never stored as numbers). ``arm``: the post-contact term of the structure's
-    peak (:func:`campaign.plan.prediction.predict`).
+    peak (:func:`campaign.plan.prediction.predict`). With a response ``model``
+    (:func:`campaign.plan.model_prediction.predict_model`) the gain classes are the names of
+    ``lambdas`` (gain sets) and its predictions replace eq 7/8.
 
     Returns
     -------
@@ -61,19 +83,16 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
         for q in ik.q:
             owner.append((iz, ix))
             Q.append(q)
-    out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0]}
+    out = {"x": x, "z": z, "y": float(y), "n_branches": nb, "gain_classes": names, "direction": n[0],
+           "predictor": "lambda" if model is None else "model"}
     if not Q:
         raise InputError(f"no point of the plane y = {y:g} m within x {list(x_range)}, z {list(z_range)} m "
                          "is reachable")
     Q = np.array(Q)
     owner = np.array(owner)
-    quantities = {"m_eff": predict(pose_terms(robot, Q), lams, n, mass=mass, speed=speed,
-                                   restitution=restitution, contact=contact).m_eff[:, :, 0]}
-    if beam is not None:
-        P = predict(pose_terms(robot, Q, beam=beam), lams, n, mass=mass, speed=speed, restitution=restitution,
-                    contact=contact, arm=arm, gain_names=names)
-        quantities["m_eff_flexible"] = P.m_eff[:, :, 0]
-        quantities["structure_peak"] = P.structure_peak[:, :, 0]
+    quantities = {k: v[:, :, 0] for k, v in _quantities(
+        robot, Q, n, model=model, names=names, lams=lams, mass=mass, speed=speed, restitution=restitution,
+        contact=contact, beam=beam, arm=arm, pendulum=pendulum).items()}
     for name, vals in quantities.items():
         best = np.full((G, z.size, x.size), np.inf)
         worst = np.full((G, z.size, x.size), -np.inf)
@@ -87,7 +106,7 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
 
 
 def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
-                  restitution: float, count: int = 72, beam=None, arm=None) -> dict:
+                  restitution: float, count: int = 72, beam=None, arm=None, model=None, pendulum: bool = True) -> dict:
     """m* and the structure's peak displacement against the horizontal impact direction at a pose
     (``arm``: the post-contact term of the structure's peak, :func:`campaign.plan.prediction.predict`).
 
@@ -102,11 +121,9 @@ def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, ma
     n = horizontal_directions(count, start_deg=0.0)
     names = list(lambdas)
     lams = [lambdas[k] for k in names]
-    kw = dict(mass=mass, speed=speed, restitution=restitution, contact=contact)
     out = {"azimuth": np.arctan2(n[:, 1], n[:, 0]) % (2 * np.pi), "gain_classes": names, "q": q,
-           "m_eff": predict(pose_terms(robot, q[None]), lams, n, **kw).m_eff[0]}
-    if beam is not None:
-        P = predict(pose_terms(robot, q[None], beam=beam), lams, n, **kw, arm=arm, gain_names=names)
-        out["m_eff_flexible"] = P.m_eff[0]
-        out["structure_peak"] = P.structure_peak[0]
+           "predictor": "lambda" if model is None else "model"}
+    out.update({k: v[0] for k, v in _quantities(
+        robot, q[None], n, model=model, names=names, lams=lams, mass=mass, speed=speed, restitution=restitution,
+        contact=contact, beam=beam, arm=arm, pendulum=pendulum).items()})
     return out

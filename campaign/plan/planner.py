@@ -17,11 +17,13 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import gain_sets
 from ..model.exiit import lambda_matrix
 from ..model.robot import Robot
 from ..model.robot.ik import position_branches
 from ..rig.contact import Contact
 from .directions import unit_directions
+from .model_prediction import predict_model
 from .prediction import Predictions, check_object, pose_terms, predict
 
 __all__ = ["ImpactPlanner", "OBJECTIVES"]
@@ -58,13 +60,34 @@ class ImpactPlanner:
         Servo gains (per gain class), joint friction and gravity during and after the contact
         (:func:`campaign.plan.prediction.predict`): the peak force (fixed base) and the structure's peak (flexible base)
         then follow the arm's resistance to the contact's pulse.
+    model : campaign.joints.impedance_model.JointImpedance, optional
+        A fitted response model: the candidates are then its predictions
+        (:func:`campaign.plan.model_prediction.predict_model`) for the gain sets ``gains``, and
+        ``lambdas`` and ``arm`` are not used.
+    gains : sequence of str, optional
+        The gain sets a model plans with (default the paper's Table 1: zero, low, high).
+    structure : str, optional
+        The flexible base's named structure the model predicts on (default the rig file's).
+    pendulum : bool
+        The object is the rig's pendulum hammer (a model's eq 10 counts its gravity's impulse).
+    contact_restitution : float, optional
+        The restitution the contact law's damping is solved for, where it is not eq 14's
+        ``restitution`` (a model's eq 14 takes its fitted trials' mean).
     """
 
-    def __init__(self, robot: Robot, *, lambdas: Mapping[str, object], mass: float, speed: float,
+    def __init__(self, robot: Robot, *, lambdas: Mapping[str, object] | None = None, mass: float, speed: float,
                  restitution: float, contact_stiffness: float, contact_exponent: float, beam=None,
-                 objective: str = "impulse", weights=(1.0, 1.0, 1.0), arm=None):
+                 objective: str = "impulse", weights=(1.0, 1.0, 1.0), arm=None, model=None, gains=None,
+                 structure: str | None = None, pendulum: bool = True, contact_restitution: float | None = None):
         self.robot = robot
-        self.lambdas = dict(lambdas)
+        self.contact_restitution = contact_restitution
+        self.model = model
+        self.gains = gains
+        self.structure = structure
+        self.pendulum = pendulum
+        if model is not None:
+            lambdas = {g: None for g in (gains if gains is not None else gain_sets())}
+        self.lambdas = dict(lambdas or {})
         self.mass = mass
         self.speed = speed
         self.restitution = restitution
@@ -79,12 +102,12 @@ class ImpactPlanner:
         check_object(mass=self.mass, speed=self.speed, restitution=self.restitution)
         if not self.lambdas:
             raise InputError("no gain class given: name at least one with its lambda")
-        for name, lam in self.lambdas.items():
+        for name, lam in self.lambdas.items() if self.model is None else ():
             try:
                 lambda_matrix(lam, self.robot.nv)
             except ValueError as exc:
                 raise InputError(f"gain class {name!r}: {exc}") from None
-        if self.arm is not None:
+        if self.arm is not None and self.model is None:
             self.arm.matrices(list(self.lambdas), self.robot.nv)     # refuses bad gains before any work
         if self.objective not in OBJECTIVES:
             raise InputError(f"objective {self.objective!r} is not one of {list(OBJECTIVES)}")
@@ -93,7 +116,8 @@ class ImpactPlanner:
         w = np.asarray(self.weights, dtype=float)
         if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
             raise InputError(f"weights = {np.asarray(self.weights).tolist()} must be 3 values >= 0, not all zero")
-        return Contact(float(self.contact_stiffness), float(self.contact_exponent), float(self.restitution)), w
+        e = self.restitution if self.contact_restitution is None else self.contact_restitution
+        return Contact(float(self.contact_stiffness), float(self.contact_exponent), float(e)), w
 
     def fit(self, point, directions) -> ImpactPlanner:
         """Find every pose reaching ``point`` [m] and predict each candidate; rank them.
@@ -110,17 +134,26 @@ class ImpactPlanner:
             if ik.reached_outside_limits:
                 raise InputError(f"point ({where}) m is reached only outside the joint limits")
             raise InputError(f"point ({where}) m is out of the arm's reach")
-        terms = pose_terms(self.robot, ik.q, beam=self.beam)
-        pred = predict(terms, list(self.lambdas.values()), n, mass=self.mass, speed=self.speed,
-                       restitution=self.restitution, contact=contact,
-                       arm=self.arm, gain_names=list(self.lambdas))
+        if self.model is not None:
+            pred = predict_model(self.robot, ik.q, self.model, list(self.lambdas), n, mass=self.mass, speed=self.speed,
+                                 restitution=self.restitution, contact=contact, flexible=self.beam is not None,
+                                 structure=self.structure, pendulum=self.pendulum)
+            frequency = None
+            if self.beam is not None:
+                frequency = pose_terms(self.robot, ik.q, beam=self.beam).frequency
+        else:
+            terms = pose_terms(self.robot, ik.q, beam=self.beam)
+            pred = predict(terms, list(self.lambdas.values()), n, mass=self.mass, speed=self.speed,
+                           restitution=self.restitution, contact=contact,
+                           arm=self.arm, gain_names=list(self.lambdas))
+            frequency = terms.frequency
         self.point_ = p
         self.q_ = ik.q
         self.ik_residual_ = ik.residual
         self.directions_ = n
         self.gain_classes_ = list(self.lambdas)
         self.predictions_ = pred
-        self.frequency_ = terms.frequency
+        self.frequency_ = frequency
         self.score_ = self._score(pred, w)
         order = np.argsort(self.score_, axis=None, kind="stable")
         self.ranking_ = np.array(np.unravel_index(order, self.score_.shape)).T   # rows (pose, gain, dir)
@@ -163,7 +196,8 @@ class ImpactPlanner:
             if P.structure_peak is not None:
                 row.update(base_velocity=P.base_velocity[i, g, d].tolist(),
                            base_momentum=float(P.base_momentum[i, g, d]),
-                           structure_peak=float(P.structure_peak[i, g, d]),
-                           structure_peak_release=float(P.structure_peak_release[i, g, d]))
+                           structure_peak=float(P.structure_peak[i, g, d]))
+                if P.structure_peak_release is not None:
+                    row["structure_peak_release"] = float(P.structure_peak_release[i, g, d])
             out.append(row)
         return out

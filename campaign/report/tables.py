@@ -39,6 +39,7 @@ from ..core import vocabulary
 from ..core.errors import InputError
 from ..core.files import write_atomic
 from ..identify import find_trials, identify_files
+from ..joints.impacts import Impacts
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.exiit import effective_mass_batch, effective_mass_from_G, exiit_floating
 from ..model.paper import impact_direction, paper_robot
@@ -138,7 +139,7 @@ def _rel(ours, paper):
 # records
 # ----------------------------------------------------------------------------------------
 _FIELDS = ("m_eff", "e", "excluded", "base", "config", "gain", "speed", "repeat", "q_cmd", "base_mass",
-           "base_inertia", "base_com", "base_mount", "robot", "impact_direction", "path", "reason")
+           "base_inertia", "base_com", "base_mount", "robot", "impact_direction", "path", "reason", "hammer_mass")
 
 
 def as_records(records: Iterable) -> list[dict]:
@@ -357,11 +358,21 @@ def flexible_prediction(record: Mapping, lam, robot) -> float:
     return effective_mass_from_G(G, n)
 
 
+def _model_prediction(model, use, structure) -> float | None:
+    """The response model's mean m* over a cell's usable trials (their poses, directions,
+    speeds, gain sets and hammer), on the flexible base under ``structure``."""
+    if model is None or not use:
+        return None
+    return float(np.mean(model.predict(Impacts.from_records(use, structure=structure))))
+
+
 def table4(records, fits: Mapping, *, paper: Mapping[str, Any], robot=None, gain_classes=None,
-           structure: str | None = None) -> Table:
-    """Table 4: flexible base, m* predicted by eq 8 (identified lambda) vs identified m*, beside
-    the paper's (``paper["table4"]``); ``structure`` (the named structure the trials emulate)
-    goes into a note."""
+           structure: str | None = None, model=None, model_note: str | None = None) -> Table:
+    """Table 4: flexible base, m* predicted by eq 8 (identified lambda) and by the response
+    ``model`` (:mod:`campaign.joints`, e.g. the shipped ``config/response_model.json``) vs
+    identified m*, beside the paper's (``paper["table4"]``); ``structure`` (the named
+    structure the trials emulate) and ``model_note`` (why there is no model column, or which
+    model it is) go into the notes."""
     classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
     flex = [r for r in recs if r["base"] == "flexible"]
@@ -386,21 +397,29 @@ def table4(records, fits: Mapping, *, paper: Mapping[str, Any], robot=None, gain
             pred = float(np.mean(preds))
         ident, sd, k = _stats([r["m_eff"] for r in use])
         pp = p4.get(f"{cfg}-{gain}", {})
+        mod = _model_prediction(model, use, structure)
         rows.append({
             "config": cfg, "gain": gain, "in_paper": (cfg, gain) in paper_cells, "lambda_class": cls,
             "predicted": pred, "predicted_paper": pp.get("predicted"), "predicted_rel": _rel(pred, pp.get("predicted")),
+            "model": mod,
             "identified": ident, "identified_sd": sd, "trials": k, "excluded": len(cell) - k,
             "identified_paper": pp.get("experiment"), "identified_rel": _rel(ident, pp.get("experiment")),
-            "pred_vs_ident": _rel(pred, ident),
+            "pred_vs_ident": _rel(pred, ident), "model_vs_ident": _rel(mod, ident),
         })
     cols = [("config", "Config"), ("gain", "Gain"), ("in_paper", "in paper"), ("lambda_class", "lambda of"),
             ("predicted", "predicted m* [kg] (eq 8)"), ("predicted_paper", "paper"), ("predicted_rel", "rel. diff"),
+            ("model", "response model m* [kg]"),
             ("identified", "identified m* [kg] (eq 10)"), ("identified_sd", "sd"), ("trials", "trials"),
             ("excluded", "excluded"), ("identified_paper", "paper"), ("identified_rel", "rel. diff"),
-            ("pred_vs_ident", "predicted / identified - 1")]
+            ("pred_vs_ident", "predicted / identified - 1"), ("model_vs_ident", "model / identified - 1")]
     notes = [("predicted: eq 8 with the gain class's identified lambda (Table 3) and each trial's emulated base "
               "mass, inertia, centre of mass and mount, averaged over the cell's usable trials."),
+             ("response model: the joints' impedance over the contact law's pulse on the structure's modal model "
+              "through the VES-II loop (campaign.joints), fitted on the designed campaign's fixed-base trials, at "
+              "each trial's pose, direction, speed and gain set, averaged likewise."),
              "rows with 'in paper' = no are the other flexible cells of the campaign (extended table)."]
+    if model_note:
+        notes.append(model_note)
     if structure:
         notes.append(f"structure of the flexible-base trials: {structure}.")
     if not flex:

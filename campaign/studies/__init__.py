@@ -11,6 +11,7 @@ into ``results/studies/<name>/`` as CSV files.
 ``identification_accuracy``  identified m* and e against the simulator truth
 ``emulation_error``          the VES-II loop against the ideal coupling
 ``impact_resistance``        where the joints' resistance comes from, on the designed campaign
+``response_model``           the shipped response model on held-out poses, both bases, the planner
 
 Each study module has ``run(out_dir, *, quick=False)``, which writes the files :data:`FILES`
 names into ``out_dir`` and returns their paths; ``quick`` runs a reduced set (seconds) for
@@ -32,6 +33,8 @@ FILES = {
     "identification_accuracy": ("accuracy.csv", "gap.csv", "ideal.csv"),
     "emulation_error": ("emulation_error.csv", "traces.csv", "emulation_error.png"),
     "impact_resistance": ("lambda.csv", "diagnosis.csv", "ablation.csv"),
+    "response_model": ("fixed.csv", "flexible.csv", "planner.csv", "planner_candidates.csv", "summary.csv",
+                       "summary.md"),
 }
 #: the studies, as the workflow's configuration key ``studies:`` names them
 NAMES = tuple(FILES)

@@ -647,6 +647,9 @@ def flexible_base_outputs():
 
 def flexible_base_inputs():
     out = {"paper": PAPER_FILE, "rig": RIG_FILE, "tables": ident_tables("flexible"), **fit_jsons()}
+    if "table4" in flexible_base_products():
+        # the shipped response model (fitted by the designed campaign) fills Table 4's model column
+        out["model"] = str(Path(PAPER_FILE).parent / "response_model.json")
     if "calibration" in flexible_base_products():
         out["trials"] = sorted({source for source, _ in fig9_sources().values()})
     return out

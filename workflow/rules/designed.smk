@@ -58,6 +58,7 @@ if DESIGNED:
             paper=designed_tables("paper"),
             designed=designed_tables("designed"),
             heldout=designed_tables("heldout"),
+            model=f"{DESIGNED_RESULTS}/model/response_model.json",
         output:
             json=f"{DESIGNED_RESULTS}/report.json",
             md=report(f"{DESIGNED_RESULTS}/report.md", caption="../report/designed.rst", category="Designed campaign",
@@ -79,3 +80,83 @@ if DESIGNED:
         input:
             f"{DESIGNED_RESULTS}/report.md",
             f"{DESIGNED_RESULTS}/design.md",
+            f"{DESIGNED_RESULTS}/model/response_model.md",
+            f"{DESIGNED_RESULTS}/model/shipped.txt",
+
+
+    # ------------------------------------------------------------------------------------
+    # the response model (campaign.design.designed_model): fitted on the designed trials, its
+    # scatter on the flexible base measured on the plan's held-out (random) poses struck there
+    # under each named structure, saved, and compared with the one the repository ships
+    # (config/response_model.json)
+    # ------------------------------------------------------------------------------------
+    with open(RIG_FILE) as _fh:
+        DESIGNED_STRUCTURES = sorted((yaml.safe_load(_fh).get("structures") or {}))
+    CODE_DESIGNED_MODEL = code_digest("design/designed_model.py", "model/robot/*/*")
+
+
+    def designed_flexible_tables():
+        """Identification CSVs of the held-out poses on the flexible base, every structure and gain set."""
+        return [f"{DESIGNED_RESULTS}/identification/flexible/{s}_{g}.csv" for s in DESIGNED_STRUCTURES
+                for g in GAIN_ORDER]
+
+
+    rule designed_flexible_trials:
+        input:
+            plan=f"{DESIGNED_RESULTS}/plan.json",
+        output:
+            csv=f"{DESIGNED_RESULTS}/identification/flexible/{{structure}}_{{gain}}.csv",
+        params:
+            code=CODE_DESIGNED,
+            archive=lambda wc: f"{DESIGNED_ARCHIVE}/structures/{wc.structure}",
+        wildcard_constraints:
+            structure="|".join(DESIGNED_STRUCTURES),
+        log:
+            designed_log("designed_flexible_trials", "{structure}_{gain}"),
+        resources:
+            runtime=10,
+            mem_mb=1000,
+        conda:
+            "../envs/campaign.yaml"
+        script:
+            "../scripts/designed_flexible_trials.py"
+
+
+    rule designed_model:
+        input:
+            plan=f"{DESIGNED_RESULTS}/plan.json",
+            fixed=designed_tables("designed"),
+            flexible=designed_flexible_tables(),
+            rig=RIG_FILE,
+            paper=PAPER_FILE,
+        output:
+            json=f"{DESIGNED_RESULTS}/model/response_model.json",
+            md=report(f"{DESIGNED_RESULTS}/model/response_model.md", caption="../report/designed.rst",
+                      category="Designed campaign"),
+        params:
+            code=CODE_DESIGNED_MODEL,
+            archive=DESIGNED_ARCHIVE,
+            structures=DESIGNED_STRUCTURES,
+        log:
+            designed_log("designed_model"),
+        resources:
+            runtime=10,
+            mem_mb=1000,
+        conda:
+            "../envs/campaign.yaml"
+        script:
+            "../scripts/designed_model.py"
+
+
+    rule designed_model_shipped:
+        input:
+            fitted=f"{DESIGNED_RESULTS}/model/response_model.json",
+            shipped=str(Path(PAPER_FILE).parent / "response_model.json"),
+        output:
+            f"{DESIGNED_RESULTS}/model/shipped.txt",
+        log:
+            designed_log("designed_model_shipped"),
+        conda:
+            "../envs/campaign.yaml"
+        script:
+            "../scripts/designed_model_shipped.py"

@@ -230,6 +230,30 @@ rule plan_rig_check_table:
         "../scripts/plan_rig_check.py"
 
 
+# the shipped response model on held-out poses drawn with the study's own seeds
+rule response_model_study:
+    input:
+        model=str(Path(PAPER_FILE).parent / "response_model.json"),
+        rig=RIG_FILE,
+        paper=PAPER_FILE,
+    output:
+        study_outputs("response_model"),
+    params:
+        code=code_digest("studies/response_model.py", "model/robot/*/*"),
+        study="response_model",
+        quick=STUDIES_QUICK,
+        options=lambda wc, input: {"model": input.model},
+    log:
+        log_file("response_model_study", root=study_dir("response_model")),
+    resources:
+        runtime=30,
+        mem_mb=1000,
+    conda:
+        "../envs/campaign.yaml"
+    script:
+        "../scripts/study.py"
+
+
 # ----------------------------------------------------------------------------------------
 # named targets
 # ----------------------------------------------------------------------------------------

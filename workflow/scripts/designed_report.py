@@ -6,4 +6,4 @@ from campaign.pipeline.joblog import job_log
 with job_log(snakemake.log[0], job="designed_report", exit_process=True):  # noqa: F821
     designed.report(snakemake.input.plan, {role: list(getattr(snakemake.input, role))  # noqa: F821
                                            for role in designed.ROLES},
-                    snakemake.output.json, snakemake.output.md)  # noqa: F821
+                    snakemake.output.json, snakemake.output.md, model_json=snakemake.input.model)  # noqa: F821

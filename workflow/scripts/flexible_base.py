@@ -17,7 +17,7 @@ with job_log(log.job, job="flexible_base", exit_process=True) as timer:
         with job_log(log.table4, job="table4", part_of="flexible_base") as part:
             make_table("table4", out.table4_csv, out.table4_md, ident_tables=list(inp.tables),
                        fits={k: inp[k] for k in p.classes}, out_html=out.table4_html, structure=p.structure,
-                       timer=part)
+                       model=inp.model, timer=part)
     if "calibration" in p.products:
         with job_log(log.calibration, job="calibration_report", part_of="flexible_base") as part, part("report"):
             text, rows = campaign_report(rig=inp.rig, table4_csv=out.table4_csv, fig9_trials=dict(p.fig9_trials))

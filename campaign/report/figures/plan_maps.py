@@ -99,10 +99,11 @@ def draw_directions(d: dict, *, title: str = ""):
     hi = max(hi, lo + 1)
     for g, name in enumerate(d["gain_classes"]):
         color = _CLASS_COLOR[g % len(_CLASS_COLOR)]
-        ax1.plot(az, np.log10(np.append(d["m_eff"][g], d["m_eff"][g][0])), color=color, label=f"{name}, fixed (eq 7)")
+        eqs = ("", "") if d.get("predictor") == "model" else (" (eq 7)", " (eq 8)")
+        ax1.plot(az, np.log10(np.append(d["m_eff"][g], d["m_eff"][g][0])), color=color, label=f"{name}, fixed{eqs[0]}")
         if has_structure:
             ax1.plot(az, np.log10(np.append(d["m_eff_flexible"][g], d["m_eff_flexible"][g][0])), color=color,
-                     ls="--", label=f"{name}, flexible (eq 8)")
+                     ls="--", label=f"{name}, flexible{eqs[1]}")
     ax1.set_rorigin(lo - 0.3 * (hi - lo))
     ax1.set_rlim(lo, hi)
     # a grid circle per decade; labels as powers of ten, on a diagonal ray (offset both ways from
@@ -128,21 +129,24 @@ def draw_directions(d: dict, *, title: str = ""):
     return fig
 
 
-def _setup(*, lambdas, rig=None, base="flexible", speed=2.0):
-    planner = build_planner(base=base, lambdas=lambdas, speed=speed, rig=rig)
-    contact = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
+def _setup(*, lambdas, model=None, rig=None, base="flexible", speed=2.0):
+    planner = build_planner(base=base, lambdas=lambdas, model=model, speed=speed, rig=rig)
+    e = planner.restitution if planner.contact_restitution is None else planner.contact_restitution
+    contact = Contact(planner.contact_stiffness, planner.contact_exponent, e)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
-              restitution=planner.restitution, beam=planner.beam, arm=planner.arm)
+              restitution=planner.restitution, beam=planner.beam, arm=planner.arm, model=model,
+              pendulum=planner.pendulum)
     return planner, kw
 
 
-def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas, rig=None,
-                   resolution: float = 0.05, base: str = "flexible", y: float | None = None) -> str:
-    """Compute the workspace map (the paper's n and plane by default) with the gain classes'
-    ``lambdas`` (:func:`campaign.plan.factory.planner_lambdas`) and save it; returns a summary line.
-    A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused first (InputError)."""
+def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
+                   rig=None, resolution: float = 0.05, base: str = "flexible", y: float | None = None) -> str:
+    """Compute the workspace map (the paper's n and plane by default) with a response ``model`` or
+    the gain classes' ``lambdas`` (:func:`campaign.plan.factory.planner_model`) and save it;
+    returns a summary line. A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused
+    first (InputError)."""
     grid_points(resolution)
-    planner, kw = _setup(lambdas=lambdas, rig=rig, base=base)
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
     marks = paper_points(planner.robot)
     y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)
     m = workspace_map(planner.robot, direction=impact_direction(), y=y, resolution=resolution, **kw)
@@ -152,11 +156,11 @@ def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None,
             f"m* {np.nanmin(m['m_eff_best']):.3g}-{np.nanmax(m['m_eff_worst']):.3g} kg")
 
 
-def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas,
+def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
                     rig=None, config: int | None = 1, q=None, base: str = "flexible", count: int = 72) -> str:
-    """Compute the direction map at a paper configuration (or DH pose ``q`` [rad]) with the gain
-    classes' ``lambdas`` and save it; returns a summary line."""
-    planner, kw = _setup(lambdas=lambdas, rig=rig, base=base)
+    """Compute the direction map at a paper configuration (or DH pose ``q`` [rad]) with a
+    response ``model`` or the gain classes' ``lambdas`` and save it; returns a summary line."""
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
     title = f"Configuration {config}: " if q is None else ""
     q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
     d = direction_map(planner.robot, q, count=count, **kw)

@@ -1,0 +1,109 @@
+"""The response model the designed campaign fits, saves and ships.
+
+:func:`fit_model` fits :class:`campaign.joints.impedance_model.JointImpedance` (the joints'
+damping and Coulomb friction over the contact) on the designed poses' fixed-base trials of
+every gain set, measures its residual scatter on the plan's held-out poses (seeded random
+poses none of the fits sees) struck on the flexible base under each named structure (the
+scatter its intervals carry there: at random poses the flexible base's m* is identified
+with about twice the fixed base's noise, up to +6 % at high gains, where its 50 Hz joint
+samples leave the tip-space velocity model), and saves it as a model file
+(:mod:`campaign.joints.modelfile`) with a Markdown summary. The workflow writes it to
+``results/designed/model/response_model.json``; the repository ships the same file as
+``config/response_model.json`` (the model the CLI and the planner use by default, beside
+the rig file it was fitted for), which ``snakemake designed`` reproduces bit for bit and
+checks (:func:`compare_shipped`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..core.files import write_atomic
+from ..identify.table import read_identification
+from ..joints.impacts import Impacts
+from ..joints.impedance_model import JointImpedance
+from ..joints.modelfile import save_model, shipped_model_path
+from ..joints.setting import Setting, display_path
+
+__all__ = ["fit_model", "model_markdown", "compare_shipped"]
+
+
+def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, Sequence], *, archive, out_json,
+              out_md) -> JointImpedance:
+    """Fit the model on the designed trials (``fixed_tables``: identification CSVs of the
+    designed role, every gain set), measure its scatter per structure on ``flexible_tables``
+    (structure -> CSVs of the held-out poses on the flexible base), save it and its summary."""
+    with open(plan_json, encoding="utf-8") as fh:
+        plan = json.load(fh)
+    setting = Setting.from_rig(plan.get("rig"))
+    fixed = Impacts.from_records(read_identification(fixed_tables))
+    model = JointImpedance(setting).fit(fixed)
+    model.structure_scatter_, model.structure_residuals_ = {}, {}
+    for name, tables in sorted(flexible_tables.items()):
+        imp = Impacts.from_records(read_identification(tables), structure=name)
+        if imp.base != "flexible":
+            raise InputError(f"structure {name}: its trials are not on the flexible base")
+        r = np.log(model.predict(imp)) - np.log(imp.m_eff)
+        ok = np.isfinite(r)
+        if not ok.any():
+            raise InputError(f"structure {name}: no finite prediction to measure the scatter on")
+        model.structure_scatter_[name] = float(np.sqrt(np.mean(r[ok] ** 2)))
+        model.structure_residuals_[name] = {k: (float(x) if math.isfinite(x) else None)
+                                            for k, x in zip(imp.keys, r, strict=True)}
+    save_model(model, out_json, archive=archive)
+    write_atomic(out_md, model_markdown(model, archive=display_path(archive)))
+    return model
+
+
+def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
+    """The model's summary: its parameters with their 95 % intervals, the fit's residuals and
+    the scatter per structure."""
+    p = model.parameters()
+    lo, hi = p["params_ci"]
+    nv = len(p["damping"])
+    lines = ["# Response model (joint impedance over the contact)", "",
+             f"Fitted on {model.n_trials_} fixed-base trials of the designed campaign"
+             + (f" ({archive})" if archive else "") + ", every gain set; the rig and robot it takes as known: "
+             f"{model._the_setting().rig_file}, {model._the_setting().robot.name}.", "",
+             "| parameter | value | 95 % interval | identifiable |", "|---|---|---|---|"]
+    for j in range(nv):
+        lines.append(f"| damping beta_{j + 1} [N m s/rad] | {p['damping'][j]:.4g} | [{lo[j]:.4g}, {hi[j]:.4g}] | "
+                     f"{'yes' if p['identifiable'][j] else 'no'} |")
+    lines.append(f"| Coulomb scale s (of the drive file's levels) | {p['friction_scale']:.4g} | [{lo[nv]:.4g}, "
+                 f"{hi[nv]:.4g}] | {'yes' if p['identifiable'][nv] else 'no'} |")
+    lines += ["", f"Restitution of eq 14: {p['restitution']:.4f} (the fitted trials' mean). Condition number of the "
+              f"fit's Jacobian: {p['condition_number']:.3g}. Residuals ln(m*_model / m*_identified): rms "
+              f"{model.rms_log_residual_:.4f}, scatter {model.residual_scatter_:.4f} (the intervals' part on the "
+              "fixed base).", ""]
+    for name, s in sorted(getattr(model, "structure_scatter_", {}).items()):
+        n = len(model.structure_residuals_.get(name, {}))
+        lines.append(f"- flexible base, {name}: scatter {s:.4f} over {n} trials of the plan's held-out poses (the "
+                     "intervals' part there).")
+    return "\n".join(lines) + "\n"
+
+
+def compare_shipped(fitted_json, out_txt, *, shipped=None) -> bool:
+    """Whether the model the campaign just fitted is byte for byte the shipped one; writes
+    the finding (a stale shipped model is reported, not an error: a changed campaign fits
+    its own)."""
+    shipped = shipped_model_path() if shipped is None else Path(shipped)
+    a = Path(fitted_json).read_bytes()
+    b = shipped.read_bytes() if shipped.is_file() else None
+    same = a == b
+    if same:
+        text = f"identical: {display_path(fitted_json)} is byte for byte the shipped {display_path(shipped)}\n"
+    elif b is None:
+        text = f"differs: there is no shipped model {display_path(shipped)}\n"
+    else:
+        text = (f"differs: {display_path(fitted_json)} is not the shipped {display_path(shipped)}; a campaign "
+                f"with the shipped settings reproduces it, so the rig, the robot, the code or the designed "
+                f"settings changed (copy the new file there to ship it)\n")
+    write_atomic(out_txt, text)
+    print(text, end="")
+    return same

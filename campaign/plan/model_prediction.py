@@ -1,0 +1,87 @@
+"""The planner's predictions from a fitted response model instead of a lambda.
+
+With a model (:class:`campaign.joints.impedance_model.JointImpedance`, by default the shipped
+``config/response_model.json``) every (pose, gain set, direction) candidate is the arm's
+response to the contact law's pulse (:func:`campaign.joints.response.respond`): m* as eq 10
+measures it, the joints' velocities and the contact's duration at the contact's end, and on
+the flexible base the structure's tip twist then and its peak displacement over one
+first-mode period, the arm ideally coupled to the structure (a real structure has no VES-II
+loop; ``coupling="loop"`` follows the rig's emulation instead, at about four times the cost). The impulse is eq 14
+with that m*; the peak force is the contact law's at the arm's apparent mass over the
+compression (:mod:`campaign.plan.compression`, with the model's joint damping) on the fixed
+base, at the reduced mass of m* on the flexible base.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import InputError
+from ..joints.terms import arm_terms
+from ..model.exiit import impulse as eq14
+from .compression import compression_mass
+from .directions import unit_directions
+from .prediction import Predictions, check_object
+
+__all__ = ["predict_model"]
+
+
+def predict_model(robot, Q, model, gains, directions, *, mass: float, speed: float, restitution: float, contact,
+                  flexible: bool, structure: str | None = None, pendulum: bool = True,
+                  coupling: str = "ideal") -> Predictions:
+    """Every prediction over (pose, gain set, direction) from ``model``.
+
+    Parameters
+    ----------
+    robot : Robot
+    Q : array_like, shape (N, nv)
+        DH poses [rad].
+    model : JointImpedance
+        A fitted response model (its setting: the rig's servo, contact law, structures).
+    gains : sequence of str
+        Gain sets of the paper's Table 1.
+    directions : array_like, shape (D, 3)
+        Impact directions n.
+    mass, speed, restitution : float
+        The object's mass [kg] and speed [m/s]; eq 14's restitution.
+    contact : campaign.rig.contact.Contact
+    flexible : bool
+        On the flexible base (the model's named ``structure``, default the rig file's).
+    pendulum : bool
+        The object is the rig's pendulum hammer (eq 10 counts its gravity's impulse).
+    coupling : {"ideal", "loop"}
+        The arm on the structure itself (default: what an impact on a real structure meets,
+        and a quarter of the loop's cost), or through the rig's VES-II loop.
+    """
+    if not hasattr(model, "respond_terms"):
+        raise InputError(f"a {model.kind!r} model has no contact response; the planner needs a joint_impedance model "
+                         "(or plan with --lambda / --fit)")
+    mass, speed, e = check_object(mass=mass, speed=speed, restitution=restitution)
+    n = unit_directions(directions)
+    gains = [str(g) for g in gains]
+    Q = np.atleast_2d(np.asarray(Q, float))
+    N, G, D = Q.shape[0], len(gains), n.shape[0]
+    setting = model.setting_for(structure)
+    terms = arm_terms(robot, Q, beam=setting.beam if flexible else None)
+    cases = terms.take(np.repeat(np.arange(N), G))
+    r = model.respond_terms(cases, gains * N, n, speed=speed, mass=mass, pendulum=pendulum, window=flexible,
+                            structure=structure, restitution=e, coupling=coupling if flexible else None)
+    shape = (N, G, D)
+    m_eff = r.m_eff.reshape(shape)
+    imp = eq14(m_eff, mass, 0.0, speed, e)
+    finite = np.isfinite(m_eff)
+    mu = np.where(finite, m_eff * mass / np.where(finite, m_eff + mass, 1.0), mass)
+    peak = contact.peak_force(mu, speed)
+    m_c = None
+    if not flexible:
+        kp, kd = setting.servo(gains)
+        damping = kd + np.asarray(model.damping_, float)[None]
+        m_c, peak = compression_mass(terms.H, terms.J, n, kp, damping, contact=contact, mass=mass, speed=speed)
+    out = dict(m_eff=m_eff, impulse=imp, dq=r.dq.reshape(shape + (-1,)), tip_velocity=r.tip_velocity.reshape(shape),
+               peak_force=peak, contact_duration=r.duration.reshape(shape), compression_mass=m_c)
+    if flexible:
+        twist = r.base_velocity.reshape(shape + (6,))
+        out.update(base_velocity=twist,
+                   base_momentum=np.linalg.norm(np.einsum("ik,ngdk->ngdi", setting.beam.mass_matrix[:3], twist), axis=-1),
+                   structure_peak=r.base_peak.reshape(shape))
+    return Predictions(**out)
