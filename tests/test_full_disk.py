@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -232,7 +233,7 @@ def test_a_workflow_job_on_a_disk_that_fills_leaves_no_partial_output(tmp_path):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(hook), str(REPO)]), "FULL_UNDER": str(archive_dir),
            "FULL_AFTER": "400000"}
     snakemake = str(Path(sys.executable).parent / "snakemake")
-    target = "archive/full_disk/fixed/config1/zero/v1.500/r00.nc"
+    target = "archive/full_disk/.jobs/fixed/zero.json"  # the sweep job's manifest: its trials, one after another
     proc = subprocess.run([snakemake, target, "-s", str(REPO / "Snakefile"), "--directory", str(work), "--cores", "1",
                            "--configfile", str(work / "c.yaml")], cwd=work, capture_output=True, text=True,
                           timeout=900, env=env)
@@ -244,8 +245,11 @@ def test_a_workflow_job_on_a_disk_that_fills_leaves_no_partial_output(tmp_path):
     assert said and said[-1].startswith("campaign.core.errors.WriteError: ") and "archive/full_disk/fixed/" in said[-1] \
         and " free); not written" in said[-1], log
     assert "h5py" not in log and "Segmentation" not in output + log
-    # the failed job's outputs are gone, the finished trials with them; nothing partial
-    assert [p for p in archive_dir.rglob("*") if not p.is_dir()] == [], output
+    # the job's manifest (its output) is not written; the trials it finished before the disk
+    # filled stay, each complete and intact (a rerun keeps them once checked); nothing partial
+    left = sorted(p for p in archive_dir.rglob("*") if not p.is_dir())
+    assert left and all(p.suffix == ".nc" and ".jobs" not in p.parts for p in left), left
+    assert all(archive.intact_trials(left)), left
 
 
 def test_a_workflow_job_on_a_real_small_filesystem_leaves_no_partial_output(tmp_path):
@@ -257,16 +261,24 @@ def test_a_workflow_job_on_a_real_small_filesystem_leaves_no_partial_output(tmp_
     snakemake = Path(sys.executable).parent / "snakemake"
     script = textwrap.dedent(f"""\
         cd '{work}'
-        '{snakemake}' archive/full_disk/fixed/config1/zero/v1.500/r00.nc -s '{REPO / "Snakefile"}' \\
+        '{snakemake}' archive/full_disk/.jobs/fixed/zero.json -s '{REPO / "Snakefile"}' \\
             --directory '{work}' --cores 1 --configfile c.yaml > snakemake.out 2>&1
         echo "snakemake $?"
         find archive -type f | sort
+        PYTHONPATH='{REPO}' '{sys.executable}' -c 'import sys; from campaign import archive; \
+print("intact", all(archive.intact_trials(sys.argv[1:])))' $(find archive -type f -name '*.nc')
         grep -h "no space left on device" results/full_disk/logs/simulate_fixed/fixed/zero.log
         grep -c -e h5py -e Segmentation snakemake.out results/full_disk/logs/simulate_fixed/fixed/zero.log
     """)
     lines = _in_tiny_filesystem(script, work / "archive", "400k").splitlines()
     assert lines[0].startswith("snakemake ") and lines[0] != "snakemake 0", lines
-    # no trial file left, finished or not, and nothing under a temporary name
-    assert lines[1].startswith("campaign.core.errors.WriteError: archive/full_disk/fixed/config") and \
-        "no space left on device while writing it" in lines[1], lines
-    assert lines[2:] == ["snakemake.out:0", "results/full_disk/logs/simulate_fixed/fixed/zero.log:0"], lines
+    # the trials finished before the disk filled, complete; no job manifest, nothing under a
+    # temporary name
+    finished = [line for line in lines[1:] if line.startswith("archive/")]
+    assert finished and all(re.fullmatch(r"archive/full_disk/fixed/config\d/zero/v\d\.\d{3}/r\d\d\.nc", f)
+                            for f in finished), lines
+    rest = lines[1 + len(finished):]
+    assert rest.pop(0) == "intact True", lines
+    assert rest[0].startswith("campaign.core.errors.WriteError: archive/full_disk/fixed/config") and \
+        "no space left on device while writing it" in rest[0], lines
+    assert rest[1:] == ["snakemake.out:0", "results/full_disk/logs/simulate_fixed/fixed/zero.log:0"], lines

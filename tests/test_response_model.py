@@ -4,6 +4,7 @@ end-to-end check of the shipped model on rig trials."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -157,7 +158,11 @@ def test_the_shipped_model_is_for_this_rig_and_predicts_two_rig_trials(puma):
     from campaign.scene.description import make_scene
 
     model = load_model(shipped_model_path())            # checks the rig's, paper's and robot's digests
-    assert model.kind == "joint_impedance" and model.n_trials_ == 48
+    fitted_on = json.loads(shipped_model_path().read_text())["fit"]["residuals"]
+    # fitted on the designed campaign's fixed-base trials, every gain set
+    assert model.kind == "joint_impedance" and model.n_trials_ == len(fitted_on) >= 24
+    assert all(t.startswith("archive/designed/fixed/") for t in fitted_on)
+    assert {t.split("/")[-3] for t in fitted_on} == {"zero", "low", "high"}
     recs = []
     for base, gain, v in (("fixed", "high", 1.2), ("flexible", "low", 2.0)):
         trial = simulate_arrays(make_scene(base=base, config=0, q_paper_deg=[20.0, 160.0, 70.0], gain=gain, speed=v,

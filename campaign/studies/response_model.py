@@ -41,7 +41,7 @@ from ..design.candidates import feasible, random_candidates, rig_refusal
 from ..identify import identify_trial
 from ..joints.impacts import Impacts
 from ..joints.modelfile import load_model, save_model, shipped_model_path
-from ..model.paper import load_paper
+from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.ik import impact_point
 from ..plan.directions import horizontal_directions
@@ -184,7 +184,7 @@ def _simulate_all(cases, s: Settings, *, log: Log) -> list[dict]:
 # the model against the trials
 # ----------------------------------------------------------------------------------------
 def _paper_deg(q_dh) -> list[float]:
-    return (np.degrees(np.asarray(q_dh, float)) - np.asarray(load_paper()["offset_deg"], float)).round(3).tolist()
+    return (np.degrees(np.asarray(q_dh, float)) - paper_offset_deg()).round(3).tolist()
 
 
 def evaluate(model, records: list[dict]) -> list[dict]:
@@ -222,7 +222,7 @@ def _spearman(a, b) -> float:
 def _points(s: Settings) -> list[np.ndarray]:
     """Contact points: the impact points of seeded random poses the rig can strike."""
     robot = load_robot(load_paper()["robot"])
-    return [impact_point(robot, np.radians(np.asarray(q) + np.asarray(load_paper()["offset_deg"], float)))
+    return [impact_point(robot, np.radians(np.asarray(q) + paper_offset_deg()))
             for q, _, _ in _random_poses(s.points, s.points_seed, speeds=s.planner_speed)]
 
 

@@ -24,7 +24,7 @@ PROFILE = yaml.safe_load((REPO / "profiles" / "slurm" / "config.yaml").read_text
 # trials) or only name targets
 NOT_GROUPED = re.compile(r"simulate_\w+|\w+_study|study_\w+|studies|calibrate|all|trials|identification|archive|fig\d|"
                          r"table\d|plan_maps|eq8_validity|table4_structures|plan_rig_check|designed|designed_plan|"
-                         r"designed_trials")
+                         r"designed_trials|designed_flexible_trials")
 
 
 def workflow_rules(*config: str) -> set[str]:

@@ -708,6 +708,19 @@ def designed_tables(role):
     return [f"{DESIGNED_RESULTS}/identification/{role}_{g}.csv" for g in GAIN_ORDER]
 
 
+# the named structures the designed campaign's held-out poses are struck under
+# (designed_flexible_trials), from the rig file
+with open(RIG_FILE) as _fh:
+    DESIGNED_STRUCTURES = sorted((yaml.safe_load(_fh).get("structures") or {}))
+CODE_DESIGNED_MODEL = code_digest("design/designed_model.py", "model/robot/*/*")
+
+
+def designed_flexible_tables():
+    """Identification CSVs of the held-out poses on the flexible base, every structure and gain set."""
+    return [f"{DESIGNED_RESULTS}/identification/flexible/{s}_{g}.csv" for s in DESIGNED_STRUCTURES
+            for g in GAIN_ORDER]
+
+
 def designed_log(rule_name, unit=None):
     """Log of one job of the designed campaign."""
     return str(Path(DESIGNED_RESULTS, "logs", rule_name, *([unit] if unit else [])).with_suffix(".log"))

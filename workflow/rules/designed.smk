@@ -90,17 +90,6 @@ if DESIGNED:
     # under each named structure, saved, and compared with the one the repository ships
     # (config/response_model.json)
     # ------------------------------------------------------------------------------------
-    with open(RIG_FILE) as _fh:
-        DESIGNED_STRUCTURES = sorted((yaml.safe_load(_fh).get("structures") or {}))
-    CODE_DESIGNED_MODEL = code_digest("design/designed_model.py", "model/robot/*/*")
-
-
-    def designed_flexible_tables():
-        """Identification CSVs of the held-out poses on the flexible base, every structure and gain set."""
-        return [f"{DESIGNED_RESULTS}/identification/flexible/{s}_{g}.csv" for s in DESIGNED_STRUCTURES
-                for g in GAIN_ORDER]
-
-
     rule designed_flexible_trials:
         input:
             plan=f"{DESIGNED_RESULTS}/plan.json",
