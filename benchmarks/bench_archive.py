@@ -46,7 +46,6 @@ import platform
 import statistics
 import sys
 import tempfile
-import time
 from importlib.metadata import version
 from pathlib import Path
 
@@ -55,7 +54,7 @@ import xarray as xr
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from campaign import __version__, archive  # noqa: E402
-from campaign.bench.common import blas_line  # noqa: E402
+from campaign.bench.common import blas_line, wall_and_cpu  # noqa: E402
 
 from synthetic import synthetic_trial  # noqa: E402
 
@@ -65,13 +64,7 @@ BUDGET_MS = 50.0
 
 def _time(fn, repeats: int) -> tuple[float, float]:
     """(median wall, median CPU) in ms after one warm-up call."""
-    fn()
-    wall, cpu = [], []
-    for _ in range(repeats):
-        w0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        wall.append(time.perf_counter() - w0)
-        cpu.append(time.process_time() - c0)
+    wall, cpu = wall_and_cpu(fn, repeats)
     return statistics.median(wall) * 1e3, statistics.median(cpu) * 1e3
 
 

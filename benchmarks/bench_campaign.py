@@ -53,10 +53,8 @@ import datetime
 import json
 import platform
 import re
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -64,7 +62,7 @@ from pathlib import Path
 
 import yaml
 
-from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS, blas_line
+from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS, blas_line, run_command
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -84,14 +82,8 @@ def run(cmd: list[str], cwd: Path, *, tree: Path = REPO) -> tuple[float, float]:
     Raises with its output tail if it fails.
     """
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in (str(tree), os.environ.get("PYTHONPATH")) if p)}
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if proc.returncode != 0:
-        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    wall, cpu, _ = run_command(cmd, cwd=cwd, env=env)
+    return wall, cpu
 
 
 def timings(results: Path) -> list[dict]:

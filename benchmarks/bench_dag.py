@@ -32,18 +32,15 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import yaml
 
-from campaign.bench.common import blas_line
+from campaign.bench.common import blas_line, run_command
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -72,18 +69,12 @@ def dry_run(tree: Path, trials: int) -> tuple[float, float, int]:
         cmd = [SNAKEMAKE, "-s", str(tree / "Snakefile"), "--directory", str(work), "-n", "--quiet", "rules",
                "--configfile", str(config)]
         env = {**os.environ, "PYTHONPATH": str(tree)}
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        proc = subprocess.run(cmd, cwd=work, capture_output=True, text=True, env=env)
-        wall = time.perf_counter() - t0
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if proc.returncode != 0:
-            raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
-        jobs = sum(1 for line in proc.stdout.splitlines() if line.strip() and line.split()[-1].isdigit()
+        wall, cpu, stdout = run_command(cmd, cwd=work, env=env)
+        jobs = sum(1 for line in stdout.splitlines() if line.strip() and line.split()[-1].isdigit()
                    and not line.startswith(("total", "job")))
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), jobs
+    return wall, cpu, jobs
 
 
 def line_fit(xs: list[float], ys: list[float]) -> tuple[float, float]:

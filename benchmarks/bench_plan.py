@@ -38,14 +38,13 @@ import datetime  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
-import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 from campaign import __version__  # noqa: E402
-from campaign.bench.common import blas_line, cpu_name, pin_to_one_cpu, write_section  # noqa: E402
+from campaign.bench.common import blas_line, cpu_name, pin_to_one_cpu, wall_and_cpu, write_section  # noqa: E402
 from campaign.model.robot.ik import impact_point  # noqa: E402
 from campaign.plan.directions import horizontal_directions  # noqa: E402
 from campaign.plan.factory import build_planner, planner_model  # noqa: E402
@@ -64,16 +63,8 @@ TARGET = 10_000.0  # (pose, direction, gain) predictions per second on one core
 
 
 def timed(fn, repeats: int) -> tuple[list[float], list[float]]:
-    """Wall and CPU times [s] of ``repeats`` calls of ``fn`` after one warm-up call: on a
-    machine shared with other jobs the CPU time is what one core spends on it."""
-    fn()
-    wall, cpu = [], []
-    for _ in range(repeats):
-        w0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        wall.append(time.perf_counter() - w0)
-        cpu.append(time.process_time() - c0)
-    return wall, cpu
+    """Wall and CPU times [s] of ``repeats`` calls of ``fn`` after one warm-up call."""
+    return wall_and_cpu(fn, repeats)
 
 
 def row(case: str, base: str, shape: str, count: int, times) -> dict:

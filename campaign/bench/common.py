@@ -69,6 +69,35 @@ def cpu_name() -> str:
     return platform.processor() or platform.machine()
 
 
+def wall_and_cpu(fn: Callable[[], Any], repeats: int) -> tuple[list[float], list[float]]:
+    """Wall and CPU times [s] of ``repeats`` calls of ``fn`` after one warm-up call: on a
+    machine shared with other jobs the CPU time is what one core spends on it."""
+    fn()
+    wall, cpu = [], []
+    for _ in range(repeats):
+        w0, c0 = time.perf_counter(), time.process_time()
+        fn()
+        wall.append(time.perf_counter() - w0)
+        cpu.append(time.process_time() - c0)
+    return wall, cpu
+
+
+def run_command(cmd: Sequence[str], *, cwd: str | os.PathLike, env: dict[str, str]) -> tuple[float, float, str]:
+    """Run a command; return its wall time, the CPU time of it and all its descendants [s]
+    and its standard output. Raises with its output tail if it fails."""
+    import resource
+    import subprocess
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run(list(cmd), cwd=cwd, capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), proc.stdout
+
+
 def time_call(fn: Callable[[], Any], repeats: int) -> list[float]:
     """Wall times [s] of ``repeats`` calls of ``fn`` after one warm-up call."""
     fn()
