@@ -112,7 +112,7 @@ def machine_probe(repeats: int = 3) -> dict[str, float]:
     (:func:`campaign.bench.write_probe`: one NetCDF4 group through xarray/h5netcdf, about
     35 ms where the targets were set, and through plain h5py, about 3 ms) and its naive
     RK4 baseline (0.5 s of fixed-base trial at 0.1 ms steps; about 350 ms there for the
-    issue's version, which does less per step than ours), median wall times [s]."""
+    original version, which does less per step than ours), median wall times [s]."""
     from campaign.bench import naive_rk4, write_probe
     from campaign.scene.description import make_scene
 

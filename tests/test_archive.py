@@ -1,4 +1,4 @@
-"""The data archive (issue 5): trial file format, safe I/O, campaign folders, verify, reuse.
+"""The data archive: trial file format, safe I/O, campaign folders, verify, reuse.
 
 Trials here are synthetic (tests/synthetic.py): random channels of the schema's shapes, so
 these tests pin the archive without waiting for the rig.

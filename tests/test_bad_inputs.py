@@ -126,7 +126,7 @@ def refused(tmp_path, monkeypatch, capsys):
     return check
 
 
-#: rows for issue 30's items, each (argv, text the error line must contain)
+#: rows for the destructive and double-counting inputs, each (argv, text the error line must contain)
 ITEM_CASES = [
     # 1: a device or FIFO as the destination is refused before work, and left as it is
     (["trial", "--speed", "1.5", "--out", "fifo"], "--out fifo: is a FIFO"),
@@ -158,7 +158,7 @@ ITEM_CASES = [
     (["bogus"], "invalid choice: 'bogus'"),
 ]
 
-#: rows this suite held before issue 30
+#: rows for the earlier bad inputs
 EARLIER_CASES = [
     (["trial", "--speed", "1.5", "--out", "folder"], "--out folder"),
     (["trial", "--speed", "1.5", "--out", "a_file/t.nc"], "a_file"),

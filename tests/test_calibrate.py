@@ -1,7 +1,7 @@
-"""Calibration (issue 9): the objective's residuals, the force-band hinge, the set-up file's
+"""Calibration: the objective's residuals, the force-band hinge, the set-up file's
 checks, the write-back, what the committed calibration promises (read from its record in
 config/rig.yaml; no simulation), and the met/missed marking of the held-out comparisons
-against issue 9's targets (on synthetic inputs)."""
+against the calibration's targets (on synthetic inputs)."""
 
 from __future__ import annotations
 
@@ -140,7 +140,7 @@ def test_the_committed_calibration_meets_the_issues_targets():
         assert tree[section][leaf]["value"] == pytest.approx(v, rel=1e-9)
 
 
-# -- held-out verdicts (issue 9's targets), on synthetic inputs ----------------------------
+# -- held-out verdicts (the calibration's targets), on synthetic inputs ----------------------------
 def _paper_cells(scale=None) -> dict:
     """Table 4 cells whose simulated m* is the paper's experiment times scale[cell] (default 1)."""
     p4 = load_paper()["table4"]
@@ -201,7 +201,7 @@ def test_a_table4_miss_above_says_how_far_above_eq_8_and_points_to_the_diagnosis
 def test_the_paper_cell_above_its_own_fixed_base_value_gets_a_note_met_or_not():
     t2, p4 = load_paper()["table2"], load_paper()["table4"]
     above = [k for k, v in p4.items() if v["experiment"] > t2["m3" if k.endswith("high") else "m2"][int(k[0])]]
-    assert above == ["1-low"]          # the paper's configuration 1 Low (issue 9)
+    assert above == ["1-low"]          # the paper's configuration 1 Low
     for factor, verdict in ((0.95, "met"), (0.5, "missed")):
         cells = _paper_cells({"1-low": factor})
         cells["1-low"]["fixed"] = 12.5

@@ -89,7 +89,7 @@ def test_full_structure_is_symmetric_psd(puma):
 #: (joint-encoder rate, m* estimator) of the full lambda-recovery requirement: the paper's
 #: 50 Hz (identification by the tip-space ``lti`` model) with either estimator, and 1 kHz
 #: (the joint-space model built with the nominal arm inertia, which lacks the lambda the
-#: trials carry) with the impulse estimator. Not 1 kHz with eq 10 (measured; issue 6): eq
+#: trials carry) with the impulse estimator. Not 1 kHz with eq 10 (measured): eq
 #: 10's m*, which identification reproduces (tests below), sits +0.4 .. +1.1 % above eq 11
 #: on these trials' 40 ms contacts -- the pendulum's gravity impulse during the contact
 #: (+0.34 .. +0.54 %) and the arm's Jacobian change over it (J(q_e) against J(q_s), up to
@@ -184,7 +184,7 @@ def test_eq10_at_1khz_recovers_lambda3_and_is_unbiased_against_its_own_target(pu
 
 
 def test_identified_m_eff_of_the_lambda_trials_at_1khz_is_eq10_within_1pct(identified_lambda_trials):
-    """What identification is asked for at 1 kHz (issue 6: m* within 1 %), on the
+    """What identification is asked for at 1 kHz (m* within 1 %), on the
     lambda-recovery trials: every trial's m* within 1 % of eq 10 on its true edge
     velocities, e within 0.5 % -- so the 1 kHz recovery's miss with eq 10 is eq 10 against
     eq 11, not the identification."""

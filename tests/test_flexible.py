@@ -1,4 +1,4 @@
-"""The flexible long-reach base and the VES-II emulation loop in the rig (issue 4)."""
+"""The flexible long-reach base and the VES-II emulation loop in the rig."""
 
 from __future__ import annotations
 

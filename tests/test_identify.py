@@ -223,7 +223,7 @@ def test_synthetic_generator_is_consistent_with_eq_11(puma):
     assert tr.truth["e"] == pytest.approx(0.55, rel=0.02)
 
 
-# -- F/T momentum method (issue 6) -----------------------------------------------------
+# -- F/T momentum method -----------------------------------------------------
 @pytest.fixture(scope="module")
 def high_gain_trials():
     """Rig trials at High gains with the paper's 50 Hz encoders: the case the encoder
@@ -239,7 +239,7 @@ def high_gain_trials():
 
 
 def test_ft_momentum_on_high_gain_rig_trials_at_50hz(puma, high_gain_trials):
-    """Issue 6 target: m* and e within 3 % of the truth at 50 Hz joint sampling, High gains,
+    """Target: m* and e within 3 % of the truth at 50 Hz joint sampling, High gains,
     by the default (which picks the F/T method at 20 ms encoders)."""
     for measured, truth, attrs in high_gain_trials:
         r = identify_trial(measured, robot=puma, meta=attrs)

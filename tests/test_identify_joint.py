@@ -1,7 +1,7 @@
-"""The joint-dynamics tip-velocity model of the encoder method (arm_model="joint", issue 6).
+"""The joint-dynamics tip-velocity model of the encoder method (arm_model="joint").
 
 Scored against the simulator truth on rig trials at 1 kHz joint sampling; bounds are the
-issue's requirement (m* within 1 % at 1 kHz), not numbers copied from a run.
+requirement (m* within 1 % at 1 kHz), not numbers copied from a run.
 """
 
 from __future__ import annotations

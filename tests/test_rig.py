@@ -1,4 +1,4 @@
-"""The fixed-base simulated VES-II against closed forms, invariants and physical sanity (issue 3)."""
+"""The fixed-base simulated VES-II against closed forms, invariants and physical sanity."""
 
 from __future__ import annotations
 

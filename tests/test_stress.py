@@ -1,4 +1,4 @@
-"""The reduced numerical-stability stress set (issue 8): every corner either passes its
+"""The reduced numerical-stability stress set: every corner either passes its
 invariants or is refused before simulating with a message naming the cause.
 
 The full grid is ``campaign bench stress``; this is its reduced
@@ -127,7 +127,7 @@ def test_lambda_fit_on_a_single_pose_flags_every_component():
 
 def test_cost_verdict_scales_by_the_write_reference_of_the_same_run():
     """The per-trial verdict: met in absolute terms, met only once scaled to the machine the
-    targets were set on (this run's xarray write probe against issue 3's ~35 ms), or missed;
+    targets were set on (this run's xarray write probe against the ~35 ms where the targets were set), or missed;
     the note says how fast the machine ran and does not scale by the naive RK4."""
     def cost(sim_fixed, probe):
         factor = probe / XARRAY_WRITE_AT_TARGETS

@@ -21,7 +21,7 @@ only: no model reads it):
    coverage of the identified m*; the model saved and loaded again predicts bit for bit;
    the planner's predictions per CPU second on a grid of random poses.
 
-Every figure is set against the issue's target in ``summary.csv``. Method and findings: user
+Every figure is set against its target in ``summary.csv``. Method and findings: user
 guide, *The response model* (``docs/response_model.rst``).
 """
 
@@ -54,7 +54,7 @@ from .common import CELLS, Log, quiet, write_csv
 __all__ = ["Settings", "TARGETS", "simulate_case", "held_out_fixed", "held_out_flexible", "planner_check",
            "summarise", "run"]
 
-#: the issue's targets: (quantity, comparison, value)
+#: the targets the model is held to: (quantity, comparison, value)
 TARGETS = {
     "fixed_median": ("<=", 0.015), "fixed_worst": ("<=", 0.05),
     "flexible_median": ("<=", 0.03), "flexible_worst": ("<=", 0.08), "flexible_peak_median": ("<=", 0.10),
@@ -314,7 +314,7 @@ def _stat(rows, key, fn) -> float:
 
 def summarise(fixed: list[dict], flexible: list[dict], planner: list[dict], *, bitwise: bool,
               rates: dict[str, float]) -> list[dict]:
-    """One row per figure of the issue's list: ``quantity``, ``value``, ``target``, ``met``, ``note``."""
+    """One row per target the study checks: ``quantity``, ``value``, ``target``, ``met``, ``note``."""
     both = fixed + flexible
     flex_pl = [p for p in planner if p["base"] == "flexible"]
     items = [
