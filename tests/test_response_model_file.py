@@ -61,7 +61,8 @@ def test_the_shipped_model_records_its_provenance(shipped_doc, setting):
     assert shipped_doc["kind"] == "joint_impedance"
     assert shipped_doc["rig"]["sha256"] == setting.digests["rig"]
     assert shipped_doc["robot"] == {"name": "puma560", "files": setting.digests["robot"]}
-    assert shipped_doc["fit"]["archive"] == "archive/designed" and shipped_doc["fit"]["n_trials"] == 48
+    assert shipped_doc["fit"]["archive"] == "archive/designed"
+    assert shipped_doc["fit"]["n_trials"] == len(shipped_doc["fit"]["residuals"]) >= 24
     assert set(shipped_doc["fit"]["structure_scatter"]) == {"space_class", "stiff_mast"}
     assert all(k.startswith("archive/designed/") for k in shipped_doc["fit"]["residuals"])
 
