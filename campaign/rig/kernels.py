@@ -1,0 +1,391 @@
+"""The plants' dynamics on plain Python floats: what the trial loop evaluates at every RK4 stage.
+
+A trial's state has 9 (fixed base, VES loop) to 21 (ideal coupling) entries; its loop
+makes about 2000 evaluations. At that size a NumPy call costs more than its arithmetic
+and the Pinocchio call is the only work worth an array, so a kernel takes the state as a
+list of floats, fills Pinocchio's inputs into preallocated arrays and does the rest
+(joint torques, the contact force, the pendulum, the state derivative) in Python floats:
+operation for operation, in the same order, what the plant's array methods
+(:meth:`.plant.FixedBasePlant.rhs`, ``evaluate``, ``holding``, ``gap``) compute, so the
+numbers are the same bits (``tests/test_lean_loop.py`` compares them). A product
+``n^T J v`` of 3-9 terms is summed left to right from 0.0, the order of the BLAS ``ddot``
+NumPy calls for it.
+
+Every kernel offers
+
+``stage(x, t, tau, fs, v0, caught)``
+    the state derivative (an RK4 stage: :meth:`.plant.FixedBasePlant.rhs`);
+``full(x, t, tau, fs, v0, caught)``
+    ``(xd, lam, gap)``: the derivative, the stuck joints' holding torques and the contact
+    gap ``(delta, ddelta)`` (None once the hammer is caught, out of contact), from one
+    dynamics solve (:meth:`.plant.FixedBasePlant.evaluate`);
+``holding(x, t, tau, fs, v0)``
+    the holding torques alone (:meth:`.plant.FixedBasePlant.holding`);
+``gap(x, t)``
+    the contact gap from the kinematics alone (:meth:`.plant.FixedBasePlant.gap`);
+``servo(tau_arm)``
+    the generalised servo torque of the arm's joint torques (a tuple).
+
+with ``tau`` the held servo torque (a tuple, compared by identity: the constant part of the
+joint torque is kept until it or the friction modes ``fs`` change), ``v0`` the contact's
+approach speed (None out of contact) and ``caught`` the hammer's brake.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from .flexible import VesLoopPlant
+from .plant import FixedBasePlant, FrictionState
+
+__all__ = ["kernel_for", "FixedKernel", "VesKernel", "ArrayKernel"]
+
+_LWA = pin.LOCAL_WORLD_ALIGNED
+_WORLD = pin.Convention.WORLD
+_aba, _rnea = pin.aba, pin.rnea
+
+
+def kernel_for(plant):
+    """The kernel of ``plant``: :class:`VesKernel` for the VES loop, :class:`FixedKernel` for
+    the fixed base, :class:`ArrayKernel` (the plant's own array methods) otherwise."""
+    if isinstance(plant, VesLoopPlant):
+        return VesKernel(plant)
+    if type(plant) is FixedBasePlant:
+        return FixedKernel(plant)
+    return ArrayKernel(plant)
+
+
+def _dot(a, b) -> float:
+    """``sum(a_i b_i)`` left to right from 0.0 (BLAS ``ddot``'s order on a few terms)."""
+    s = 0.0
+    for u, w in zip(a, b, strict=True):
+        s += u * w
+    return s
+
+
+class FixedKernel:
+    """:class:`.plant.FixedBasePlant` on float lists (module docstring).
+
+    State ``x = [q (nv), theta, v (nv), thetadot, P]``. Pinocchio reads the state from one
+    buffer ``X`` (filled once per state list: the angles and velocities are views into it)
+    and the joint torque from ``U``; a partly stuck arm's free joints are gathered from them
+    into buffers of the reduced model's size. The contact gap of the last state list is
+    kept (a step end's event check and its evaluations share it).
+    """
+
+    def __init__(self, plant: FixedBasePlant):
+        self.plant = plant
+        self.nv = nv = plant.nv
+        self.size = plant.size
+        self.model, self.data = plant.model, plant.data
+        self.fid = plant.fid
+        self.visc = np.asarray(plant.viscous, dtype=float).tolist()
+        self.r, self.mgl, self.Ip = plant._r, plant._mgl, plant._Ip
+        self.k, self.p, self.d = plant._k, plant._p, plant._d
+        self.s0 = plant._s0
+        self.axis = plant._axis
+        self.M_tip = plant._M_tip
+        self.i_thd = plant.i_thd
+        self.sv = slice(nv + 1, 2 * nv + 1)          # velocities in x
+        self.sd = slice(nv + 1, 2 * nv + 2)          # x entries that are the first derivatives
+        self.X = np.zeros(plant.size)
+        self.Xq, self.Xv = self.X[:nv], self.X[self.sv]
+        self.U = np.zeros(nv)
+        self.A = np.zeros(nv)
+        self.filled = None                           # the state list in X
+        self.red = {n: (np.zeros(n), np.zeros(n), np.zeros(n)) for n in range(1, nv)}
+        self.c2 = (None, None, None)
+        self.kin = (None, None)                      # (state list, (delta, ddelta, J_n))
+
+    def servo(self, tau_arm):
+        return tuple(tau_arm)
+
+    def _fill(self, x):
+        if self.filled is not x:
+            self.X[:] = x
+            self.filled = x
+
+    # -- kinematics ---------------------------------------------------------------------
+    def _gap_jn(self, x, t=0.0):
+        """``(delta, ddelta, J_n)``: :meth:`.plant.FixedBasePlant.gap` (J_n as a list)."""
+        kin = self.kin
+        if kin[0] is x:
+            return kin[1]
+        self._fill(x)
+        J = pin.computeFrameJacobian(self.model, self.data, self.Xq, self.fid, _LWA)
+        p = self.M_tip.translation
+        if self.axis is not None:
+            i, sign = self.axis
+            if sign < 0:
+                s, Jn = -float(p[i]) - self.s0, (-J[i]).tolist()
+            else:
+                s, Jn = float(p[i]) - self.s0, J[i].tolist()
+        else:
+            n = self.plant.n
+            s, Jn = float(n @ p) - self.s0, (n @ J[:3]).tolist()
+        nv = self.nv
+        th, thd = x[nv], x[self.i_thd]
+        out = (self.r * math.sin(th) - s, self.r * math.cos(th) * thd - _dot(Jn, x[self.sv]), Jn)
+        self.kin = (x, out)
+        return out
+
+    def gap(self, x, t=0.0):
+        return self._gap_jn(x, t)[:2]
+
+    def _loads(self, x, t, tau_s, fs, v0, with_gap: bool):
+        """Joint torque (servo, friction, contact), contact force and gap (or None)."""
+        c = self.c2
+        if c[0] is not tau_s or c[1] is not fs:
+            c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        if v0 is None and not with_gap:
+            return tau, 0.0, None
+        delta, ddelta, Jn = self._gap_jn(x, t)
+        F = 0.0
+        if v0 is not None and delta > 0.0:     # :meth:`.plant.FixedBasePlant.contact_force`
+            F = self.k * delta**self.p * (1.0 + self.d * ddelta / v0)
+            if F > 0.0:
+                tau = [a + j * F for a, j in zip(tau, Jn, strict=True)]
+            else:
+                F = 0.0
+        return tau, F, (delta, ddelta)
+
+    # -- dynamics -----------------------------------------------------------------------
+    def _accel(self, x, t, tau, fs: FrictionState):
+        """Accelerations of the constrained dynamics (:meth:`.plant.FixedBasePlant._accel`)."""
+        self._fill(x)
+        if fs.none_stuck:
+            U = self.U
+            U[:] = tau
+            return _aba(self.model, self.data, self.Xq, self.Xv, U, _WORLD).tolist()
+        a = [0.0] * self.nv
+        if not fs.all_stuck:
+            free = fs.free_l
+            q, v, u = self.red[len(free)]
+            self.Xq.take(free, out=q)
+            self.Xv.take(free, out=v)
+            u[:] = [tau[j] for j in free]
+            rm, rd = fs.reduced
+            for j, aj in zip(free, _aba(rm, rd, q, v, u).tolist(), strict=True):
+                a[j] = aj
+        return a
+
+    def _lam(self, x, t, a, tau, fs: FrictionState):
+        """Holding torques ``rnea(q, v, a)_S - tau_S`` (:meth:`.plant.FixedBasePlant.constrained`)."""
+        self._fill(x)
+        A = self.A
+        A[:] = a
+        r = _rnea(self.model, self.data, self.Xq, self.Xv, A).tolist()
+        return [r[j] - tau[j] for j in fs.stuck_l]
+
+    def _xd(self, x, a, F, caught):
+        if caught:
+            return x[self.sd] + a + [0.0, F]
+        th = x[self.nv]
+        return x[self.sd] + a + [(-self.mgl * math.sin(th) - F * self.r * math.cos(th)) / self.Ip, F]
+
+    def stage(self, x, t, tau_s, fs, v0, caught):
+        # an RK4 stage (~2000 a trial): _loads, _accel and _xd inlined for the free arm out
+        # of contact, the same operations in the same order (a Python call costs ~0.1 us)
+        c = self.c2
+        if c[0] is not tau_s or c[1] is not fs:
+            c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        F = 0.0
+        if v0 is not None:
+            delta, ddelta, Jn = self._gap_jn(x, t)
+            if delta > 0.0:
+                F = self.k * delta**self.p * (1.0 + self.d * ddelta / v0)
+                if F > 0.0:
+                    tau = [a + j * F for a, j in zip(tau, Jn, strict=True)]
+                else:
+                    F = 0.0
+        if fs.none_stuck:
+            if self.filled is not x:
+                self.X[:] = x
+                self.filled = x
+            U = self.U
+            U[:] = tau
+            a = _aba(self.model, self.data, self.Xq, self.Xv, U, _WORLD).tolist()
+        else:
+            a = self._accel(x, t, tau, fs)
+        if caught:
+            return x[self.sd] + a + [0.0, F]
+        th = x[self.nv]
+        return x[self.sd] + a + [(-self.mgl * math.sin(th) - F * self.r * math.cos(th)) / self.Ip, F]
+
+    def full(self, x, t, tau_s, fs, v0, caught):
+        tau, F, gap = self._loads(x, t, tau_s, fs, v0, not caught)
+        a = self._accel(x, t, tau, fs)
+        lam = [] if fs.none_stuck else self._lam(x, t, a, tau, fs)
+        return self._xd(x, a, F, caught), lam, gap
+
+    def holding(self, x, t, tau_s, fs, v0):
+        if fs.none_stuck:
+            return []
+        tau, _, _ = self._loads(x, t, tau_s, fs, v0, False)
+        return self._lam(x, t, self._accel(x, t, tau, fs), tau, fs)
+
+
+class VesKernel(FixedKernel):
+    """:class:`.flexible.VesLoopPlant` on float lists (module docstring): the arm on the
+    platform whose motion at ``t`` the emulator prescribes (the plant's cached
+    :meth:`~.flexible.VesLoopPlant._platform`, compared by identity).
+
+    State ``x = [q_arm (na), theta, v_arm (na), thetadot, P]``. The free-flyer's
+    configuration, velocity and acceleration ``[a_b, 0]`` are buffers filled from the
+    platform motion and the state list; the kinematics and the bias torques of the last
+    (state list, platform motion) are kept.
+    """
+
+    def __init__(self, plant):
+        super().__init__(plant)
+        na = self.nv
+        self.fmodel, self.fdata, self.ffid = plant.fmodel, plant.fdata, plant.ffid
+        self.M_ftip = plant._M_ftip
+        self.arm0 = plant._arm0
+        self.na0 = plant._na0
+        self.na0s = {n: np.zeros(n) for n in range(1, na)}
+        self.qf, self.vf, self.af = np.zeros(7 + na), np.zeros(6 + na), np.zeros(6 + na)
+        self.qf_arm, self.vf_arm = self.qf[7:], self.vf[6:]
+        self.fplat = None                     # the platform motion in qf, vf, af
+        self.ffilled = None                   # the state list in qf, vf
+        self.bias_last = (None, None, None)   # (state list, platform motion, bias)
+        self.kin = (None, None, None)         # (state list, platform motion, (delta, ddelta, J_n))
+
+    def _ffill(self, x, plat):
+        """The free-flyer configuration, velocity and acceleration of the platform motion
+        ``plat`` and the arm's state ``x``."""
+        if self.fplat is not plat:
+            qb, vb, ab = plat
+            self.qf[:7] = qb
+            self.vf[:6] = vb
+            self.af[:6] = ab
+            self.fplat = plat
+        if self.ffilled is not x:
+            self.qf_arm[:] = x[:self.nv]
+            self.vf_arm[:] = x[self.sv]
+            self.ffilled = x
+
+    def _gap_jn(self, x, t=0.0):
+        """:meth:`.flexible.VesLoopPlant.gap` with the platform at ``t`` (J_n as a list)."""
+        plat = self.plant._platform(t)
+        kin = self.kin
+        if kin[0] is x and kin[1] is plat:
+            return kin[2]
+        self._ffill(x, plat)
+        J = pin.computeFrameJacobian(self.fmodel, self.fdata, self.qf, self.ffid, _LWA)
+        p = self.M_ftip.translation
+        if self.axis is not None:
+            i, sign = self.axis
+            J, s = (-J[i], -float(p[i])) if sign < 0 else (J[i], float(p[i]))
+        else:
+            n = self.plant.n
+            J, s = n @ J[:3], float(n @ p)
+        Jl = J.tolist()
+        na = self.nv
+        Jn = Jl[6:]
+        th, thd = x[na], x[self.i_thd]
+        delta = self.r * math.sin(th) - (s - self.s0)
+        ddelta = self.r * math.cos(th) * thd - _dot(Jn, x[self.sv]) - _dot(Jl[:6], plat[1].tolist())
+        out = (delta, ddelta, Jn)
+        self.kin = (x, plat, out)
+        return out
+
+    def _bias(self, x, t):
+        """``rnea(q, v, [a_b, 0])_m`` with the platform at ``t`` (:meth:`.flexible.VesLoopPlant._bias`)."""
+        plat = self.plant._platform(t)
+        last = self.bias_last
+        if last[0] is x and last[1] is plat:
+            return last[2]
+        self._ffill(x, plat)
+        bias = _rnea(self.fmodel, self.fdata, self.qf, self.vf, self.af).tolist()[6:]
+        self.bias_last = (x, plat, bias)
+        return bias
+
+    def _free_accel(self, x, u, fs):
+        """``a`` with ``a_S = 0`` and ``H_FF a_F = u_F`` (:meth:`.flexible.VesLoopPlant._free_accel`)."""
+        m0, d0 = self.arm0
+        self._fill(x)
+        if fs.none_stuck:
+            U = self.U
+            U[:] = u
+            return _aba(m0, d0, self.Xq, self.na0, U).tolist()
+        a = [0.0] * self.nv
+        free = fs.free_l
+        q, _, w = self.red[len(free)]
+        self.Xq.take(free, out=q)
+        w[:] = [u[j] for j in free]
+        rm, rd = fs.reduced
+        for j, aj in zip(free, _aba(rm, rd, q, self.na0s[len(free)], w).tolist(), strict=True):
+            a[j] = aj
+        return a
+
+    def _constrained(self, x, t, tau, fs, with_lam: bool):
+        """``(lam, a)`` (:meth:`.flexible.VesLoopPlant.constrained`; ``lam`` empty unless asked)."""
+        if fs.all_stuck:
+            if not with_lam:
+                return [], [0.0] * self.nv
+            return [-(a - b) for a, b in zip(tau, self._bias(x, t), strict=True)], [0.0] * self.nv
+        u = [a - b for a, b in zip(tau, self._bias(x, t), strict=True)]
+        a = self._free_accel(x, u, fs)
+        if fs.none_stuck or not with_lam:
+            return [], a
+        m0, d0 = self.arm0
+        A = self.A
+        A[:] = a
+        r = _rnea(m0, d0, self.Xq, self.na0, A).tolist()
+        return [r[j] - u[j] for j in fs.stuck_l], a
+
+    def stage(self, x, t, tau_s, fs, v0, caught):
+        tau, F, _ = self._loads(x, t, tau_s, fs, v0, False)
+        if fs.all_stuck:
+            return self._xd(x, [0.0] * self.nv, F, caught)
+        u = [a - b for a, b in zip(tau, self._bias(x, t), strict=True)]
+        return self._xd(x, self._free_accel(x, u, fs), F, caught)
+
+    def full(self, x, t, tau_s, fs, v0, caught):
+        tau, F, gap = self._loads(x, t, tau_s, fs, v0, not caught)
+        lam, a = self._constrained(x, t, tau, fs, True)
+        return self._xd(x, a, F, caught), lam, gap
+
+    def holding(self, x, t, tau_s, fs, v0):
+        tau, _, _ = self._loads(x, t, tau_s, fs, v0, False)
+        return self._constrained(x, t, tau, fs, True)[0]
+
+
+class ArrayKernel:
+    """Any plant through its own array methods (the ideal coupling: the reference mode of
+    the flexible base, not a fast path): the float lists go in as arrays, come out as lists."""
+
+    def __init__(self, plant):
+        self.plant = plant
+        self.nv, self.size = plant.nv, plant.size
+        self.tau_arr = (None, None)
+
+    def _tau(self, tau):
+        c = self.tau_arr
+        if c[0] is not tau:
+            c = self.tau_arr = (tau, np.array(tau, dtype=float))
+        return c[1]
+
+    def servo(self, tau_arm):
+        return tuple(self.plant.servo(np.asarray(tau_arm, dtype=float)).tolist())
+
+    def stage(self, x, t, tau_s, fs, v0, caught):
+        return self.plant.rhs(np.array(x), self._tau(tau_s), fs, v0, caught, t).tolist()
+
+    def full(self, x, t, tau_s, fs, v0, caught):
+        xd, lam, gap = self.plant.evaluate(np.array(x), self._tau(tau_s), fs, v0, caught, t)
+        return xd.tolist(), np.asarray(lam).tolist(), (None if gap is None else (float(gap[0]), float(gap[1])))
+
+    def holding(self, x, t, tau_s, fs, v0):
+        return np.asarray(self.plant.holding(np.array(x), self._tau(tau_s), fs, v0, t)[0]).tolist()
+
+    def gap(self, x, t=0.0):
+        self.plant._t = t
+        d, dd, _ = self.plant.gap(np.array(x))
+        return d, dd
