@@ -169,19 +169,20 @@ def test_trial_cli_bad_input_exits_2_naming_the_cause_and_leaves_no_file(tmp_pat
 
 
 def _diverging_rhs(monkeypatch, after=50):
-    """Make the arm's dynamics diverge mid-trial (after ``after`` evaluations)."""
-    from campaign.rig.plant import FixedBasePlant
-    rhs = FixedBasePlant.rhs
+    """Make the arm's dynamics diverge mid-trial (after ``after`` RK4 stages of the trial
+    loop's kernel)."""
+    from campaign.rig.kernels import FixedKernel
+    stage = FixedKernel.stage
     calls = {"n": 0}
 
     def bad(self, *args, **kwargs):
         calls["n"] += 1
-        xd = rhs(self, *args, **kwargs)
+        xd = stage(self, *args, **kwargs)
         if calls["n"] > after:
-            xd[self.i_v] = np.inf
+            xd[self.sv] = [np.inf] * self.nv
         return xd
 
-    monkeypatch.setattr(FixedBasePlant, "rhs", bad)
+    monkeypatch.setattr(FixedKernel, "stage", bad)
 
 
 def test_a_blow_up_is_reported_never_stored(monkeypatch):

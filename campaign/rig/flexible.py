@@ -88,10 +88,6 @@ def _platform_free_flyer(pose, twist, accel):
 class _FloatingMixin:
     """Shared set-up of the free-flyer model of base + arm."""
 
-    #: the structure's states make the right-hand side another one than the fixed-base
-    #: arm's: the batched integrator (:mod:`.batch`) leaves these trials to their own loop
-    batchable = False
-
     def _setup_floating(self, robot: Robot, beam: Beam, gravity: float):
         self.beam = beam
         self.frobot = attach_to_floating_base(robot, beam.base_body())

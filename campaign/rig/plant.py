@@ -37,9 +37,9 @@ __all__ = ["FixedBasePlant", "FrictionState", "base_wrench"]
 
 _EMPTY = np.zeros(0)
 _LWA = pin.LOCAL_WORLD_ALIGNED
-#: ABA's world-frame convention: the one ``pinocchio.abaInParallel`` evaluates, so the
-#: batched integrator (:mod:`.batch`) and this one-trial path give the same bits (the local
-#: convention differs from it in the last digits)
+#: ABA's world-frame convention: the one the campaign's trials are integrated with (the
+#: local convention differs from it in the last digits; the trial loop's kernel,
+#: :mod:`.kernels`, uses it too)
 _WORLD = pin.Convention.WORLD
 
 
@@ -243,9 +243,6 @@ class FixedBasePlant:
 
     #: a fixed-base arm's constrained dynamics use reduced models (see :meth:`constrained`)
     _locks_stuck_joints = True
-    #: its plain steps (no joint stuck, out of contact) are the batched integrator's
-    #: (:mod:`.batch`): the right-hand side there is :meth:`rhs` with ``fs.none_stuck``
-    batchable = True
 
     def constrained(self, q, v, tau, fs: FrictionState):
         """Friction ``lam`` holding the stuck joints and the accelerations ``a`` of the
