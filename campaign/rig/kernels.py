@@ -34,6 +34,8 @@ approach speed (None out of contact) and ``caught`` the hammer's brake.
 from __future__ import annotations
 
 import math
+import operator
+import struct
 
 import numpy as np
 import pinocchio as pin
@@ -66,20 +68,55 @@ def _dot(a, b) -> float:
     return s
 
 
+def _packer(n: int):
+    """``pack(array, offset_bytes, *values)``: ``n`` floats written into an array's memory in
+    one call (a NumPy assignment from a list converts each element through the sequence
+    protocol and costs 2-3 times as much on a few floats); the same IEEE doubles."""
+    return struct.Struct(f"{n}d").pack_into
+
+
+def _getter(index):
+    """``get(seq)``: the tuple of ``seq``'s entries at ``index`` (a tuple for one index too)."""
+    if len(index) == 1:
+        i = index[0]
+        return lambda seq: (seq[i],)
+    return operator.itemgetter(*index)
+
+
+class _Reduced:
+    """A partly stuck arm's reduced model (its stuck joints locked) and its inputs: one buffer
+    of the free joints' angles, velocities and torques, filled in one call from the state
+    and the joint torque lists."""
+
+    __slots__ = ("fs", "model", "data", "free", "buf", "q", "v", "u", "pack", "gq", "gv", "gu")
+
+    def __init__(self, fs: FrictionState, nv: int):
+        self.fs = fs
+        self.model, self.data = fs.reduced
+        self.free = free = fs.free_l
+        n = len(free)
+        self.buf = np.zeros(3 * n)
+        self.q, self.v, self.u = self.buf[:n], self.buf[n:2 * n], self.buf[2 * n:]
+        self.pack = _packer(3 * n)
+        self.gq, self.gv, self.gu = _getter(free), _getter([nv + 1 + j for j in free]), _getter(free)
+
+
 class FixedKernel:
     """:class:`.plant.FixedBasePlant` on float lists (module docstring).
 
-    State ``x = [q (nv), theta, v (nv), thetadot, P]``. Pinocchio reads the state from one
-    buffer ``X`` (filled once per state list: the angles and velocities are views into it)
-    and the joint torque from ``U``; a partly stuck arm's free joints are gathered from them
-    into buffers of the reduced model's size. The contact gap of the last state list is
-    kept (a step end's event check and its evaluations share it).
+    State ``x = [q (nv), theta, v (nv), thetadot, P]``. Pinocchio reads the state and the
+    joint torque from one buffer ``B = [x, u]`` (the angles, velocities and torque are views
+    into it; the state part is written once per state list); a partly stuck arm's free
+    joints go into a buffer of the reduced model's size (:class:`_Reduced`). The contact
+    gap of the last state list is kept (a step end's event check and its evaluations share
+    it).
     """
 
     def __init__(self, plant: FixedBasePlant):
         self.plant = plant
         self.nv = nv = plant.nv
-        self.size = plant.size
+        self.size = size = plant.size
+        self.iP = plant.i_P
         self.model, self.data = plant.model, plant.data
         self.fid = plant.fid
         self.visc = np.asarray(plant.viscous, dtype=float).tolist()
@@ -91,12 +128,13 @@ class FixedKernel:
         self.i_thd = plant.i_thd
         self.sv = slice(nv + 1, 2 * nv + 1)          # velocities in x
         self.sd = slice(nv + 1, 2 * nv + 2)          # x entries that are the first derivatives
-        self.X = np.zeros(plant.size)
-        self.Xq, self.Xv = self.X[:nv], self.X[self.sv]
-        self.U = np.zeros(nv)
+        self.B = np.zeros(size + nv)
+        self.Bq, self.Bv, self.Bu = self.B[:nv], self.B[self.sv], self.B[size:]
+        self.pack_x, self.pack_xu, self.pack_n = _packer(size), _packer(size + nv), _packer(nv)
+        self.off_u = 8 * size                        # byte offset of u in B
         self.A = np.zeros(nv)
-        self.filled = None                           # the state list in X
-        self.red = {n: (np.zeros(n), np.zeros(n), np.zeros(n)) for n in range(1, nv)}
+        self.filled = None                           # the state list in B
+        self.red = None                              # the last partly stuck arm's _Reduced
         self.c2 = (None, None, None)
         self.kin = (None, None)                      # (state list, (delta, ddelta, J_n))
 
@@ -105,8 +143,22 @@ class FixedKernel:
 
     def _fill(self, x):
         if self.filled is not x:
-            self.X[:] = x
+            self.pack_x(self.B, 0, *x)
             self.filled = x
+
+    def _fill_u(self, x, u):
+        """The state list and the joint torque ``u`` into ``B``."""
+        if self.filled is x:
+            self.pack_n(self.B, self.off_u, *u)
+        else:
+            self.pack_xu(self.B, 0, *x, *u)
+            self.filled = x
+
+    def _reduced(self, fs):
+        red = self.red
+        if red is None or red.fs is not fs:
+            red = self.red = _Reduced(fs, self.nv)
+        return red
 
     # -- kinematics ---------------------------------------------------------------------
     def _gap_jn(self, x, t=0.0):
@@ -115,7 +167,7 @@ class FixedKernel:
         if kin[0] is x:
             return kin[1]
         self._fill(x)
-        J = pin.computeFrameJacobian(self.model, self.data, self.Xq, self.fid, _LWA)
+        J = pin.computeFrameJacobian(self.model, self.data, self.Bq, self.fid, _LWA)
         p = self.M_tip.translation
         if self.axis is not None:
             i, sign = self.axis
@@ -156,29 +208,22 @@ class FixedKernel:
     # -- dynamics -----------------------------------------------------------------------
     def _accel(self, x, t, tau, fs: FrictionState):
         """Accelerations of the constrained dynamics (:meth:`.plant.FixedBasePlant._accel`)."""
-        self._fill(x)
         if fs.none_stuck:
-            U = self.U
-            U[:] = tau
-            return _aba(self.model, self.data, self.Xq, self.Xv, U, _WORLD).tolist()
+            self._fill_u(x, tau)
+            return _aba(self.model, self.data, self.Bq, self.Bv, self.Bu, _WORLD).tolist()
         a = [0.0] * self.nv
         if not fs.all_stuck:
-            free = fs.free_l
-            q, v, u = self.red[len(free)]
-            self.Xq.take(free, out=q)
-            self.Xv.take(free, out=v)
-            u[:] = [tau[j] for j in free]
-            rm, rd = fs.reduced
-            for j, aj in zip(free, _aba(rm, rd, q, v, u).tolist(), strict=True):
+            red = self._reduced(fs)
+            red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(tau))
+            for j, aj in zip(red.free, _aba(red.model, red.data, red.q, red.v, red.u).tolist(), strict=True):
                 a[j] = aj
         return a
 
     def _lam(self, x, t, a, tau, fs: FrictionState):
         """Holding torques ``rnea(q, v, a)_S - tau_S`` (:meth:`.plant.FixedBasePlant.constrained`)."""
         self._fill(x)
-        A = self.A
-        A[:] = a
-        r = _rnea(self.model, self.data, self.Xq, self.Xv, A).tolist()
+        self.pack_n(self.A, 0, *a)
+        r = _rnea(self.model, self.data, self.Bq, self.Bv, self.A).tolist()
         return [r[j] - tau[j] for j in fs.stuck_l]
 
     def _xd(self, x, a, F, caught):
@@ -204,12 +249,12 @@ class FixedKernel:
                 else:
                     F = 0.0
         if fs.none_stuck:
-            if self.filled is not x:
-                self.X[:] = x
+            if self.filled is x:
+                self.pack_n(self.B, self.off_u, *tau)
+            else:
+                self.pack_xu(self.B, 0, *x, *tau)
                 self.filled = x
-            U = self.U
-            U[:] = tau
-            a = _aba(self.model, self.data, self.Xq, self.Xv, U, _WORLD).tolist()
+            a = _aba(self.model, self.data, self.Bq, self.Bv, self.Bu, _WORLD).tolist()
         else:
             a = self._accel(x, t, tau, fs)
         if caught:
@@ -236,9 +281,10 @@ class VesKernel(FixedKernel):
     :meth:`~.flexible.VesLoopPlant._platform`, compared by identity).
 
     State ``x = [q_arm (na), theta, v_arm (na), thetadot, P]``. The free-flyer's
-    configuration, velocity and acceleration ``[a_b, 0]`` are buffers filled from the
-    platform motion and the state list; the kinematics and the bias torques of the last
-    (state list, platform motion) are kept.
+    configuration, velocity and acceleration ``[a_b, 0]`` are views into one buffer
+    written in one call from the platform motion and the state list; the kinematics and
+    the bias torques of the last (state list, platform motion) are kept. The arm's own
+    calls (ABA at rest, RNEA of the holding torques) read ``B`` as the fixed base does.
     """
 
     def __init__(self, plant):
@@ -249,26 +295,26 @@ class VesKernel(FixedKernel):
         self.arm0 = plant._arm0
         self.na0 = plant._na0
         self.na0s = {n: np.zeros(n) for n in range(1, na)}
-        self.qf, self.vf, self.af = np.zeros(7 + na), np.zeros(6 + na), np.zeros(6 + na)
-        self.qf_arm, self.vf_arm = self.qf[7:], self.vf[6:]
-        self.fplat = None                     # the platform motion in qf, vf, af
-        self.ffilled = None                   # the state list in qf, vf
+        self.zna = (0.0,) * na
+        nf = 19 + 3 * na
+        self.F = np.zeros(nf)
+        self.qf, self.vf, self.af = self.F[:7 + na], self.F[7 + na:13 + 2 * na], self.F[13 + 2 * na:]
+        self.pack_f = _packer(nf)
+        self.af_ft = np.zeros(6 + na)         # [a_b, a_arm] of an F/T sample
+        self.pack_ft = _packer(6 + na)
+        self.ffilled = (None, None)           # the (state list, platform motion) in F
         self.bias_last = (None, None, None)   # (state list, platform motion, bias)
         self.kin = (None, None, None)         # (state list, platform motion, (delta, ddelta, J_n))
 
     def _ffill(self, x, plat):
-        """The free-flyer configuration, velocity and acceleration of the platform motion
-        ``plat`` and the arm's state ``x``."""
-        if self.fplat is not plat:
-            qb, vb, ab = plat
-            self.qf[:7] = qb
-            self.vf[:6] = vb
-            self.af[:6] = ab
-            self.fplat = plat
-        if self.ffilled is not x:
-            self.qf_arm[:] = x[:self.nv]
-            self.vf_arm[:] = x[self.sv]
-            self.ffilled = x
+        """The free-flyer configuration, velocity and acceleration ``[a_b, 0]`` of the
+        platform motion ``plat`` and the arm's state ``x``."""
+        f = self.ffilled
+        if f[0] is not x or f[1] is not plat:
+            q7, v6, a6 = plat
+            na = self.nv
+            self.pack_f(self.F, 0, *q7, *x[:na], *v6, *x[self.sv], *a6, *self.zna)
+            self.ffilled = (x, plat)
 
     def _gap_jn(self, x, t=0.0):
         """:meth:`.flexible.VesLoopPlant.gap` with the platform at ``t`` (J_n as a list)."""
@@ -290,7 +336,7 @@ class VesKernel(FixedKernel):
         Jn = Jl[6:]
         th, thd = x[na], x[self.i_thd]
         delta = self.r * math.sin(th) - (s - self.s0)
-        ddelta = self.r * math.cos(th) * thd - _dot(Jn, x[self.sv]) - _dot(Jl[:6], plat[1].tolist())
+        ddelta = self.r * math.cos(th) * thd - _dot(Jn, x[self.sv]) - _dot(Jl[:6], plat[1])
         out = (delta, ddelta, Jn)
         self.kin = (x, plat, out)
         return out
@@ -309,18 +355,14 @@ class VesKernel(FixedKernel):
     def _free_accel(self, x, u, fs):
         """``a`` with ``a_S = 0`` and ``H_FF a_F = u_F`` (:meth:`.flexible.VesLoopPlant._free_accel`)."""
         m0, d0 = self.arm0
-        self._fill(x)
         if fs.none_stuck:
-            U = self.U
-            U[:] = u
-            return _aba(m0, d0, self.Xq, self.na0, U).tolist()
+            self._fill_u(x, u)
+            return _aba(m0, d0, self.Bq, self.na0, self.Bu).tolist()
         a = [0.0] * self.nv
-        free = fs.free_l
-        q, _, w = self.red[len(free)]
-        self.Xq.take(free, out=q)
-        w[:] = [u[j] for j in free]
-        rm, rd = fs.reduced
-        for j, aj in zip(free, _aba(rm, rd, q, self.na0s[len(free)], w).tolist(), strict=True):
+        red = self._reduced(fs)
+        red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(u))
+        for j, aj in zip(red.free, _aba(red.model, red.data, red.q, self.na0s[len(red.free)], red.u).tolist(),
+                         strict=True):
             a[j] = aj
         return a
 
@@ -335,9 +377,9 @@ class VesKernel(FixedKernel):
         if fs.none_stuck or not with_lam:
             return [], a
         m0, d0 = self.arm0
-        A = self.A
-        A[:] = a
-        r = _rnea(m0, d0, self.Xq, self.na0, A).tolist()
+        self._fill(x)
+        self.pack_n(self.A, 0, *a)
+        r = _rnea(m0, d0, self.Bq, self.na0, self.A).tolist()
         return [r[j] - u[j] for j in fs.stuck_l], a
 
     def stage(self, x, t, tau_s, fs, v0, caught):
@@ -346,6 +388,15 @@ class VesKernel(FixedKernel):
             return self._xd(x, [0.0] * self.nv, F, caught)
         u = [a - b for a, b in zip(tau, self._bias(x, t), strict=True)]
         return self._xd(x, self._free_accel(x, u, fs), F, caught)
+
+    def emulator_tick(self, t, x, xd):
+        """Sample the F/T wrench at (t, x) with the state derivative ``xd`` and advance the
+        emulator (:meth:`.flexible.VesLoopPlant.on_emulator_tick` from the kernel's buffers)."""
+        plant = self.plant
+        plat = plant._platform(t)
+        self._ffill(x, plat)
+        self.pack_ft(self.af_ft, 0, *plat[2], *xd[self.sv])
+        plant.emulator_step(t, plant._mount_wrench6(self.qf, self.vf, self.af_ft, xd[self.iP]))
 
     def full(self, x, t, tau_s, fs, v0, caught):
         tau, F, gap = self._loads(x, t, tau_s, fs, v0, not caught)

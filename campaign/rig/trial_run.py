@@ -537,8 +537,7 @@ class TrialRun:
             self.t = t = self.k_emu * T_emu
             self.ts[-1] = t
             x = self.x
-            xd = self.zero_xd if self.frozen() else self.evaluate(x, t)[0]
-            self.plant.on_emulator_tick(t, np.array(x), np.array(xd))
+            self.kernel.emulator_tick(t, x, self.zero_xd if self.frozen() else self.evaluate(x, t)[0])
             self.k_emu += 1
         k_tick, T = self.k_tick, self.T
         if k_tick * T - t <= 1e-12:
