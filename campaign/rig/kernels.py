@@ -88,7 +88,7 @@ class _Reduced:
     of the free joints' angles, velocities and torques, filled in one call from the state
     and the joint torque lists."""
 
-    __slots__ = ("fs", "model", "data", "free", "buf", "q", "v", "u", "pack", "gq", "gv", "gu")
+    __slots__ = ("fs", "model", "data", "free", "buf", "q", "v", "u", "pack", "gq", "gv", "gu", "spread", "zero_v")
 
     def __init__(self, fs: FrictionState, nv: int):
         self.fs = fs
@@ -99,6 +99,10 @@ class _Reduced:
         self.q, self.v, self.u = self.buf[:n], self.buf[n:2 * n], self.buf[2 * n:]
         self.pack = _packer(3 * n)
         self.gq, self.gv, self.gu = _getter(free), _getter([nv + 1 + j for j in free]), _getter(free)
+        # spread(a_F + [0.0]): the arm's accelerations, a_F on the free joints and the
+        # appended 0.0 on the stuck ones (one C call instead of a loop of assignments)
+        self.spread = operator.itemgetter(*[free.index(j) if j in free else n for j in range(nv)])
+        self.zero_v = np.zeros(n)
 
 
 class FixedKernel:
@@ -211,13 +215,11 @@ class FixedKernel:
         if fs.none_stuck:
             self._fill_u(x, tau)
             return _aba(self.model, self.data, self.Bq, self.Bv, self.Bu, _WORLD).tolist()
-        a = [0.0] * self.nv
-        if not fs.all_stuck:
-            red = self._reduced(fs)
-            red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(tau))
-            for j, aj in zip(red.free, _aba(red.model, red.data, red.q, red.v, red.u).tolist(), strict=True):
-                a[j] = aj
-        return a
+        if fs.all_stuck:
+            return [0.0] * self.nv
+        red = self._reduced(fs)
+        red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(tau))
+        return list(red.spread(_aba(red.model, red.data, red.q, red.v, red.u).tolist() + [0.0]))
 
     def _lam(self, x, t, a, tau, fs: FrictionState):
         """Holding torques ``rnea(q, v, a)_S - tau_S`` (:meth:`.plant.FixedBasePlant.constrained`)."""
@@ -233,8 +235,8 @@ class FixedKernel:
         return x[self.sd] + a + [(-self.mgl * math.sin(th) - F * self.r * math.cos(th)) / self.Ip, F]
 
     def stage(self, x, t, tau_s, fs, v0, caught):
-        # an RK4 stage (~2000 a trial): _loads, _accel and _xd inlined for the free arm out
-        # of contact, the same operations in the same order (a Python call costs ~0.1 us)
+        # an RK4 stage (~2000 a trial): _loads, _accel and _xd inlined, the same operations
+        # in the same order (a Python call costs ~0.1 us)
         c = self.c2
         if c[0] is not tau_s or c[1] is not fs:
             c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
@@ -255,18 +257,50 @@ class FixedKernel:
                 self.pack_xu(self.B, 0, *x, *tau)
                 self.filled = x
             a = _aba(self.model, self.data, self.Bq, self.Bv, self.Bu, _WORLD).tolist()
+        elif fs.all_stuck:
+            a = [0.0] * self.nv
         else:
-            a = self._accel(x, t, tau, fs)
+            red = self.red
+            if red is None or red.fs is not fs:
+                red = self._reduced(fs)
+            red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(tau))
+            a = list(red.spread(_aba(red.model, red.data, red.q, red.v, red.u).tolist() + [0.0]))
         if caught:
             return x[self.sd] + a + [0.0, F]
         th = x[self.nv]
         return x[self.sd] + a + [(-self.mgl * math.sin(th) - F * self.r * math.cos(th)) / self.Ip, F]
 
     def full(self, x, t, tau_s, fs, v0, caught):
-        tau, F, gap = self._loads(x, t, tau_s, fs, v0, not caught)
+        # one a step end (~1300 a trial): _loads, _lam and _xd inlined, the same operations
+        # in the same order
+        c = self.c2
+        if c[0] is not tau_s or c[1] is not fs:
+            c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        F, gap = 0.0, None
+        if v0 is not None or not caught:
+            delta, ddelta, Jn = self._gap_jn(x, t)
+            if v0 is not None and delta > 0.0:
+                F = self.k * delta**self.p * (1.0 + self.d * ddelta / v0)
+                if F > 0.0:
+                    tau = [a + j * F for a, j in zip(tau, Jn, strict=True)]
+                else:
+                    F = 0.0
+            gap = (delta, ddelta)
         a = self._accel(x, t, tau, fs)
-        lam = [] if fs.none_stuck else self._lam(x, t, a, tau, fs)
-        return self._xd(x, a, F, caught), lam, gap
+        if fs.none_stuck:
+            lam = []
+        else:                                   # _lam
+            if self.filled is not x:
+                self.pack_x(self.B, 0, *x)
+                self.filled = x
+            self.pack_n(self.A, 0, *a)
+            r = _rnea(self.model, self.data, self.Bq, self.Bv, self.A).tolist()
+            lam = [r[j] - tau[j] for j in fs.stuck_l]
+        if caught:
+            return x[self.sd] + a + [0.0, F], lam, gap
+        th = x[self.nv]
+        return x[self.sd] + a + [(-self.mgl * math.sin(th) - F * self.r * math.cos(th)) / self.Ip, F], lam, gap
 
     def holding(self, x, t, tau_s, fs, v0):
         if fs.none_stuck:
@@ -294,7 +328,6 @@ class VesKernel(FixedKernel):
         self.M_ftip = plant._M_ftip
         self.arm0 = plant._arm0
         self.na0 = plant._na0
-        self.na0s = {n: np.zeros(n) for n in range(1, na)}
         self.zna = (0.0,) * na
         nf = 19 + 3 * na
         self.F = np.zeros(nf)
@@ -362,13 +395,9 @@ class VesKernel(FixedKernel):
         if fs.none_stuck:
             self._fill_u(x, u)
             return _aba(m0, d0, self.Bq, self.na0, self.Bu).tolist()
-        a = [0.0] * self.nv
         red = self._reduced(fs)
         red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(u))
-        for j, aj in zip(red.free, _aba(red.model, red.data, red.q, self.na0s[len(red.free)], red.u).tolist(),
-                         strict=True):
-            a[j] = aj
-        return a
+        return list(red.spread(_aba(red.model, red.data, red.q, red.zero_v, red.u).tolist() + [0.0]))
 
     def _constrained(self, x, t, tau, fs, with_lam: bool, plat=None):
         """``(lam, a)`` (:meth:`.flexible.VesLoopPlant.constrained`; ``lam`` empty unless asked)."""
@@ -417,7 +446,15 @@ class VesKernel(FixedKernel):
                     self.ffilled = (x, plat)
                 bias = _rnea(self.fmodel, self.fdata, self.qf, self.vf, self.af).tolist()[6:]
                 self.bias_last = (x, plat, bias)
-            a = self._free_accel(x, [a - b for a, b in zip(tau, bias, strict=True)], fs)
+            u = [a - b for a, b in zip(tau, bias, strict=True)]
+            if fs.none_stuck:
+                a = self._free_accel(x, u, fs)
+            else:
+                red = self.red
+                if red is None or red.fs is not fs:
+                    red = self._reduced(fs)
+                red.pack(red.buf, 0, *red.gq(x), *red.gv(x), *red.gu(u))
+                a = list(red.spread(_aba(red.model, red.data, red.q, red.zero_v, red.u).tolist() + [0.0]))
         if caught:
             return x[self.sd] + a + [0.0, F]
         th = x[self.nv]
