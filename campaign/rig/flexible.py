@@ -64,10 +64,15 @@ def _platform_free_flyer(pose, twist, accel):
     calls on 3-vectors), ``v = R^T v_w``, ``w = Jexp3(r) r'``, ``a = R^T a_w - w x v``,
     ``alpha = Jexp3(r) r''``; the three come out as tuples of floats, which the trial
     loop's kernel writes straight into its buffers (NumPy takes them as it takes arrays)."""
-    p0, p1, p2, rx, ry, rz = pose.tolist()
-    t0, t1, t2, t3, t4, t5 = twist.tolist()
-    a0, a1, a2, a3, a4, a5 = accel.tolist()
-    r = pose[3:]
+    return _free_flyer_of_rows(pose.tolist(), twist.tolist(), accel.tolist(), pose[3:])
+
+
+def _free_flyer_of_rows(pose, twist, accel, r):
+    """:func:`_platform_free_flyer` of the platform state as lists of floats and its
+    rotation vector ``r`` as an array (what ``pin.exp3`` takes)."""
+    p0, p1, p2, rx, ry, rz = pose
+    t0, t1, t2, t3, t4, t5 = twist
+    a0, a1, a2, a3, a4, a5 = accel
     (R00, R01, R02), (R10, R11, R12), (R20, R21, R22) = pin.exp3(r).tolist()
     (J00, J01, J02), (J10, J11, J12), (J20, J21, J22) = pin.Jexp3(r).tolist()
     v0 = R00 * t0 + R10 * t1 + R20 * t2
@@ -390,8 +395,8 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
             return hit
         frac = (t - self.t_last) * self.loop.rate
         frac = 0.0 if frac < 0.0 else (1.0 if frac > 1.0 else frac)
-        pose, twist, accel = self.loop.platform_at(frac)
-        hit = self._cache[t] = _platform_free_flyer(pose, twist, accel)
+        rows = self.loop.platform_at(frac)        # (3, 6): pose, twist, acceleration
+        hit = self._cache[t] = _free_flyer_of_rows(*rows.tolist(), rows[0, 3:])
         return hit
 
     def _qfull(self, q_arm, t):
