@@ -9,7 +9,9 @@ operation for operation, in the same order, what the plant's array methods
 (:meth:`.plant.FixedBasePlant.rhs`, ``evaluate``, ``holding``, ``gap``) compute, so the
 numbers are the same bits (``tests/test_lean_loop.py`` compares them). A product
 ``n^T J v`` of 3-9 terms is summed left to right from 0.0, the order of the BLAS ``ddot``
-NumPy calls for it.
+NumPy calls for it. The per-evaluation comprehensions over the joint torque zip lists of
+the arm's length by construction without zip's length check (``strict=False``: the check
+costs about 14% of a short comprehension).
 
 Every kernel offers
 
@@ -196,7 +198,7 @@ class FixedKernel:
         c = self.c2
         if c[0] is not tau_s or c[1] is not fs:
             c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
-        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=False)]
         if v0 is None and not with_gap:
             return tau, 0.0, None
         delta, ddelta, Jn = self._gap_jn(x, t)
@@ -240,7 +242,7 @@ class FixedKernel:
         c = self.c2
         if c[0] is not tau_s or c[1] is not fs:
             c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
-        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=False)]
         F = 0.0
         if v0 is not None:
             delta, ddelta, Jn = self._gap_jn(x, t)
@@ -276,7 +278,7 @@ class FixedKernel:
         c = self.c2
         if c[0] is not tau_s or c[1] is not fs:
             c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
-        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=False)]
         F, gap = 0.0, None
         if v0 is not None or not caught:
             delta, ddelta, Jn = self._gap_jn(x, t)
@@ -421,7 +423,7 @@ class VesKernel(FixedKernel):
         c = self.c2
         if c[0] is not tau_s or c[1] is not fs:
             c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
-        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=False)]
         plat = self.plant._platform(t)
         F = 0.0
         if v0 is not None:
@@ -446,7 +448,7 @@ class VesKernel(FixedKernel):
                     self.ffilled = (x, plat)
                 bias = _rnea(self.fmodel, self.fdata, self.qf, self.vf, self.af).tolist()[6:]
                 self.bias_last = (x, plat, bias)
-            u = [a - b for a, b in zip(tau, bias, strict=True)]
+            u = [a - b for a, b in zip(tau, bias, strict=False)]
             if fs.none_stuck:
                 a = self._free_accel(x, u, fs)
             else:
@@ -474,7 +476,7 @@ class VesKernel(FixedKernel):
         c = self.c2
         if c[0] is not tau_s or c[1] is not fs:
             c = self.c2 = (tau_s, fs, [a - b for a, b in zip(tau_s, fs.coulomb_f, strict=True)])
-        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=True)]
+        tau = [a - b * w for a, b, w in zip(c[2], self.visc, x[self.sv], strict=False)]
         plat = self.plant._platform(t)
         F, gap = 0.0, None
         if v0 is not None or not caught:

@@ -154,14 +154,16 @@ class TrialRun:
         stage, tau, fs, contact_v0, caught = self.kernel.stage, self.tau, self.fs, self.contact_v0, self.caught
         hh = 0.5 * h
         th = t + hh
-        k2 = stage([a + hh * b for a, b in zip(xx, k1, strict=True)], th, tau, fs, contact_v0, caught)
-        k3 = stage([a + hh * b for a, b in zip(xx, k2, strict=True)], th, tau, fs, contact_v0, caught)
-        k4 = stage([a + h * b for a, b in zip(xx, k3, strict=True)], t + h if t_end is None else t_end, tau, fs,
+        # the derivatives have the state's length by construction (the kernel's contract);
+        # zip's length check costs 14% of these comprehensions (valgrind), four a step
+        k2 = stage([a + hh * b for a, b in zip(xx, k1, strict=False)], th, tau, fs, contact_v0, caught)
+        k3 = stage([a + hh * b for a, b in zip(xx, k2, strict=False)], th, tau, fs, contact_v0, caught)
+        k4 = stage([a + h * b for a, b in zip(xx, k3, strict=False)], t + h if t_end is None else t_end, tau, fs,
                    contact_v0, caught)
         self.n_rhs += 3
         h6 = h / 6.0
         return [a + h6 * ((b1 + b4) + 2.0 * (b2 + b3))
-                for a, b1, b2, b3, b4 in zip(xx, k1, k2, k3, k4, strict=True)], k1
+                for a, b1, b2, b3, b4 in zip(xx, k1, k2, k3, k4, strict=False)], k1
 
     def _lam_gap(self, xx, tt):
         """What the event functions at (xx, tt) need: ``(need_lam, lam, gap)``, the stuck
