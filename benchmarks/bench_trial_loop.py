@@ -84,10 +84,10 @@ def child(base: str, gain: str, jobs: str, role: str) -> dict:
     from campaign.rig.simulate import build, integration_args, record_arrays, simulate_arrays
 
     scenes = _scenes(base, gain, jobs)
-    # warm-up: the whole job once, untimed. After one trial only, the first timed pass ran
-    # up to 7 ms a fixed-base trial slower than the same work timed again (valgrind counts
-    # the same instructions in both passes, to 0.2 %): the cost of a cold process, not of
-    # the job, which the split below (timed second) did not show
+    # warm-up: the whole job once, untimed, so that the job and its split below both time
+    # a warm process (valgrind counts the same instructions in a first and a second pass,
+    # to 0.2 %; on a quiet machine the two agree to 0.1 ms a trial, under other jobs' load
+    # single passes scatter by +-15 ms)
     simulate_batch(scenes, threads=1)
     n = len(scenes)
     out = {}
