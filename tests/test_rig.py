@@ -169,19 +169,20 @@ def test_trial_cli_bad_input_exits_2_naming_the_cause_and_leaves_no_file(tmp_pat
 
 
 def _diverging_rhs(monkeypatch, after=50):
-    """Make the arm's dynamics diverge mid-trial (after ``after`` evaluations)."""
-    from campaign.rig.plant import FixedBasePlant
-    rhs = FixedBasePlant.rhs
+    """Make the arm's dynamics diverge mid-trial (after ``after`` RK4 stages of the trial
+    loop's kernel)."""
+    from campaign.rig.kernels import FixedKernel
+    stage = FixedKernel.stage
     calls = {"n": 0}
 
     def bad(self, *args, **kwargs):
         calls["n"] += 1
-        xd = rhs(self, *args, **kwargs)
+        xd = stage(self, *args, **kwargs)
         if calls["n"] > after:
-            xd[self.i_v] = np.inf
+            xd[self.sv] = [np.inf] * self.nv
         return xd
 
-    monkeypatch.setattr(FixedBasePlant, "rhs", bad)
+    monkeypatch.setattr(FixedKernel, "stage", bad)
 
 
 def test_a_blow_up_is_reported_never_stored(monkeypatch):
@@ -498,7 +499,8 @@ def test_ves_loop_shortcuts_give_the_same_numbers_as_the_plain_computation():
         xd[plant.i_v] = rng.normal(0.0, 20.0, na)
         plant.on_emulator_tick(plant.t_last + plant.emulator_period, x, xd)
     t0 = plant._t = plant.t_last + 0.25 * plant.emulator_period
-    assert np.any(plant._platform(t0)[1] != 0.0) and np.any(plant._platform(t0)[2] != plant._platform(t0 + 5e-4)[2])
+    assert np.any(np.asarray(plant._platform(t0)[1]) != 0.0)
+    assert np.any(np.asarray(plant._platform(t0)[2]) != np.asarray(plant._platform(t0 + 5e-4)[2]))
     for _ in range(3):
         q, v = x[:na] + rng.normal(0.0, 0.01, na), rng.normal(0.0, 0.3, na)
         b = plant._bias(q, v)

@@ -147,6 +147,8 @@ class PID:
         self._joints = list(zip(np.asarray(self.resolution, dtype=float).tolist(), self._ref.tolist(),
                                 np.asarray(self.tau_gc, dtype=float).tolist(), self._lo.tolist(),
                                 np.asarray(self.tau_max, dtype=float).tolist(), strict=True))
+        # an inactive servo holds the clipped gravity compensation at every tick
+        self._static = np.minimum(np.maximum(self.tau_gc, self._lo), self.tau_max).tolist()
 
     @property
     def e_prev(self) -> np.ndarray:
@@ -200,18 +202,23 @@ class PID:
         self.e_prev, self.e_sum = e_prev, e_sum
 
     def update(self, q: np.ndarray) -> np.ndarray:
-        """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m].
+        """One servo tick: read ``q`` [rad], return the torque held until the next tick [N m]
+        (:meth:`step` as an array)."""
+        return np.array(self.step(q.tolist()))
+
+    def step(self, q: list) -> list:
+        """:meth:`update` on Python floats (the joint angles as a list, the torque as one).
 
         Called at every servo tick of every trial on 3-6 joints, where a NumPy call costs
         more than its arithmetic: the law runs on Python floats, operation for operation
         what the vector form ``kP e + kD (e - e_prev) + kI sum(e) + tau_gc``, clipped to the
         peak torques, gives (``round`` rounds half to even, as ``np.rint``)."""
         if not self.active:
-            return np.minimum(np.maximum(self.tau_gc, self._lo), self.tau_max)
+            return list(self._static)
         kP, kD, kI, quantize = self._kP, self._kD, self._kI, self.quantize
         e_prev, e_sum = self._e_prev, self._e_sum
         out = []
-        for j, (qj, (res, ref, gc, lo, hi)) in enumerate(zip(q.tolist(), self._joints, strict=True)):
+        for j, (qj, (res, ref, gc, lo, hi)) in enumerate(zip(q, self._joints, strict=True)):
             c = qj / res
             e = ref - (float(round(c)) if quantize else c)
             s = e_sum[j] + e
@@ -219,4 +226,4 @@ class PID:
             e_sum[j] = s
             e_prev[j] = e
             out.append(min(max(u, lo), hi))
-        return np.array(out)
+        return out

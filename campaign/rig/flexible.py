@@ -59,14 +59,20 @@ def _platform_free_flyer(pose, twist, accel):
     """Free-flyer configuration (7), body twist (6) and body acceleration (6) of a
     small-angle platform state: :func:`.ves.platform_motion` without the object churn.
 
-    Evaluated several times per RK4 step of a flexible trial: after Pinocchio's ``exp3``
-    and ``Jexp3`` the 3-vector algebra is done in Python floats (three times cheaper than
-    NumPy calls on 3-vectors), ``v = R^T v_w``, ``w = Jexp3(r) r'``,
-    ``a = R^T a_w - w x v``, ``alpha = Jexp3(r) r''``."""
-    p0, p1, p2, rx, ry, rz = pose.tolist()
-    t0, t1, t2, t3, t4, t5 = twist.tolist()
-    a0, a1, a2, a3, a4, a5 = accel.tolist()
-    r = pose[3:]
+    Evaluated twice per RK4 step of a flexible trial: after Pinocchio's ``exp3`` and
+    ``Jexp3`` the 3-vector algebra is done in Python floats (three times cheaper than NumPy
+    calls on 3-vectors), ``v = R^T v_w``, ``w = Jexp3(r) r'``, ``a = R^T a_w - w x v``,
+    ``alpha = Jexp3(r) r''``; the three come out as tuples of floats, which the trial
+    loop's kernel writes straight into its buffers (NumPy takes them as it takes arrays)."""
+    return _free_flyer_of_rows(pose.tolist(), twist.tolist(), accel.tolist(), pose[3:])
+
+
+def _free_flyer_of_rows(pose, twist, accel, r):
+    """:func:`_platform_free_flyer` of the platform state as lists of floats and its
+    rotation vector ``r`` as an array (what ``pin.exp3`` takes)."""
+    p0, p1, p2, rx, ry, rz = pose
+    t0, t1, t2, t3, t4, t5 = twist
+    a0, a1, a2, a3, a4, a5 = accel
     (R00, R01, R02), (R10, R11, R12), (R20, R21, R22) = pin.exp3(r).tolist()
     (J00, J01, J02), (J10, J11, J12), (J20, J21, J22) = pin.Jexp3(r).tolist()
     v0 = R00 * t0 + R10 * t1 + R20 * t2
@@ -76,21 +82,17 @@ def _platform_free_flyer(pose, twist, accel):
     w1 = J10 * t3 + J11 * t4 + J12 * t5
     w2 = J20 * t3 + J21 * t4 + J22 * t5
     qx, qy, qz, qw = _quat_of_rotvec_xyz(rx, ry, rz)
-    q = np.array((p0, p1, p2, qx, qy, qz, qw))
-    v = np.array((v0, v1, v2, w0, w1, w2))
-    a = np.array((R00 * a0 + R10 * a1 + R20 * a2 - (w1 * v2 - w2 * v1),
-                  R01 * a0 + R11 * a1 + R21 * a2 - (w2 * v0 - w0 * v2),
-                  R02 * a0 + R12 * a1 + R22 * a2 - (w0 * v1 - w1 * v0),
-                  J00 * a3 + J01 * a4 + J02 * a5, J10 * a3 + J11 * a4 + J12 * a5, J20 * a3 + J21 * a4 + J22 * a5))
+    q = (p0, p1, p2, qx, qy, qz, qw)
+    v = (v0, v1, v2, w0, w1, w2)
+    a = (R00 * a0 + R10 * a1 + R20 * a2 - (w1 * v2 - w2 * v1),
+         R01 * a0 + R11 * a1 + R21 * a2 - (w2 * v0 - w0 * v2),
+         R02 * a0 + R12 * a1 + R22 * a2 - (w0 * v1 - w1 * v0),
+         J00 * a3 + J01 * a4 + J02 * a5, J10 * a3 + J11 * a4 + J12 * a5, J20 * a3 + J21 * a4 + J22 * a5)
     return q, v, a
 
 
 class _FloatingMixin:
     """Shared set-up of the free-flyer model of base + arm."""
-
-    #: the structure's states make the right-hand side another one than the fixed-base
-    #: arm's: the batched integrator (:mod:`.batch`) leaves these trials to their own loop
-    batchable = False
 
     def _setup_floating(self, robot: Robot, beam: Beam, gravity: float):
         self.beam = beam
@@ -393,8 +395,8 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
             return hit
         frac = (t - self.t_last) * self.loop.rate
         frac = 0.0 if frac < 0.0 else (1.0 if frac > 1.0 else frac)
-        pose, twist, accel = self.loop.platform_at(frac)
-        hit = self._cache[t] = _platform_free_flyer(pose, twist, accel)
+        rows = self.loop.platform_at(frac)        # (3, 6): pose, twist, acceleration
+        hit = self._cache[t] = _free_flyer_of_rows(*rows.tolist(), rows[0, 3:])
         return hit
 
     def _qfull(self, q_arm, t):
@@ -416,7 +418,12 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         vf[6:] = x[self.i_v]
         af[:6] = ab
         af[6:] = xd[self.i_v]
-        w = self._mount_wrench6(qf, vf, af, xd[self.i_P])
+        self.emulator_step(t, self._mount_wrench6(qf, vf, af, xd[self.i_P]))
+
+    def emulator_step(self, t, w):
+        """Advance the emulator one tick on the F/T wrench ``w`` sampled at ``t``
+        (:meth:`on_emulator_tick` after its sample; the trial loop's kernel samples it from
+        its own buffers)."""
         # the record holds the platform as it was at this tick (before the step), then the
         # step's outputs at the next tick are recorded there (:meth:`ticks` picks the columns)
         self.history.append((t, w, self.loop.advance(w)))
@@ -439,7 +446,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         else:
             n = self.n
             J, s = n @ J[:3], float(n @ p)
-        self._tip_base_speed = float(J[:6] @ vb)
+        self._tip_base_speed = float(J[:6] @ np.asarray(vb))
         return s - self._s0, J[6:]
 
     def gap(self, x):

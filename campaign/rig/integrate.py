@@ -27,7 +27,7 @@ from .controller import PID
 from .plant import FixedBasePlant
 from .trial_run import TrialRun
 
-__all__ = ["Lane", "Trajectory", "integrate_trial", "trial_steps"]
+__all__ = ["Trajectory", "integrate_trial"]
 
 
 @dataclasses.dataclass
@@ -61,51 +61,16 @@ class Trajectory:
     x0: np.ndarray
 
 
-class Lane:
-    """A trial's integration state where a caller may take over its plain steps.
-
-    :func:`trial_steps` with ``lane=True`` yields this object at the top of every step
-    iteration of a fixed-base arm (``plant.batchable``) with not every joint stuck. There
-    the next iteration is one RK4 step of the arm, the hammer (swinging, in contact or
-    caught) and the contact, the event checks (a slipping joint's velocity or a stuck
-    joint's holding torque crossing its threshold, the contact's start or end, the
-    rebounding hammer's top) and possibly a servo tick, which :mod:`.batch` evaluates for
-    many trials at once. The caller either sends ``False`` (the generator takes the step
-    itself) or advances ``x, t, k_tick, tau, n_steps, n_rhs`` (appending to the shared
-    lists, updating ``pid`` and ``gap_end`` in place), sets ``ticked`` if a servo tick
-    passed, ``k1_cached`` if its last evaluation was at the current state (the loop's
-    cache would have served the next step's first stage from it), and sends ``True``.
-    """
-
-    __slots__ = ("plant", "pid", "ts", "xs", "xds", "servo_t", "servo_tau", "T", "sub", "t_min_end",
-                 "t_max_end", "settle_velocity", "friction_events", "x", "t", "k_tick", "tau", "fs",
-                 "n_steps", "n_rhs", "ticked", "k1_cached", "caught", "t_catch", "reuse_eval", "sub_contact",
-                 "gap_end", "contact_v0", "contact_t0")
-
-
-def integrate_trial(plant, pid, **kwargs) -> Trajectory:
-    """Integrate one trial (see :func:`trial_steps`); a diverging state is reported as a
-    :class:`SimulationError` by the per-step finiteness check, not as NumPy warnings."""
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        steps = trial_steps(plant, pid, **kwargs)
-        try:
-            next(steps)     # without ``lane`` it never yields: it returns the trajectory
-        except StopIteration as done:
-            return done.value
-        raise AssertionError("trial_steps yielded without lane=True")
-
-
-def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
-                substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
-                settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf,
-                lane: bool = False):
+def integrate_trial(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: float, servo_period: float,
+                    substeps_contact: int, substeps_free: int, min_post: float, max_post: float,
+                    settle_velocity: float, stick_velocity: float, catch_delay: float = np.inf) -> Trajectory:
     """Integrate one trial from the first touch at ``t_contact`` until its outputs are
-    recorded; a generator whose return value (``StopIteration.value``) is the
-    :class:`Trajectory`. With ``lane`` it yields a :class:`Lane` wherever a caller may take
-    over plain steps (the batched integrator, :mod:`.batch`); without it, it never yields.
+    recorded (:class:`.trial_run.TrialRun` holds the state and takes the steps).
 
     The hammer is caught (held still) at the top of its rebound or ``catch_delay`` after it
-    leaves the arm, whichever comes first, so it cannot strike twice.
+    leaves the arm, whichever comes first, so it cannot strike twice. A diverging state is
+    reported as a :class:`SimulationError` by the per-step finiteness check, not as NumPy
+    warnings.
 
     Raises
     ------
@@ -115,37 +80,23 @@ def trial_steps(plant: FixedBasePlant, pid: PID, *, t_contact: float, speed: flo
     run = TrialRun(plant, pid, t_contact=t_contact, speed=speed, servo_period=servo_period,
                    substeps_contact=substeps_contact, substeps_free=substeps_free, min_post=min_post,
                    max_post=max_post, settle_velocity=settle_velocity, catch_delay=catch_delay)
-    if run.friction_events:
-        run.settle_modes(run.x)
-    handoff = None
-    if lane and getattr(plant, "batchable", False) and run.T_emu is None:
-        handoff = Lane()
-        handoff.plant, handoff.pid = plant, pid
-        handoff.ts, handoff.xs, handoff.xds = run.ts, run.xs, run.xds
-        handoff.servo_t, handoff.servo_tau = run.servo_t, run.servo_tau
-        handoff.T, handoff.sub, handoff.sub_contact = servo_period, substeps_free, substeps_contact
-        handoff.reuse_eval, handoff.gap_end = run.reuse_eval, run.gap_end
-        handoff.t_min_end, handoff.t_max_end = run.t_min_end, run.t_max_end
-        handoff.settle_velocity, handoff.friction_events = settle_velocity, run.friction_events
-    while not run.finished():
-        if handoff is not None and not run.fs.all_stuck:
-            run.to_lane(handoff)
-            if (yield handoff):        # the caller took the step (see Lane)
-                run.from_lane(handoff)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        if run.friction_events:
+            run.settle_modes(run.x)
+        while not run.finished():
+            h, t_tick = run.step_length()
+            if h is None:                  # the brake caught the hammer at this instant
                 continue
-        h, t_tick = run.step_length()
-        if h is None:                  # the brake caught the hammer at this instant
-            continue
-        if h > 1e-15:
-            if run.frozen():
-                if run.linear and run.frozen_ticks():
+            if h > 1e-15:
+                if run.frozen():
+                    if run.linear and run.frozen_ticks():
+                        continue
+                    if run.hold_frozen(t_tick):
+                        continue
+                elif run.rk4_step(h, t_tick):
                     continue
-                if run.hold_frozen(t_tick):
-                    continue
-            elif run.rk4_step(h, t_tick):
-                continue
-        run.ticks()
-    run.finish()
+            run.ticks()
+        run.finish()
     post = run.post     # the first contact's values (it has ended: checked by finish)
     return Trajectory(
         t=np.asarray(run.ts), x=np.asarray(run.xs), xd=np.asarray(run.xds),

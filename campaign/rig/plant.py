@@ -37,9 +37,9 @@ __all__ = ["FixedBasePlant", "FrictionState", "base_wrench"]
 
 _EMPTY = np.zeros(0)
 _LWA = pin.LOCAL_WORLD_ALIGNED
-#: ABA's world-frame convention: the one ``pinocchio.abaInParallel`` evaluates, so the
-#: batched integrator (:mod:`.batch`) and this one-trial path give the same bits (the local
-#: convention differs from it in the last digits)
+#: ABA's world-frame convention: the one the campaign's trials are integrated with (the
+#: local convention differs from it in the last digits; the trial loop's kernel,
+#: :mod:`.kernels`, uses it too)
 _WORLD = pin.Convention.WORLD
 
 
@@ -76,7 +76,7 @@ class FrictionState:
     """
 
     __slots__ = ("modes", "stuck", "free", "coulomb", "all_stuck", "none_stuck", "reduced", "iv_free", "key",
-                 "stuck_limits", "slipping", "stuck_mask")
+                 "stuck_limits", "slipping", "stuck_mask", "stuck_l", "free_l", "coulomb_f")
 
     def __init__(self, modes, coulomb, iv0: int, tc_pos=None, tc_neg=None, sticky=None):
         self.modes = np.asarray(modes, dtype=int)
@@ -89,6 +89,9 @@ class FrictionState:
         self.reduced = None
         self.iv_free = iv0 + self.free
         self.key = tuple(self.modes.tolist())
+        # the same as Python lists, for the trial loop's float kernels (:mod:`.kernels`)
+        self.stuck_l, self.free_l = self.stuck.tolist(), self.free.tolist()
+        self.coulomb_f = np.asarray(coulomb, dtype=float).tolist()
         # plain-float views for the integrator's per-step checks (3-6 dofs: Python floats
         # are cheaper than NumPy calls): static limits (pushing +, pushing -) of each stuck
         # dof, and (dof, mode, state index of its velocity) of each slipping sticky dof
@@ -101,7 +104,8 @@ class FrictionState:
     def violations(self, lam) -> list:
         """Per stuck dof, ``|lam| - limit`` (> 0 where the holding torque ``lam`` exceeds the
         static friction it pushes against)."""
-        return [(-x - tp) if x < 0 else (x - tn) for x, (tp, tn) in zip(lam.tolist(), self.stuck_limits, strict=True)]
+        values = lam.tolist() if isinstance(lam, np.ndarray) else lam
+        return [(-x - tp) if x < 0 else (x - tn) for x, (tp, tn) in zip(values, self.stuck_limits, strict=True)]
 
 
 class FixedBasePlant:
@@ -239,9 +243,6 @@ class FixedBasePlant:
 
     #: a fixed-base arm's constrained dynamics use reduced models (see :meth:`constrained`)
     _locks_stuck_joints = True
-    #: its plain steps (no joint stuck, out of contact) are the batched integrator's
-    #: (:mod:`.batch`): the right-hand side there is :meth:`rhs` with ``fs.none_stuck``
-    batchable = True
 
     def constrained(self, q, v, tau, fs: FrictionState):
         """Friction ``lam`` holding the stuck joints and the accelerations ``a`` of the

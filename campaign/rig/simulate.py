@@ -338,7 +338,7 @@ def simulate_arrays(scene: Scene, *, integration: dict | None = None) -> TrialAr
 
 
 def integration_args(rig: Rig) -> dict:
-    """The integrator's keyword arguments for ``rig`` (:func:`.integrate.trial_steps`)."""
+    """The integrator's keyword arguments for ``rig`` (:func:`.integrate.integrate_trial`)."""
     p = rig.scene.p
     return dict(t_contact=rig.t_contact, speed=rig.scene.speed, servo_period=rig.servo_period,
                 min_post=rig.min_post, max_post=rig.max_post, substeps_contact=rig.substeps_contact,

@@ -5,6 +5,13 @@ closed-form ticks, the servo and emulator ticks and the end-of-trial test.
 
 :func:`.integrate.trial_steps` runs them in its loop; the scheme (why fixed-step RK4 on the
 servo grid with located events) is described in :mod:`.integrate`.
+
+The hot path is lean: the state is a list of Python floats (9 entries on the fixed base),
+the dynamics are the plant's float kernel (:mod:`.kernels`: one Pinocchio call per stage,
+its inputs in preallocated arrays), and a step that holds no event builds no dictionary:
+the event values are tested as they are computed, and only a step where one crosses zero
+builds them by name to locate the first (:meth:`TrialRun.event_step`). A state list, once
+evaluated, is never changed (evaluations are kept by the identity of their inputs).
 """
 
 from __future__ import annotations
@@ -15,55 +22,66 @@ import math
 import numpy as np
 
 from ..core.errors import SimulationError
+from .kernels import kernel_for
 from .linear_phase import last_tick, run_frozen
 
-__all__ = ["TrialRun", "EDGE_SUBSTEPS"]
+__all__ = ["TrialRun", "EDGE_SUBSTEPS", "END_SCALE"]
 
 #: more events than this inside one servo tick is chattering (Zeno), not physics
 _MAX_EVENTS_PER_TICK = 50
 #: RK4 steps per servo tick at least, at a contact's edges (see :meth:`TrialRun.step_length`)
 EDGE_SUBSTEPS = 4
 #: length scale [m] that puts the damping factor on the overlap's footing in the contact-end event
-_END_SCALE = 1e-3
+END_SCALE = 1e-3
 
 
 def _hermite(x0, f0, x1, f1, h, s):
-    """Cubic Hermite state at fraction s in [0, 1] of a step of length h."""
+    """Cubic Hermite state at fraction s in [0, 1] of a step of length h (lists)."""
     s2, s3 = s * s, s * s * s
     h00 = 2 * s3 - 3 * s2 + 1
-    h10 = s3 - 2 * s2 + s
+    c10 = (s3 - 2 * s2 + s) * h
     h01 = -2 * s3 + 3 * s2
-    h11 = s3 - s2
-    return h00 * x0 + h10 * h * f0 + h01 * x1 + h11 * h * f1
+    c11 = (s3 - s2) * h
+    return [h00 * a + c10 * b + h01 * c + c11 * d for a, b, c, d in zip(x0, f0, x1, f1, strict=True)]
+
+
+def _brentq(fun, xtol):
+    """``scipy.optimize.brentq`` on [0, 1] (imported here: scipy.optimize costs ~0.5 s to
+    import, and most trials locate an event)."""
+    from scipy.optimize import brentq
+
+    return brentq(fun, 0.0, 1.0, xtol=xtol)
 
 
 class TrialRun:
     """The state and buffers of one trial's integration and its steps (the loop over them:
     :func:`.integrate.trial_steps`).
 
-    The state: ``x`` at time ``t``, the held servo torque ``tau``, the friction modes
-    ``fs``, the contact (``contact_v0``: its approach speed, None out of contact), the
-    hammer (``caught``, ``t_catch``), the next servo and emulator tick indices ``k_tick``,
-    ``k_emu``. The buffers (``ts``, ``xs``, ``xds``, ``servo_t``, ``servo_tau``) grow by one
-    entry per accepted step or tick; a :class:`.integrate.Lane` shares them. The counts
-    ``n_steps``, ``n_rhs``, ``n_events`` and the first contact's ``post`` values go into the
+    The state: ``x`` (a list of floats) at time ``t``, the held servo torque ``tau`` (a
+    tuple), the friction modes ``fs``, the contact (``contact_v0``: its approach speed, None
+    out of contact), the hammer (``caught``, ``t_catch``), the next servo and emulator tick
+    indices ``k_tick``, ``k_emu``. The buffers (``ts``, ``xs``, ``xds``, ``servo_t``,
+    ``servo_tau``) grow by one entry per accepted step or tick. The counts ``n_steps``,
+    ``n_rhs``, ``n_events`` and the first contact's ``post`` values go into the
     :class:`.integrate.Trajectory`. The arguments are those of :func:`.integrate.trial_steps`.
     """
 
-    __slots__ = ("plant", "pid", "nv", "iv", "ithd", "iP", "iv0", "r", "sticky", "friction_events", "can_freeze",
-                 "arm_q", "T_emu", "linear", "zero_xd", "x0", "tau_static", "T", "substeps_contact", "substeps_free",
-                 "settle_velocity", "catch_delay", "t_min_end", "t_max_end", "rhs", "reuse_eval", "x", "t", "tau",
-                 "fs", "contact_v0", "caught", "rebound_seen", "t_catch", "contacts", "post", "k_tick", "k_emu",
-                 "ts", "xs", "xds", "servo_t", "servo_tau", "n_steps", "n_rhs", "n_events", "tick_events",
-                 "t_static", "settled", "gap_end", "last")
+    __slots__ = ("plant", "pid", "kernel", "nv", "iv", "iv0", "ithd", "iP", "r", "sticky", "friction_events",
+                 "can_freeze", "arm_q", "T_emu", "linear", "const_hold", "zero_xd", "x0", "tau_static", "T",
+                 "substeps_contact", "substeps_free", "settle_velocity", "catch_delay", "t_min_end", "t_max_end",
+                 "reuse_eval", "x", "t", "tau", "fs", "contact_v0", "caught", "rebound_seen", "t_catch",
+                 "contacts", "post", "k_tick", "k_emu", "ts", "xs", "xds", "servo_t", "servo_tau", "n_steps",
+                 "n_rhs", "n_events", "tick_events", "t_static", "settled", "gap_end", "last", "damping")
 
     def __init__(self, plant, pid, *, t_contact, speed, servo_period, substeps_contact, substeps_free, min_post,
                  max_post, settle_velocity, catch_delay):
         self.plant, self.pid = plant, pid
+        self.kernel = kernel = kernel_for(plant)
         self.nv = nv = plant.nv
         self.iv, self.ithd, self.iP = plant.i_v, plant.i_thd, plant.i_P
-        self.iv0 = self.iv.start
+        self.iv0 = plant.i_v.start
         self.r = plant.pend.radius
+        self.damping = plant._d
         self.sticky = sticky = plant.sticky      # dofs with Coulomb friction (base dofs never stick)
         self.friction_events = bool(np.any(sticky))
         # with every dof stuck the arm cannot move (a prescribed platform moves it as a rigid body)
@@ -72,24 +90,27 @@ class TrialRun:
         self.T_emu = T_emu = plant.emulator_period    # VES emulator ticks (None: no emulator)
         # a frozen arm's ticks in closed form: an emulator on the servo's grid whose scene asks for it
         self.linear = T_emu is not None and T_emu == servo_period and getattr(plant, "linear_phases", False)
-        self.zero_xd = np.zeros(plant.size)
+        # with every joint stuck, no contact and a constant servo torque on a fixed base the
+        # holding torques cannot change
+        self.const_hold = not pid.active and T_emu is None
+        self.zero_xd = [0.0] * plant.size
         self.T, self.catch_delay = servo_period, catch_delay
         self.substeps_contact, self.substeps_free = substeps_contact, substeps_free
         self.settle_velocity = settle_velocity
         self.t_min_end, self.t_max_end = t_contact + min_post, t_contact + max_post
-        self.rhs = plant.rhs
         # when the servo output cannot change at a tick (no PID) or an emulator samples the F/T
         # there, a step end's full evaluation is used anyway (next step's k1, the F/T sample):
         # the event checks take the contact gap from it instead of a separate kinematics call
         self.reuse_eval = T_emu is not None or not pid.active
 
         # -- the state at the first touch: arm at rest on q0, head at the bottom ------------
-        x = np.zeros(plant.size)
-        x[:nv] = plant.q0
+        x = [0.0] * plant.size
+        x[:nv] = np.asarray(plant.q0, dtype=float).tolist()
         x[self.ithd] = speed / self.r
-        self.x, self.x0 = x, x.copy()
-        self.tau = tau = plant.servo(pid.update(plant.q0[self.arm_q]))   # the static servo output held at the touch
-        self.tau_static = tau.copy()
+        self.x, self.x0 = x, np.array(x)
+        # the static servo output held at the touch
+        self.tau = tau = kernel.servo(pid.step(x[self.arm_q]))
+        self.tau_static = np.array(tau)
         self.fs = plant.friction_state(np.where(sticky, 0, 1), x[:nv])
         self.contact_v0 = speed            # first touch: delta = 0, ddelta = v_b - v_a = v_b
         self.caught = self.rebound_seen = False
@@ -100,30 +121,27 @@ class TrialRun:
         self.k_emu = (math.floor(t_contact / T_emu + 1e-9) + 1) if T_emu is not None else 0
         self.t = t_contact
         self.ts, self.xs, self.xds = [t_contact], [x], []
-        self.servo_t, self.servo_tau = [t_contact], [tau.copy()]
+        self.servo_t, self.servo_tau = [t_contact], [tau]
         self.n_steps = self.n_rhs = self.n_events = self.tick_events = 0
         self.t_static, self.settled = None, False
         self.gap_end = [0.0, 0.0, 0.0]   # overlap and its rate at the last accepted step in contact, peak overlap
-        self.last = None     # the last plant.evaluate: its inputs (by identity) and outputs
+        self.last = None     # the last full evaluation: its inputs (by identity) and outputs
 
     # -- the dynamics and the event functions ---------------------------------------------
     def evaluate(self, xx, tt, f=None):
-        """``plant.evaluate`` at (xx, tt) with the current torque, contact and friction modes
-        (or modes ``f``); a repeat with the same inputs costs nothing. The step-end
-        evaluation serves the events, the emulator's F/T sample and the next step's k1."""
+        """The kernel's ``full`` evaluation ``(xd, lam, gap)`` at (xx, tt) with the current
+        torque, contact and friction modes (or modes ``f``); a repeat with the same inputs
+        costs nothing. The step-end evaluation serves the events, the emulator's F/T sample
+        and the next step's k1."""
         if f is None:
             f = self.fs
         c = self.last
         tau, contact_v0, caught = self.tau, self.contact_v0, self.caught
         if (c is not None and c[0] is xx and c[1] is tau and c[2] is f and c[3] == contact_v0
                 and c[4] == caught and c[5] == tt):
-            if c[6] is not None:
-                return c[6]
-            # evaluated and counted by the caller the steps were handed to (a Lane), not kept
-            out = self.plant.evaluate(xx, tau, f, contact_v0, caught, tt)
-        else:
-            out = self.plant.evaluate(xx, tau, f, contact_v0, caught, tt)
-            self.n_rhs += 1
+            return c[6]
+        out = self.kernel.full(xx, tt, tau, f, contact_v0, caught)
+        self.n_rhs += 1
         self.last = (xx, tau, f, contact_v0, caught, tt, out)
         return out
 
@@ -133,46 +151,110 @@ class TrialRun:
         t = self.t
         if k1 is None:
             k1 = self.evaluate(xx, t)[0]
-        rhs, tau, fs, contact_v0, caught = self.rhs, self.tau, self.fs, self.contact_v0, self.caught
-        th = t + 0.5 * h
-        k2 = rhs(xx + (0.5 * h) * k1, tau, fs, contact_v0, caught, th)
-        k3 = rhs(xx + (0.5 * h) * k2, tau, fs, contact_v0, caught, th)
-        k4 = rhs(xx + h * k3, tau, fs, contact_v0, caught, t + h if t_end is None else t_end)
+        stage, tau, fs, contact_v0, caught = self.kernel.stage, self.tau, self.fs, self.contact_v0, self.caught
+        hh = 0.5 * h
+        th = t + hh
+        # the derivatives have the state's length by construction (the kernel's contract);
+        # zip's length check costs 14% of these comprehensions (valgrind), four a step
+        k2 = stage([a + hh * b for a, b in zip(xx, k1, strict=False)], th, tau, fs, contact_v0, caught)
+        k3 = stage([a + hh * b for a, b in zip(xx, k2, strict=False)], th, tau, fs, contact_v0, caught)
+        k4 = stage([a + h * b for a, b in zip(xx, k3, strict=False)], t + h if t_end is None else t_end, tau, fs,
+                   contact_v0, caught)
         self.n_rhs += 3
-        return xx + (h / 6.0) * (k1 + k4 + 2.0 * (k2 + k3)), k1
+        h6 = h / 6.0
+        return [a + h6 * ((b1 + b4) + 2.0 * (b2 + b3))
+                for a, b1, b2, b3, b4 in zip(xx, k1, k2, k3, k4, strict=False)], k1
 
-    def event_values(self, xx, tt):
-        """Event functions at state xx and time tt (each fires where its value crosses 0
-        upward), and the contact gap ``(delta, ddelta)`` there when it was needed."""
+    def _lam_gap(self, xx, tt):
+        """What the event functions at (xx, tt) need: ``(need_lam, lam, gap)``, the stuck
+        joints' holding torques (when they can change) and the contact gap ``(delta,
+        ddelta)`` (in contact or while the hammer flies)."""
         fs, contact_v0, caught = self.fs, self.contact_v0, self.caught
-        vals = {}
-        gap = None
         # the holding torques need the dynamics; the contact gap only the kinematics
         need_lam = self.friction_events and not fs.none_stuck and not (
-            # with every joint stuck, no contact and a constant servo torque on a fixed base
-            # the holding torques cannot change
-            fs.all_stuck and contact_v0 is None and not self.pid.active and self.T_emu is None)
+            fs.all_stuck and contact_v0 is None and self.const_hold)
         if need_lam or (self.reuse_eval and (contact_v0 is not None or not caught)):
             _, lam, gap = self.evaluate(xx, tt)
-        elif contact_v0 is not None or not caught:
-            self.plant._t = tt
-            gap = self.plant.gap(xx)[:2]
-        if contact_v0 is not None:
-            # the contact ends where the force vanishes: the overlap closes (delta = 0), or the
-            # bodies separate faster than the damped wrap can push (1 + d ddelta/v0 = 0) first
-            d, dd = gap
-            vals["contact_end"] = -min(d, _END_SCALE * (1.0 + self.plant._d * dd / contact_v0))
-        elif not caught:
+            return need_lam, lam, gap
+        if contact_v0 is not None or not caught:
+            return False, None, self.kernel.gap(xx, tt)
+        return False, None, None
+
+    def _contact_end(self, gap):
+        """The contact-end event's value: the contact ends where the force vanishes, the
+        overlap closes (delta = 0), or the bodies separate faster than the damped wrap can
+        push (1 + d ddelta/v0 = 0) first."""
+        d, dd = gap
+        return -min(d, END_SCALE * (1.0 + self.damping * dd / self.contact_v0))
+
+    def event_values(self, xx, tt):
+        """Event functions at state xx and time tt by name (each fires where its value
+        crosses 0 upward), and the contact gap ``(delta, ddelta)`` there when it was needed."""
+        need_lam, lam, gap = self._lam_gap(xx, tt)
+        vals = {}
+        if self.contact_v0 is not None:
+            vals["contact_end"] = self._contact_end(gap)
+        elif not self.caught:
             vals["contact_start"] = gap[0]
             if self.rebound_seen or self.contacts[-1][1] is not None:
                 vals["catch"] = xx[self.ithd]          # rebounding hammer (thd < 0) reaches its top
         if self.friction_events:
+            fs = self.fs
             if need_lam:
-                for jj, val in zip(fs.stuck.tolist(), fs.violations(lam), strict=True):
+                for jj, val in zip(fs.stuck_l, fs.violations(lam), strict=True):
                     vals[f"break{jj}"] = val
             for j, m, ij in fs.slipping:
-                vals[f"stop{j}"] = -m * float(xx[ij])
+                vals[f"stop{j}"] = -m * xx[ij]
         return vals, gap
+
+    def fires(self, xx, tt):
+        """``(fired, gap)``: is any event function of :meth:`event_values` positive at (xx,
+        tt)? The same values, tested as they are computed (no names, no dictionary)."""
+        need_lam, lam, gap = self._lam_gap(xx, tt)
+        if self.contact_v0 is not None:
+            if self._contact_end(gap) > 0:
+                return True, gap
+        elif not self.caught:
+            if gap[0] > 0 or ((self.rebound_seen or self.contacts[-1][1] is not None) and xx[self.ithd] > 0):
+                return True, gap
+        if self.friction_events:
+            fs = self.fs
+            if need_lam:
+                for val in fs.violations(lam):
+                    if val > 0:
+                        return True, gap
+            for _, m, ij in fs.slipping:
+                if -m * xx[ij] > 0:
+                    return True, gap
+        return False, gap
+
+    def event_value(self, key: str):
+        """The event function ``key`` of :meth:`event_values` alone, as a function of (xx,
+        tt): what locating it on a step needs. The contact's events need the kinematics,
+        a stop or the hammer's top only the state, a break-away the holding torques
+        (:meth:`holding`); the values are those :meth:`event_values` gives."""
+        if key in ("contact_end", "contact_start"):
+            gap = self.kernel.gap
+            if key == "contact_start":
+                return lambda xx, tt: gap(xx, tt)[0]
+            return lambda xx, tt: self._contact_end(gap(xx, tt))
+        if key == "catch":
+            return lambda xx, tt: xx[self.ithd]
+        if key.startswith("stop"):
+            j = int(key[4:])
+            m, ij = next((m, ij) for jj, m, ij in self.fs.slipping if jj == j)
+            return lambda xx, tt: -m * xx[ij]
+        i = self.fs.stuck_l.index(int(key[5:]))
+
+        def brk(xx, tt):
+            return self.fs.violations(self.holding(xx, tt))[i]
+        return brk
+
+    def holding(self, xx, tt):
+        """The stuck joints' holding torques at (xx, tt) under the current torque, contact
+        and modes (a dynamics solve without the state derivative: not counted in ``n_rhs``,
+        which counts right-hand-side evaluations)."""
+        return self.kernel.holding(xx, tt, self.tau, self.fs, self.contact_v0)
 
     # -- the stick-slip modes ----------------------------------------------------------------
     def consistent(self, xx, m):
@@ -182,13 +264,13 @@ class TrialRun:
         fs = self.fs
         cand = fs if m is fs.modes or np.array_equal(m, fs.modes) else self.plant.friction_state(m, xx[:self.nv])
         xd, lam, _ = self.evaluate(xx, self.t, cand)
-        a = xd[self.iv]
         # |lam| > limit (1 + 1e-12), i.e. |lam| - limit > 1e-12 limit
-        for x_l, (tp, tn) in zip(lam.tolist(), cand.stuck_limits, strict=True):
+        for x_l, (tp, tn) in zip(lam, cand.stuck_limits, strict=True):
             if (-x_l - tp * (1 + 1e-12)) > 0 if x_l < 0 else (x_l - tn * (1 + 1e-12)) > 0:
                 return None
+        iv0 = self.iv0
         for j, mj, ij in cand.slipping:
-            if xx[ij] == 0.0 and a[j] * mj < 0:   # at rest, accelerating against its slip direction
+            if xx[ij] == 0.0 and xd[iv0 + j] * mj < 0:   # at rest, accelerating against its slip direction
                 return None
         return cand
 
@@ -201,7 +283,7 @@ class TrialRun:
         fs = self.fs
         if self.consistent(xx, fs.modes) is not None:
             return
-        rest = np.flatnonzero(((fs.modes == 0) | (xx[self.iv] == 0.0)) & self.sticky)
+        rest = np.flatnonzero(((fs.modes == 0) | (np.array(xx[self.iv]) == 0.0)) & self.sticky)
         for combo in itertools.product((0, 1, -1), repeat=len(rest)):
             m = fs.modes.copy()
             m[rest] = combo
@@ -224,7 +306,7 @@ class TrialRun:
         static = self.T_emu is None and (
             (self.friction_events and fs.all_stuck
              and (not pid.active or pid.I == 0 or not np.any(pid.e_prev)))
-            or (not self.friction_events and float(np.max(np.abs(self.x[self.iv]))) < self.settle_velocity))
+            or (not self.friction_events and max(map(abs, self.x[self.iv])) < self.settle_velocity))
         if static and self.caught:
             # nothing moves any more: the sensors hold this state to the end of the recording
             self.t_static, self.settled = t, True
@@ -233,28 +315,6 @@ class TrialRun:
             self.settled = static
             return True
         return False
-
-    def to_lane(self, handoff) -> None:
-        """Offer the next step: the state goes into ``handoff`` (a :class:`.integrate.Lane`)."""
-        c = self.last
-        x, t, tau, fs, contact_v0, caught = self.x, self.t, self.tau, self.fs, self.contact_v0, self.caught
-        handoff.x, handoff.t, handoff.k_tick, handoff.tau, handoff.fs = x, t, self.k_tick, tau, fs
-        handoff.n_steps, handoff.n_rhs, handoff.ticked = self.n_steps, self.n_rhs, False
-        handoff.caught, handoff.t_catch = caught, (math.inf if self.t_catch is None else self.t_catch)
-        handoff.contact_v0, handoff.contact_t0 = contact_v0, self.contacts[-1][0]
-        handoff.k1_cached = (c is not None and c[0] is x and c[1] is tau and c[2] is fs
-                             and c[3] == contact_v0 and c[4] == caught and c[5] == t)
-
-    def from_lane(self, handoff) -> None:
-        """Take the state back after the caller took steps (see :class:`.integrate.Lane`)."""
-        x, t, tau = handoff.x, handoff.t, handoff.tau
-        self.x, self.t, self.k_tick, self.tau = x, t, handoff.k_tick, tau
-        self.n_steps, self.n_rhs = handoff.n_steps, handoff.n_rhs
-        if handoff.ticked:
-            self.tick_events = 0
-        # the caller's last evaluation at this state (counted there) does not cross over:
-        # evaluate() makes it again without counting it twice
-        self.last = (x, tau, self.fs, self.contact_v0, self.caught, t, None) if handoff.k1_cached else None
 
     def step_length(self):
         """``(h, t_tick)``: the next step's length, to the next boundary ``t_tick`` (a servo
@@ -283,7 +343,7 @@ class TrialRun:
             if t_catch - t <= 1e-15:
                 # the device's brake catches the hammer now
                 self.caught = True
-                x = self.x.copy()
+                x = list(self.x)
                 x[self.ithd] = 0.0
                 self.x = self.xs[-1] = x
                 return None, t_tick
@@ -300,7 +360,7 @@ class TrialRun:
         k_emu, T_emu = self.k_emu, self.T_emu
         if not (self.k_tick == k_emu and abs(self.t - (k_emu - 1) * T_emu) <= 1e-12):
             return False
-        m, taus = run_frozen(self.plant, self.pid, self.x, self.tau, self.fs, k_emu,
+        m, taus = run_frozen(self.plant, self.pid, np.array(self.x), np.array(self.tau), self.fs, k_emu,
                              last_tick(self.t_max_end, T_emu), T_emu)
         if not m:
             return False
@@ -311,7 +371,7 @@ class TrialRun:
         self.servo_t.extend(tk)
         self.servo_tau.extend(taus)
         self.t, self.k_emu, self.k_tick = tk[-1], k_emu + m, self.k_tick + m
-        self.tau = taus[-1]
+        self.tau = tuple(taus[-1].tolist())
         self.tick_events = 0
         return True
 
@@ -319,19 +379,14 @@ class TrialRun:
         """A frozen arm: no integration, x held to the boundary ``t_tick``. Only a prescribed
         platform can change the holding torques inside the interval; a break-away is located
         in time and the modes settled there (returns True: the step is not finished)."""
-        x, t, tau, fs, plant = self.x, self.t, self.tau, self.fs, self.plant
+        x, t, fs = self.x, self.t, self.fs
         h = t_tick - t
         fired_at = None
         if self.T_emu is not None:
-            lam1 = plant.holding(x, tau, fs, None, t + h)[0]
-            if max(fs.violations(lam1)) > 0:
+            if max(fs.violations(self.holding(x, t + h))) > 0:
                 def gfun(s):
-                    return max(fs.violations(plant.holding(x, tau, fs, None, t + s * h)[0]))
-                g0 = gfun(0.0)
-                from scipy.optimize import (
-                    brentq,  # lazily: scipy.optimize costs ~0.5 s to import
-                )
-                fired_at = brentq(gfun, 0.0, 1.0, xtol=1e-14) if g0 < 0 else 0.0
+                    return max(fs.violations(self.holding(x, t + s * h)))
+                fired_at = _brentq(gfun, 1e-14) if gfun(0.0) < 0 else 0.0
         if fired_at is None:
             self.xds.append(self.zero_xd)
             self.t = t = t + h
@@ -345,7 +400,7 @@ class TrialRun:
             self.t = t = t + h_ev
             self.ts.append(t)
             self.xs.append(x)
-        plant._t = t
+        self.plant._t = t
         self.settle_modes(x)
         return True
 
@@ -358,17 +413,17 @@ class TrialRun:
             t_new = t_tick     # the tick's own time, so its evaluations are shared
         x_new, k1 = self.rk4(x, h, None, t_new)
         self.n_steps += 1
-        if not math.isfinite(x_new.sum()):
+        if not math.isfinite(sum(x_new)):
             raise SimulationError(f"the integration blew up at t = {t + h:.6g} s (non-finite state)")
-        g1, gap1 = self.event_values(x_new, t_new)
-        candidates = [k for k, v1 in g1.items() if v1 > 0]
-        if candidates:
-            g0 = self.event_values(x, t)[0]
+        fired, gap1 = self.fires(x_new, t_new)
+        if fired:
+            g1 = self.event_values(x_new, t_new)[0]
+            # the crossing events' values at the step's start (only theirs are needed)
+            g0 = {k: self.event_value(k)(x, t) for k, v1 in g1.items() if v1 > 0}
             # a stop needs a strict crossing: a joint released at rest (v = 0) whose
             # acceleration was marginal may start the wrong way; that is fixed below,
             # locating it would refire at the same instant (Zeno)
-            fired = [k for k in candidates
-                     if g0.get(k, -1.0) < 0 or (g0.get(k, -1.0) == 0 and not k.startswith("stop"))]
+            fired = [k for k, v0 in g0.items() if v0 < 0 or (v0 == 0 and not k.startswith("stop"))]
             if fired:
                 self.event_step(fired, g0, g1, x_new, t_new, k1, h)
                 return True
@@ -387,7 +442,8 @@ class TrialRun:
             wrong = [j for j, mj, ij in fs.slipping if mj * x[ij] < 0]
             if wrong:
                 m = fs.modes.copy()
-                m[wrong] = np.sign(x[self.iv][wrong]).astype(int)
+                for j in wrong:
+                    m[j] = 1 if x[self.iv0 + j] > 0 else -1
                 self.fs = self.plant.friction_state(m, x[:self.nv])
         return False
 
@@ -405,16 +461,16 @@ class TrialRun:
         f1 = self.evaluate(x_new, t_new)[0]
         best_s, best_k = 2.0, None
         for key in fired:
-            def gfun(s, key=key):
+            value = self.event_value(key)
+            g0k, g1k = g0[key], g1[key]
+
+            def gfun(s, value=value, g0k=g0k, g1k=g1k):
                 if s <= 0.0:
-                    return g0.get(key, -1.0)
+                    return g0k
                 if s >= 1.0:
-                    return g1[key]
-                return self.event_values(_hermite(x, k1, x_new, f1, h, s), t + s * h)[0].get(key, -1.0)
-            from scipy.optimize import (
-                brentq,  # lazily: scipy.optimize costs ~0.5 s to import
-            )
-            s_k = brentq(gfun, 0.0, 1.0, xtol=1e-14) if gfun(0.0) <= 0 else 0.0
+                    return g1k
+                return value(_hermite(x, k1, x_new, f1, h, s), t + s * h)
+            s_k = _brentq(gfun, 1e-14) if g0k <= 0 else 0.0
             if s_k < best_s:
                 best_s, best_k = s_k, key
         h_ev = best_s * h
@@ -428,8 +484,8 @@ class TrialRun:
             self.t = t = t + h_ev
             self.ts.append(t)
         else:
-            x = x.copy()
-        self.x = x
+            x = list(x)
+        self.x = x       # a fresh list: the event may change it in place before its first evaluation
         self.plant._t = t
         self.apply_event(best_k)
         if h_ev > 1e-15:
@@ -438,12 +494,12 @@ class TrialRun:
             self.xs[-1] = x
 
     def apply_event(self, key: str) -> None:
-        """Apply event ``key`` at (t, x) (x is a fresh array, changed in place)."""
+        """Apply event ``key`` at (t, x) (x is a fresh list, changed in place)."""
         x, t, plant, ithd = self.x, self.t, self.plant, self.ithd
         if key == "contact_end":
             self.contacts[-1][1] = t
             if not self.post:   # the first contact is the impact the trial is about
-                self.post = {"v_a": plant.tip_speed(x), "v_b": self.r * math.cos(x[self.nv]) * x[ithd],
+                self.post = {"v_a": plant.tip_speed(np.array(x)), "v_b": self.r * math.cos(x[self.nv]) * x[ithd],
                              "P": float(x[self.iP])}
             self.contact_v0 = None
             self.rebound_seen = x[ithd] < 0
@@ -451,7 +507,7 @@ class TrialRun:
                 self.t_catch = t + self.catch_delay
         elif key == "contact_start":
             self.gap_end[:] = [0.0, 0.0, 0.0]
-            _, dd, _ = plant.gap(x)
+            dd = self.kernel.gap(x, t)[1]
             self.contact_v0 = max(dd, 1e-9)
             self.contacts.append([t, None, self.contact_v0])
         elif key == "catch":
@@ -466,9 +522,9 @@ class TrialRun:
             # unchanged stick assignment is still "consistent" to rounding there)
             fs = self.fs
             j = int(key[5:])
-            lam = plant.holding(x, self.tau, fs, self.contact_v0, t)[0]
+            lam = self.holding(x, t)
             m = fs.modes.copy()
-            m[j] = 1 if lam[fs.stuck.tolist().index(j)] < 0 else -1
+            m[j] = 1 if lam[fs.stuck_l.index(j)] < 0 else -1
             cand = self.consistent(x, m)
             if cand is not None:
                 self.fs = cand
@@ -483,15 +539,15 @@ class TrialRun:
             self.t = t = self.k_emu * T_emu
             self.ts[-1] = t
             x = self.x
-            self.plant.on_emulator_tick(t, x, self.zero_xd if self.frozen() else self.evaluate(x, t)[0])
+            self.kernel.emulator_tick(t, x, self.zero_xd if self.frozen() else self.evaluate(x, t)[0])
             self.k_emu += 1
         k_tick, T = self.k_tick, self.T
         if k_tick * T - t <= 1e-12:
             self.t = t = k_tick * T
             self.ts[-1] = t
             x, tau = self.x, self.tau
-            tau_new = self.plant.servo(self.pid.update(x[self.arm_q]))
-            changed = tau_new.tolist() != tau.tolist()   # (lists: a NumPy reduction costs 2 us)
+            tau_new = self.kernel.servo(self.pid.step(x[self.arm_q]))
+            changed = tau_new != tau
             if changed:      # keep the same object otherwise: evaluations at this state stay valid
                 self.tau = tau = tau_new
             self.servo_t.append(t)
