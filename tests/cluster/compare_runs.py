@@ -11,6 +11,9 @@ What "agree" means for each kind of file, from what a local run reproduces when 
   bytes and attributes, checked against the data when the archive is finalized) must be
   equal, and every root attribute except those two and the root digest that covers them;
 - ``MANIFEST.sha256``: the same files listed, with equal digests for every file but trials;
+- job manifests (``archive/<name>/.jobs/**.json``): the same job and trials, each with the
+  same path, group digests, index row, clock rates and kept flag (a trial file's own sha256
+  and size vary with its write time like its bytes);
 - job logs (``results/*/logs``) and Snakemake benchmark records (``results/*/benchmarks``):
   present in both (they hold times and dates, so their contents are not compared);
 - everything else (tables, figures, fits, identification tables, the archive's index and
@@ -21,6 +24,7 @@ Snakemake's own state (``.snakemake/``) is not a product and is ignored.
 
 from __future__ import annotations
 
+import json
 import sys
 from collections import Counter
 from pathlib import Path
@@ -44,6 +48,8 @@ def kind(rel: str) -> str:
         return "trial"
     if parts[-1] == "MANIFEST.sha256":
         return "manifest"
+    if parts[0] == "archive" and ".jobs" in parts and parts[-1].endswith(".json"):
+        return "job manifest"
     if parts[0] == "results" and len(parts) > 2 and parts[2] in UNCOMPARED_DIRS:
         return "log"
     return "bytes"
@@ -76,6 +82,17 @@ def manifest(path: Path) -> dict[str, str]:
     return entries
 
 
+# a job manifest entry's fields that depend on when its trial file was written
+WRITE_FIELDS = {"sha256", "size"}
+
+
+def job_manifest(path: Path) -> dict:
+    """A job manifest without the fields of its entries that vary with the write time."""
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    doc["trials"] = [{k: v for k, v in t.items() if k not in WRITE_FIELDS} for t in doc.get("trials", [])]
+    return doc
+
+
 def compare(a: Path, b: Path) -> tuple[Counter, list[str]]:
     """(files agreeing, by kind; differences) of run ``b`` against run ``a``."""
     files_a, files_b = products(a), products(b)
@@ -105,6 +122,12 @@ def compare(a: Path, b: Path) -> tuple[Counter, list[str]]:
             if bad:
                 problems.append(f"{rel}: digests of {bad} differ")
                 continue
+        elif k == "job manifest":
+            ja, jb = job_manifest(fa), job_manifest(fb)
+            if ja != jb:
+                paths = [t.get("path") for t, u in zip(ja["trials"], jb["trials"], strict=False) if t != u]
+                problems.append(f"{rel}: entries differ ({paths or 'job or trial list'})")
+                continue
         elif k == "bytes" and fa.read_bytes() != fb.read_bytes():
             problems.append(f"{rel}: bytes differ")
             continue
@@ -125,7 +148,8 @@ def main(argv: list[str]) -> int:
             return 2
     agree, problems = compare(a, b)
     labels = {"bytes": "byte-identical", "trial": "trials with equal group digests",
-              "manifest": "manifests agreeing (trials by digest)", "log": "logs/benchmark records present in both"}
+              "manifest": "manifests agreeing (trials by digest)",
+              "job manifest": "job manifests agreeing (trials by group digest)", "log": "logs/benchmark records present in both"}
     for k, label in labels.items():
         print(f"  {agree[k]:4d} {label}")
     for p in problems:

@@ -4,6 +4,7 @@ log contents) and every kind of difference it must name."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -35,6 +36,11 @@ def make_run(root: Path, *, date: str) -> Path:
                       ("results/ci/benchmarks/fit_lambda/high.tsv", f"s\n{date}\n")):
         (root / rel).parent.mkdir(parents=True, exist_ok=True)
         (root / rel).write_text(text)
+    entry = {"path": trial.removeprefix("archive/ci/"), "content": ["m" * 64, "t" * 64], "kept": False,
+             "rates": {"ves.rate": 1000.0}, "row": {"seed": 7}, "sha256": date[-2:] * 32, "size": 1000 + len(date) + date.count("2")}
+    (root / "archive/ci/.jobs/fixed").mkdir(parents=True)
+    (root / "archive/ci/.jobs/fixed/zero.json").write_text(json.dumps({"format": "campaign job manifest 1",
+                                                                       "job": "simulate_fixed", "trials": [entry]}))
     (root / ".snakemake").mkdir()
     (root / ".snakemake/state").write_text(date)
     return root
@@ -48,7 +54,7 @@ def runs(tmp_path):
 def test_runs_written_at_different_times_agree(runs):
     agree, problems = compare_runs.compare(*runs)
     assert problems == []
-    assert agree == {"bytes": 2, "trial": 1, "manifest": 1, "log": 2}
+    assert agree == {"bytes": 2, "trial": 1, "manifest": 1, "job manifest": 1, "log": 2}
 
 
 def test_a_changed_byte_is_named(runs):
@@ -70,6 +76,16 @@ def test_a_manifest_entry_other_than_a_trial_is_compared(runs):
     manifest = b / "archive/ci/MANIFEST.sha256"
     manifest.write_text(manifest.read_text().replace("a" * 64, "b" * 64))
     assert compare_runs.compare(a, b)[1] == ["archive/ci/MANIFEST.sha256: digests of ['index.csv'] differ"]
+
+
+def test_a_job_manifest_entry_with_other_content_is_named(runs):
+    a, b = runs
+    path = b / "archive/ci/.jobs/fixed/zero.json"
+    doc = json.loads(path.read_text())
+    doc["trials"][0]["content"][0] = "x" * 64
+    path.write_text(json.dumps(doc))
+    assert compare_runs.compare(a, b)[1] == [
+        "archive/ci/.jobs/fixed/zero.json: entries differ (['fixed/config1/zero/v1.500/r00.nc'])"]
 
 
 def test_missing_and_extra_products_are_named(runs):
