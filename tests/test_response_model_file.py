@@ -122,3 +122,21 @@ def test_the_cli_refuses_a_bad_model_file_with_exit_status_2(shipped_doc, tmp_pa
         assert r.returncode == 2, r.stderr
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and "fitted for the rig file" in lines[0] and r.stdout == ""
+
+
+def test_a_model_kind_must_define_fit_predict_and_parameters():
+    """The family's base class is abstract: a kind that leaves out one of the interface's
+    methods cannot be made, and the error names it."""
+    from campaign.joints.family import ResponseModel
+
+    class Incomplete(ResponseModel):
+        kind = "incomplete"
+
+        def fit(self, impacts):
+            return self
+
+        def parameters(self):
+            return {}
+
+    with pytest.raises(TypeError, match="predict"):
+        Incomplete()

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from abc import ABC, abstractmethod
 from typing import ClassVar
 
 import numpy as np
@@ -60,7 +61,7 @@ def _z(level: float) -> float:
     return float(norm.ppf(0.5 + float(level) / 2.0))
 
 
-class ResponseModel(Params):
+class ResponseModel(Params, ABC):
     """The interface of the joint-resistance models (see the module notes).
 
     Parameters
@@ -117,11 +118,13 @@ class ResponseModel(Params):
             raise InputError(f"this {type(self).__name__} is not fitted yet; call fit(impacts) first")
 
     # -- the interface -------------------------------------------------------------------
-    def fit(self, impacts: Impacts) -> ResponseModel:  # pragma: no cover - every model defines it
-        raise NotImplementedError
+    @abstractmethod
+    def fit(self, impacts: Impacts) -> ResponseModel:
+        """Fit the model to ``impacts`` with identified m*; returns ``self``."""
 
-    def predict(self, impacts: Impacts) -> np.ndarray:  # pragma: no cover - every model defines it
-        raise NotImplementedError
+    @abstractmethod
+    def predict(self, impacts: Impacts) -> np.ndarray:
+        """m* [kg] of each impact."""
 
     def parameter_sd(self, impacts: Impacts) -> np.ndarray:
         """Standard deviation of ``ln m*`` from the parameters' uncertainty, per impact (0 here)."""
@@ -154,8 +157,9 @@ class ResponseModel(Params):
         return {"kind": self.kind, "parameters": self.parameters(), "n_trials": self.n_trials_,
                 "rms_log_residual": self.rms_log_residual_, "residual_scatter": self.residual_scatter_}
 
-    def parameters(self) -> dict:  # pragma: no cover - every model defines it
-        raise NotImplementedError
+    @abstractmethod
+    def parameters(self) -> dict:
+        """The fitted parameters as plain numbers."""
 
 
 def json_numbers(a):
