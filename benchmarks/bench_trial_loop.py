@@ -88,7 +88,7 @@ def child(base: str, gain: str, jobs: str, role: str) -> dict:
     # a warm process (valgrind counts the same instructions in a first and a second pass,
     # to 0.2 %; on a quiet machine the two agree to 0.1 ms a trial, under other jobs' load
     # single passes scatter by +-15 ms)
-    simulate_batch(scenes, threads=1)
+    simulate_batch(scenes)
     n = len(scenes)
     out = {}
 
@@ -98,7 +98,7 @@ def child(base: str, gain: str, jobs: str, role: str) -> dict:
         fn()
         return (time.process_time() - c0) / n
 
-    out["job"] = timed(lambda: simulate_batch(scenes, threads=1))
+    out["job"] = timed(lambda: simulate_batch(scenes))
     if role == "old":
         out["one"] = timed(lambda: [simulate_arrays(s) for s in scenes])
         return out

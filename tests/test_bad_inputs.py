@@ -221,7 +221,6 @@ FURTHER_CASES = [
     (["sweep", "--speeds", "1.5,1.5", "--out", "s"], "1.5 is given twice"),
     (["sweep", "--speeds", "1.0001,1.0002", "--out", "s"], "1.0001 and 1.0002"),
     (["sweep", "--speeds", "1.5", "--repeats", "0", "--out", "s"], "--repeats 0"),
-    (["sweep", "--speeds", "1.5", "--threads", "0", "--out", "s"], "--threads 0"),
     (["sweep", "--speeds", "1.5", "--configs", "x", "--out", "s"], "'x' is not a configuration number"),
     (["sweep", "--speeds", "abc", "--out", "s"], "'abc' is not a speed"),
     (["sweep", "--speeds", "", "--out", "s"], "--speeds '': expected at least one speed"),

@@ -21,7 +21,7 @@ HELP = {
     "plan": "rank the arm's poses, gain classes and impact directions for catching an object at a point",
     "map": "maps of m* and structure excitation over the workspace or the impact direction",
     "trial": "simulate one impact trial and write its NetCDF4/HDF5 file",
-    "sweep": "simulate a sweep of trials together (batched rig) and write one file per trial",
+    "sweep": "simulate a sweep of trials and write one file per trial",
     "design": "choose K arm poses and impact directions that identify lambda best (D-, A- or E-optimal)",
     "archive": "verify, finalize and list a campaign folder of trial files",
     "identify": "identify m* (eq 10) and e (eq 12) of trial files from their measured channels",

@@ -40,8 +40,8 @@ def register(sub) -> None:
     p = sub.add_parser(
         "sweep",
         help=HELP["sweep"],
-        description="Simulate every configuration x gain set x speed x repeat of one base together, in lock-step "
-        "through Pinocchio's batched dynamics (the same numbers as `campaign trial` gives each of them), and "
+        description="Simulate every configuration x gain set x speed x repeat of one base (every scene checked "
+        "before any trial runs; the same numbers as `campaign trial` gives each of them), and "
         "write one NetCDF4/HDF5 file per trial under OUT, at the campaign's paths "
         "(<base>/config<N>/<gain>/v<speed>/r<repeat>.nc). Rig parameters come from config/rig.yaml (SI units).",
     )
@@ -58,8 +58,6 @@ def register(sub) -> None:
     p.add_argument("--rig", default=None, metavar="PATH", help="rig parameter file (default config/rig.yaml)")
     p.add_argument("--set", dest="params", type=_param, action="append", default=[], metavar="KEY=VALUE",
                    help="override a rig parameter by dotted key, e.g. --set contact.stiffness=2000 (SI units)")
-    p.add_argument("--threads", type=int, default=1, metavar="N",
-                   help="OpenMP threads of the batched dynamics calls (default 1)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder the trial files go under (written atomically)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=run)
@@ -71,8 +69,6 @@ def run(args) -> int:
     speeds = _items(args.speeds, option="--speeds", convert=float, what="speed")
     if args.repeats < 1:
         raise InputError(f"--repeats {args.repeats}: expected at least 1")
-    if args.threads < 1:
-        raise InputError(f"--threads {args.threads}: expected at least 1")
     for g in gains:
         if g not in gain_sets():
             raise InputError(f"--gains: unknown gain set {g!r}; expected one of {', '.join(gain_sets())}")
@@ -100,7 +96,7 @@ def run(args) -> int:
         with contextlib.redirect_stdout(log):      # run_cells' per-trial lines, printed after the bar
             written = run_cells(cells, archive_dir=args.out, speeds=speeds, repeats=args.repeats,
                                 campaign_seed=args.campaign_seed, rig=args.rig, params=dict(args.params),
-                                threads=args.threads, progress=progress)
+                                progress=progress)
     finally:
         if not args.quiet:
             print(log.getvalue(), end="", flush=True)

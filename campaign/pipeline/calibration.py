@@ -76,7 +76,7 @@ def load_calibration(path: str | Path | None = None) -> dict:
 
 
 def _batch_records(jobs) -> list[dict]:
-    """Simulate trials together (the batched rig) and keep what the objective needs; runs
+    """Simulate a job's trials (:func:`campaign.rig.batch.simulate_batch`) and keep what the objective needs; runs
     in a worker process when the sweep is split across workers."""
 
     scenes = [make_scene(base=base, config=config, gain=gain, speed=speed, repeat=repeat, params=params, rig=rig)
@@ -112,8 +112,8 @@ def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = "fix
                   configs=None, gains=None, workers: int | None = None) -> list[dict]:
     """Simulate the sweep with rig parameter overrides ``params``; one record per trial.
 
-    The trials run through the batched rig (:func:`campaign.rig.batch.simulate_batch`),
-    split into one batch per worker process when ``workers`` > 1."""
+    The trials run through :func:`campaign.rig.batch.simulate_batch`, split into one share
+    per worker process when ``workers`` > 1."""
     jobs = [(base, int(c), g, float(v), int(r), dict(params), rig)
             for c in (configs or sweep["configurations"]) for g in (gains or sweep["gains"])
             for v in sweep["speeds"] for r in range(int(sweep.get("repeats", 1)))]

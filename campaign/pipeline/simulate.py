@@ -1,7 +1,7 @@
 """The workflow's simulation job: every speed x repeat of sweep cells, one trial file each.
 
 :func:`run_cells` simulates the trials of one or more sweep cells (base x configuration x
-gain set) together with the batched rig and writes one file per trial with
+gain set) with the lean trial loop, one after another, and writes one file per trial with
 :func:`campaign.archive.write_trial` (atomic), printing one progress line per trial; given
 a job manifest, it lists there what it wrote with the digests taken as it wrote
 (:mod:`campaign.archive.jobs`). :func:`run_trial` simulates one trial of a cell.
@@ -30,14 +30,14 @@ __all__ = ["run_cells", "run_cell", "run_trial"]
 def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike, speeds: Sequence[float],
               repeats: int, campaign_seed: int = 0, gain_overrides: Mapping | None = None,
               rig: str | os.PathLike | None = None, params: Mapping[str, Any] | None = None,
-              timer: Timer | None = None, threads: int = 1,
+              timer: Timer | None = None,
               progress: Callable[[int, int, str], None] | None = None,
               job_manifest: str | os.PathLike | None = None, job: str = "simulate",
               repeat_indices: Sequence[int] | None = None) -> list[Path]:
     """Simulate every speed x repeat of sweep cells and write one trial file per trial.
 
-    The trials are integrated together, in lock-step, by the batched rig
-    (:func:`campaign.rig.batch.simulate_batch`: the same numbers as one trial at a time).
+    Every scene is built and checked first, then the trials are integrated one after another
+    (:func:`campaign.rig.batch.simulate_batch`: the numbers ``campaign trial`` gives each).
 
     Parameters
     ----------
@@ -59,8 +59,6 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
         Dotted-key rig parameter overrides.
     timer : Timer, optional
         Receives the seconds spent in ``simulate`` and ``write``.
-    threads : int
-        OpenMP threads of the batched Pinocchio calls (one: jobs already run side by side).
     progress : callable, optional
         Called as ``progress(done, total, cell)`` as each trial finishes (``campaign sweep``
         draws its progress line from it).
@@ -103,7 +101,7 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
             progress(finished[0], n, plan[i][0].cell)
 
     with timer("simulate"):
-        results = simulate_batch([scene for scene, _ in plan], threads=threads, on_done=done)
+        results = simulate_batch([scene for scene, _ in plan], on_done=done)
     per_trial = 1e3 * (time.perf_counter() - t_start) / max(n, 1)
     if job_manifest is None:
         return _write_trials(plan, results, timer=timer, per_trial_ms=per_trial)

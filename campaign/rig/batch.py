@@ -18,7 +18,7 @@ from .simulate import build, integration_args, record_arrays
 __all__ = ["simulate_batch"]
 
 
-def simulate_batch(scenes, *, integration: dict | None = None, threads: int = 1, on_done=None) -> list:
+def simulate_batch(scenes, *, integration: dict | None = None, on_done=None) -> list:
     """Simulate a job's trials; per scene what :func:`.simulate.simulate_arrays` returns (the
     same arrays), or the :class:`~campaign.core.errors.SimulationError` that ended that trial.
 
@@ -30,13 +30,9 @@ def simulate_batch(scenes, *, integration: dict | None = None, threads: int = 1,
     scenes : sequence of Scene
     integration : dict, optional
         Integrator overrides for every trial (:func:`.simulate.build`).
-    threads : int
-        Threads per trial: the one-trial loop runs on one, so any value gives the same
-        result (kept so that a job's resources can still be stated here).
     on_done : callable, optional
         Called as ``on_done(i, result)`` as trial ``i`` is recorded or fails.
     """
-    del threads     # one thread per trial (see above)
     rigs = [build(scene, integration=integration) for scene in scenes]
     out: list = []
     for i, rig in enumerate(rigs):

@@ -2,11 +2,10 @@
 # configuration x gain set), writing one trial file per speed x repeat (atomically, through
 # campaign.archive.write_trial) and, as its only declared output, its job manifest
 # (campaign.archive.jobs: each trial's path, file sha256, content digests and index row), so
-# that what Snakemake plans grows with the jobs, not with the trials. A job integrates its
-# trials together, in lock-step, through Pinocchio's batched ABA (campaign.rig.batch);
-# `threads:` is the OpenMP threads of those calls: one, since Snakemake already runs jobs side
-# by side (a profile giving a job more cores may raise it; docs/benchmarks.rst, batched rig,
-# measures 1 against 2). A rerun keeps a trial file that holds the same trial.
+# that what Snakemake plans grows with the jobs, not with the trials. A job checks every
+# scene, then integrates its trials one after another with the lean trial loop
+# (campaign.rig.batch, campaign.rig.trial_run); one thread, since Snakemake already runs jobs
+# side by side. A rerun keeps a trial file that holds the same trial.
 #
 # One trial alone: `snakemake archive/<campaign>/fixed/config1/zero/v1.000/r00.nc` runs
 # simulate_trial, the same trial its sweep's job writes. Both are absent when

@@ -8,8 +8,7 @@ with job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)
              exit_process=True) as timer:
     with timer.imports():
         from campaign.pipeline.simulate import run_cells, run_trial
-    options = dict(campaign_seed=p.campaign_seed, rig=p.rig, params=p.rig_params, timer=timer,
-                   threads=snakemake.threads)  # noqa: F821
+    options = dict(campaign_seed=p.campaign_seed, rig=p.rig, params=p.rig_params, timer=timer)
     if snakemake.rule == "simulate_trial":  # noqa: F821
         t = p.trial
         run_trial(t["base"], t["config"], t["gain"], t["speed"], t["repeat"], archive_dir=p.archive,
