@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import InputError, TrialFileError
+from ..core.files import sha256_file
 from ..core.vocabulary import repeat_file, speed_folder
 from ..scene.schema import CLOCKS, TrialArrays
 from .fileformat import _STRUCTURAL, GROUPS, JOBS, _digest, _plan, provenance
@@ -37,7 +38,7 @@ from .folder import _record_from_attrs, _rel, _trial_files, outside_layout
 from .read import _inspect_isolated_many
 from .write import _replace_atomically, _write_plan
 
-__all__ = ["JOBS", "JOB_MANIFEST_FORMAT", "TrialEntry", "sha256_file", "write_trial_entry", "intact_trials",
+__all__ = ["JOBS", "JOB_MANIFEST_FORMAT", "TrialEntry", "write_trial_entry", "intact_trials",
            "write_job_manifest", "read_job_manifests", "job_trial_paths", "entry_problems", "outside_problems"]
 
 #: the ``format`` a job manifest states
@@ -90,15 +91,6 @@ class TrialEntry:
         return cls(path=str(item["path"]), sha256=str(item["sha256"]), size=int(item["size"]),
                    content=tuple(str(c) for c in item["content"]), row=dict(item["row"]),
                    rates={str(k): float(v) for k, v in item["rates"].items()}, kept=bool(item.get("kept", False)))
-
-
-def sha256_file(path: str | os.PathLike) -> str:
-    """sha256 of a file's bytes (hex)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def intact_trials(paths: Sequence[str | os.PathLike]) -> list[bool]:

@@ -27,7 +27,8 @@ from .fileformat import (
 )
 from .filing import filing_problems, group_digests
 from .folder import TrialRecord, _archive_file, _campaign, _record, _rel, _trial_files
-from .jobs import TrialEntry, entry_problems, outside_problems, read_job_manifests, sha256_file
+from ..core.files import sha256_file
+from .jobs import TrialEntry, entry_problems, outside_problems, read_job_manifests
 from .read import _inspect_isolated_many
 from .write import _replace_atomically
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import errno
+import hashlib
 import os
 import re
 import secrets
@@ -28,7 +29,7 @@ from pathlib import Path
 
 from .errors import InputError, WriteError
 
-__all__ = ["write_atomic", "replace_atomically", "write_file", "check_output_file", "check_output_dir", "free_bytes",
+__all__ = ["sha256_file", "write_atomic", "replace_atomically", "write_file", "check_output_file", "check_output_dir", "free_bytes",
            "format_bytes", "source_date_epoch", "MIN_FREE_BYTES"]
 
 #: the free space any output needs before work starts (a table, a JSON file, a figure); an
@@ -297,3 +298,12 @@ def source_date_epoch() -> _dt.datetime | None:
     except (ValueError, OverflowError, OSError):
         raise InputError(f"SOURCE_DATE_EPOCH = {text!r} is not a whole number of seconds since 1970-01-01 UTC") \
             from None
+
+
+def sha256_file(path: str | os.PathLike) -> str:
+    """sha256 of a file's bytes (hex), read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()

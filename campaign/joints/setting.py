@@ -15,13 +15,13 @@ a loaded model checks.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.files import sha256_file
 from ..core.yamlfile import PROJECT_DIR, config_file, read_yaml
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot, robot_dir
@@ -38,7 +38,7 @@ __all__ = ["Setting", "file_digest", "robot_digests", "display_path"]
 def file_digest(path) -> str:
     """sha256 of a file's bytes (hex)."""
     try:
-        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        return sha256_file(path)
     except OSError as exc:
         raise InputError(f"cannot read {path}: {exc.strerror or exc}") from None
 
