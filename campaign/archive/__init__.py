@@ -5,7 +5,7 @@ records) and ``/truth`` (what only the simulator knows), readable with plain xar
 (``xr.open_dataset(path, engine="h5netcdf", group="measured")``). Files are written and read
 with h5py in the layout xarray's h5netcdf engine writes, because going through xarray takes
 about ten times as long to write and 5-8 times as long to read; each group carries a content digest its readers check. One
-module per concept (file format and digest, writer, reader and checks, decoding, campaign
+module per concept (file format and digest, the computing platform, writer, reader and checks, decoding, campaign
 folders, the workflow's job manifests, manifest and verification); this package re-exports
 their public names.
 
@@ -42,8 +42,10 @@ from .jobs import (
 )
 from .manifest import (
     Problem,
+    Verification,
     finalize_campaign,
     verify,
+    verify_report,
     write_index,
     write_manifest,
     write_readme,
@@ -53,10 +55,10 @@ from .write import TRIAL_BYTES, trial_path, write_trial
 __all__ = [
     "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",
     "REFERENCES", "TRIAL_BYTES",
-    "TrialRecord", "Problem", "ChannelArray", "GroupArrays", "TrialArrays",
+    "TrialRecord", "Problem", "Verification", "ChannelArray", "GroupArrays", "TrialArrays",
     "provenance", "prepare_trial", "write_trial", "open_trial", "open_trial_arrays", "open_trial_tree", "trial_path",
     "list_trials", "trial_files", "outside_layout", "open_campaign", "to_cell_dataset",
     "JOBS", "TrialEntry", "write_trial_entry", "intact_trials", "write_job_manifest", "read_job_manifests",
     "job_trial_paths",
-    "write_manifest", "write_index", "write_readme", "finalize_campaign", "verify",
+    "write_manifest", "write_index", "write_readme", "finalize_campaign", "verify", "verify_report",
 ]

@@ -30,6 +30,7 @@ from ..scene.schema import (
     TrialArrays,
     variables,
 )
+from .machine import platform_attributes, platform_summary
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
@@ -101,38 +102,50 @@ def _git_commit() -> str:
     return f"{head}-dirty" if dirty else head or "unknown"
 
 
-def _dist(name: str) -> str:
-    try:
-        return _dist_version(name)
-    except PackageNotFoundError:
-        return "not installed"
+def _dist(*names: str) -> str:
+    """The installed version of the first distribution of ``names`` that is installed."""
+    for name in names:
+        try:
+            return _dist_version(name)
+        except PackageNotFoundError:
+            continue
+    return "not installed"
 
 
 @functools.cache
 def _provenance() -> tuple[tuple[str, str], ...]:
-    return (
-        ("campaign_version", __version__),
-        ("git_commit", _git_commit()),
-        ("numpy_version", _dist("numpy")),
-        ("scipy_version", _dist("scipy")),
-        ("pinocchio_version", _dist("pin")),
-        ("xarray_version", _dist("xarray")),
-        ("h5py_version", _dist("h5py")),
-        ("h5netcdf_version", _dist("h5netcdf")),
-        ("hdf5_version", h5py.version.hdf5_version),
-    )
+    found = {
+        "campaign_version": __version__,
+        "git_commit": _git_commit(),
+        "numpy_version": _dist("numpy"),
+        "scipy_version": _dist("scipy"),
+        # "pin" on PyPI, "pinocchio" as conda-forge installs it
+        "pinocchio_version": _dist("pin", "pinocchio"),
+        "xarray_version": _dist("xarray"),
+        "h5py_version": _dist("h5py"),
+        "h5netcdf_version": _dist("h5netcdf"),
+        "hdf5_version": h5py.version.hdf5_version,
+        **platform_attributes(),
+    }
+    found["computing_platform"] = platform_summary(found)
+    return tuple(found.items())
 
 
 def provenance() -> dict[str, str]:
-    """Package version, git commit and library versions stored in every trial (computed once).
+    """With what a trial was computed: stored in every trial, found once per process.
+
+    A trial recomputed with other versions or on another platform is the same trial when its
+    content is (:func:`campaign.archive.write_trial_entry` ignores these attributes).
 
     Returns
     -------
     dict of str to str
         ``campaign_version``, ``git_commit`` (``"unknown"`` outside a git checkout, suffixed
-        ``-dirty`` when tracked files are modified), and ``numpy_version``, ``scipy_version``,
+        ``-dirty`` when tracked files are modified), ``numpy_version``, ``scipy_version``,
         ``pinocchio_version``, ``xarray_version``, ``h5py_version``, ``h5netcdf_version``,
-        ``hdf5_version``.
+        ``hdf5_version``; the platform (:func:`campaign.archive.machine.platform_attributes`);
+        and ``computing_platform``, its one-line summary
+        (:func:`campaign.archive.machine.platform_summary`).
     """
     return dict(_provenance())
 
