@@ -33,6 +33,7 @@ from .fileformat import (
     README,
     TRIAL_SUFFIX,
 )
+from .machine import NOT_RECORDED, platform_summary
 from .read import _inspect
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
@@ -60,6 +61,10 @@ class TrialRecord:
     scene_sha256, robot, schema_version : str
     scene_json : str
         The full scene (``Scene.from_json``).
+    computing_platform : str
+        The platform that computed the trial
+        (:func:`campaign.archive.machine.platform_summary`; ``"platform not recorded"`` in
+        files written before trials recorded it).
     """
 
     path: str
@@ -75,6 +80,7 @@ class TrialRecord:
     robot: str
     schema_version: str
     scene_json: str = dataclasses.field(repr=False)
+    computing_platform: str = dataclasses.field(default=NOT_RECORDED, repr=False)
 
     @property
     def q_paper_deg(self) -> str:
@@ -190,7 +196,7 @@ def _record_from_attrs(campaign: Path, file: Path, attrs: Mapping[str, Any]) -> 
             gain=str(attrs["gain"]), speed=float(attrs["speed"]), repeat=int(attrs["repeat"]),
             seed=int(attrs["seed"]), scene=str(scene["name"]), scene_sha256=str(attrs["scene_sha256"]),
             robot=str(attrs["robot"]), schema_version=str(attrs["schema_version"]),
-            scene_json=str(attrs["scene_json"]))
+            scene_json=str(attrs["scene_json"]), computing_platform=platform_summary(attrs))
     except (KeyError, TypeError, ValueError) as exc:
         raise TrialFileError(f"{file}: not a campaign trial file (root attribute {exc} missing or malformed)") from exc
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import collections
 import csv
 import dataclasses
 import io
@@ -29,6 +30,7 @@ from .filing import filing_problems, group_digests
 from .folder import TrialRecord, _archive_file, _campaign, _record, _rel, _trial_files
 from ..core.files import sha256_file
 from .jobs import TrialEntry, entry_problems, outside_problems, read_job_manifests
+from .machine import NOT_RECORDED
 from .read import _inspect_isolated_many
 from .write import _replace_atomically
 
@@ -42,6 +44,33 @@ class Problem:
 
     def __str__(self) -> str:
         return f"{self.file}: {self.message}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Verification:
+    """What :func:`verify_report` found in a campaign folder.
+
+    Attributes
+    ----------
+    problems : list of Problem
+        Empty when the campaign is intact.
+    platforms : dict of str to int
+        The number of readable trials per platform that computed them
+        (:func:`campaign.archive.machine.platform_summary`), most trials first, trials
+        that record none last. Trials of several platforms are no problem: a campaign run
+        on a cluster spans its nodes.
+    """
+
+    problems: list[Problem]
+    platforms: dict[str, int]
+
+    def platform_note(self) -> str | None:
+        """``trials from 2 platforms: <summary> (40 trials), <summary> (8 trials)``, or None
+        when all trials come from one platform."""
+        if len(self.platforms) < 2:
+            return None
+        return f"trials from {len(self.platforms)} platforms: " + ", ".join(
+            f"{name} ({n} trial{'s' if n != 1 else ''})" for name, n in self.platforms.items())
 
 
 # ---------------------------------------------------------------------------------------
@@ -294,6 +323,11 @@ _MANIFEST_LINE = re.compile(r"^([0-9a-f]{64}) [ *](.+)$")
 
 
 def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
+    """The problems :func:`verify_report` finds in a campaign folder (empty when it is intact)."""
+    return verify_report(campaign_dir).problems
+
+
+def verify_report(campaign_dir: str | os.PathLike) -> Verification:
     """Check a campaign folder against its manifest and every trial against the schema.
 
     Reports, each with the file it concerns: a missing or malformed manifest, a file listed
@@ -301,12 +335,13 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
     manifest (including temporary files of interrupted writes), and for every trial file an
     unreadable or truncated file, a schema version of another major, a missing channel or
     group, content that does not match its ``content_sha256``; and an index that disagrees
-    with the trial files. Nothing is skipped: every file is looked at.
+    with the trial files. Nothing is skipped: every file is looked at. It also counts the
+    trials per platform that computed them, from the root attributes it reads anyway.
 
     Returns
     -------
-    list of Problem
-        Empty when the campaign is intact.
+    Verification
+        The problems and the platforms.
 
     Raises
     ------
@@ -345,12 +380,13 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
     trials = [_rel(campaign, f) for f in _trial_files(campaign)]
     for rel, found in zip(trials, _inspect_isolated_many([campaign / rel for rel in trials])):
         problems += [Problem(rel, p) for p in found]
-    readable = []
+    records = []
     for rel in trials:
         try:
-            readable.append(_filing_record(_record(campaign, campaign / rel)))
+            records.append(_record(campaign, campaign / rel))
         except TrialFileError:
             pass  # reported by the inspection above
+    readable = [_filing_record(r) for r in records]
     index = campaign / INDEX
     rows = None
     if index.is_file():
@@ -371,7 +407,9 @@ def verify(campaign_dir: str | os.PathLike) -> list[Problem]:
     problems += [Problem(rel, message) for rel, message in filing_problems(campaign, readable, rows)]
     known = {group_digests(campaign / r["path"]): r["path"] for r in readable}
     problems += [Problem(rel, message) for rel, message in outside_problems(campaign, known)]
-    return problems
+    platforms = collections.Counter(r.computing_platform for r in records)
+    order = sorted(platforms.items(), key=lambda item: (item[0] == NOT_RECORDED, -item[1], item[0]))
+    return Verification(problems, dict(order))
 
 
 def _filing_record(rec: TrialRecord) -> dict[str, Any]:

@@ -6,7 +6,7 @@ import argparse
 import csv
 import sys
 
-from campaign.archive import INDEX_COLUMNS, finalize_campaign, list_trials, verify
+from campaign.archive import INDEX_COLUMNS, finalize_campaign, list_trials, verify_report
 from campaign.core.errors import InputError
 
 from .commands import HELP
@@ -28,9 +28,14 @@ def _filters(items: list[str] | None) -> dict[str, str]:
 
 def _verify(args: argparse.Namespace) -> int:
 
-    problems = verify(args.dir)
+    report = verify_report(args.dir)
+    problems = report.problems
     for problem in problems:
         print(f"{args.dir.rstrip('/')}/{problem}")
+    # information, not a problem: a campaign run on a cluster spans nodes of several CPUs
+    note = report.platform_note()
+    if note:
+        print(f"{args.dir}: {note}")
     if problems:
         files = len({p.file for p in problems})
         print(f"campaign archive verify: {len(problems)} problem(s) in {files} file(s)", file=sys.stderr)
@@ -80,7 +85,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = sub.add_parser("verify", help="check every file against the manifest and every trial against the schema",
                        description="Check a campaign folder: manifest hashes, missing and unlisted files, and "
                        "each trial's schema version, channels and content digest. Prints one line per "
-                       "problem naming its file; exit status 1 if there is any, 2 if DIR is not a campaign.")
+                       "problem naming its file; exit status 1 if there is any, 2 if DIR is not a campaign. "
+                       "Trials computed on more than one platform (CPU, BLAS kernel, library versions) are "
+                       "listed per platform, as information: that is no problem.")
     p.add_argument("dir", metavar="DIR", help="campaign folder")
     p.set_defaults(func=_verify)
 

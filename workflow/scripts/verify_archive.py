@@ -11,14 +11,17 @@ from campaign.pipeline.joblog import job_log
 
 with job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
-        from campaign.archive import MANIFEST, verify
+        from campaign.archive import MANIFEST, verify_report
     archive = snakemake.params.archive  # noqa: F821
     with timer("verify"):
-        problems = verify(archive)
+        report = verify_report(archive)
+    problems = report.problems
     unfinalized = [p for p in problems if p.file == MANIFEST and p.message.startswith("missing")]
     problems = [p for p in problems if p not in unfinalized]
     for problem in problems:
         print(problem)
+    if report.platform_note():
+        print(f"archive {archive}: {report.platform_note()}")  # information, not a problem
     if problems:
         raise SystemExit(f"archive {archive} has {len(problems)} problem(s), listed above")
     note = " (not finalized: no manifest to check the files against)" if unfinalized else ""
