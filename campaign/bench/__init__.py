@@ -49,14 +49,14 @@ from .stress import (
 from .work_precision import (
     Setting,
     WPScene,
+    format_wp_references,
     format_wp_table,
     pareto_front,
-    format_wp_references,
     plot_work_precision,
     work_precision,
-    wp_verdict,
     wp_scenes,
     wp_settings,
+    wp_verdict,
 )
 
 __all__ = [
