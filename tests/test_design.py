@@ -277,13 +277,14 @@ def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
 
 
 def _design(argv: list[str], folder, monkeypatch, capsys) -> dict[str, dict]:
-    """Run ``campaign design ARGV`` through :func:`campaign.cli.main.main` and read its printed
+    """Run ``campaign ARGV`` (a design) through :func:`campaign.cli.main.main` and read its printed
     design: ``{"criterion": its line, class: {"header", "poses": [(q, azimuth)], "cond": {design: number}}}``."""
     from campaign.cli.main import main
 
+    assert argv[0] == "design"
     monkeypatch.chdir(folder)
     monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
-    status = main(["design", *argv])
+    status = main(argv)
     out, err = capsys.readouterr()
     assert status == 0 and err == "", err
     lines = out.splitlines()
@@ -303,7 +304,7 @@ def _design(argv: list[str], folder, monkeypatch, capsys) -> dict[str, dict]:
 
 
 def test_design_e_optimal_on_random_candidates_improves_on_the_paper_for_both_classes(tmp_path, monkeypatch, capsys):
-    d = _design(["--criterion", "E", "--candidates", "random", "--n-random", "2000", "--seed", "0"], tmp_path,
+    d = _design(["design", "--criterion", "E", "--candidates", "random", "--n-random", "2000", "--seed", "0"], tmp_path,
                 monkeypatch, capsys)
     assert d["criterion"].startswith("Criterion E-optimal, K = 6 poses from 2000 candidates")
     for cls in ("zero_low", "high"):
@@ -312,7 +313,7 @@ def test_design_e_optimal_on_random_candidates_improves_on_the_paper_for_both_cl
 
 
 def test_design_at_a_fitted_prior_uses_it_for_its_class_only(tmp_path, monkeypatch, capsys):
-    d = _design(["--prior", "high=2.34,3.55,3.19"], tmp_path, monkeypatch, capsys)
+    d = _design(["design", "--prior", "high=2.34,3.55,3.19"], tmp_path, monkeypatch, capsys)
     assert "prior lambda = [2.34, 3.55, 3.19] kg m^2" in d["high"]["header"]
     table3 = load_paper()["table3"]["zero_low"]
     assert f"prior lambda = [{', '.join(f'{v:g}' for v in table3)}] kg m^2" in d["zero_low"]["header"]
@@ -321,7 +322,7 @@ def test_design_at_a_fitted_prior_uses_it_for_its_class_only(tmp_path, monkeypat
 
 def test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n(tmp_path, monkeypatch, capsys):
     """What the guide says of ``campaign design --k 6 --repeat-information`` (m* is even in n)."""
-    d = _design(["--k", "6", "--repeat-information"], tmp_path, monkeypatch, capsys)
+    d = _design(["design", "--k", "6", "--repeat-information"], tmp_path, monkeypatch, capsys)
     assert "all offered" in d["criterion"]
     poses = d["high"]["poses"]
     assert len(poses) == 6 and len({q for q, _ in poses}) == 3
