@@ -62,3 +62,13 @@ def test_the_smaller_sizes_run_a_part_of_the_full_benchmark():
     assert len(bench.wp_scenes(size="smoke")) == 1 < len(bench.wp_scenes(size="quick")) < len(full)
     with pytest.raises(ValueError, match="'tiny'"):
         bench.wp_scenes(size="tiny")
+
+
+def test_the_plot_takes_any_number_of_scenes(tmp_path):
+    """Four scenes (``--quick``'s count) fill two rows of three panels, one spare."""
+    rows = [dict(scene=f"scene {i}", setting=f"rk4 {c}/1", default=c == 1, naive=False, wall=0.02 * c, ident=1e-4 / c,
+                 velocity=1e-5 / c, measured=1e-3 / c, combined=1e-4 / c, front=True)
+            for i in range(4) for c in (1, 2)]
+    result = {"scenes": [{"label": f"scene {i}"} for i in range(4)], "rows": rows}
+    path = bench.plot_work_precision(result, tmp_path / "wp.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

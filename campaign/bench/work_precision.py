@@ -411,7 +411,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
     fig, axes = plt.subplots(nrows, cols, figsize=(5.2 * cols, 4.0 * nrows), squeeze=False)
     series = (("ident", "m*, e (identified)", "o"), ("velocity", "v'_a, v'_b (truth)", "s"),
               ("measured", "measured channels", "^"))
-    for ax, label in zip(axes.flat, labels, strict=True):
+    for ax, label in zip(list(axes.flat)[:n], labels, strict=True):     # a last row may have spare panels
         mine = [r for r in result["rows"] if r["scene"] == label and math.isfinite(r.get("wall", math.nan))]
         for key, name, marker in series:
             t = np.array([r["wall"] * 1e3 for r in mine])

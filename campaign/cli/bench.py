@@ -104,9 +104,9 @@ def run_work_precision(args) -> int:
     print(text)
     if args.out:
         md, js, png = (Path(args.out) / name for name in WORK_PRECISION_FILES)
+        bench.plot_work_precision(res, png)      # the figure first: if it fails, no table is left without it
         write_atomic(md, text + "\n")
         write_atomic(js, json.dumps(_jsonable(res), indent=1))
-        bench.plot_work_precision(res, png)
         print(f"\nwrote {md}, {js}, {png}")
     return 0
 
