@@ -13,6 +13,7 @@ or results folder. Full disks: ``tests/test_full_disk.py``.
 from __future__ import annotations
 
 import os
+import re
 import socket
 import stat
 import subprocess
@@ -243,6 +244,15 @@ FURTHER_CASES = [
     (["archive", "finalize", "no_archive"], "no_archive"),
     (["archive"], "the following arguments are required: ACTION"),
     (["bench", "work-precision", "--out", "a_file"], "--out a_file: is a file"),
+    (["bench", "work-precision", "--quick", "--smoke"], "argument --smoke: not allowed with argument --quick"),
+    # a file output typed as a folder (a trailing slash, or ending in . or ..) is refused,
+    # though Path() would drop the slash and write the file
+    (["trial", "--speed", "1.5", "--out", "t.nc/"], "--out t.nc/: ends with a slash, which names a folder"),
+    (["trial", "--speed", "1.5", "--out", "t.nc/."], "--out t.nc/.: ends in '.'"),
+    (["design", "--json", "d.json/"], "--json d.json/: ends with a slash"),
+    (["design", "--md", "d.md/"], "--md d.md/: ends with a slash"),
+    (["map", "workspace", "--out", "ws2.png/"], "--out ws2.png/: ends with a slash"),
+    (["calibrate", "--rig", "rig.yaml/"], "--rig rig.yaml/: ends with a slash"),
     (["bench", "work-precision", "--out", "bench_in_the_way"], "bench_in_the_way/work_precision.png is a folder"),
     ([], "the following arguments are required: COMMAND"),
 ]
@@ -325,6 +335,16 @@ def test_the_writers_themselves_refuse_a_node(tmp_path, kind):
             call()
     assert os.lstat(node).st_mode == before.st_mode and os.lstat(node).st_rdev == before.st_rdev
     assert sorted(p.name for p in tmp_path.iterdir()) == ["node"]
+
+
+@pytest.mark.parametrize("typed", ["t.nc/", "t.nc/.", "sub/..", "t.nc//"])
+def test_a_file_output_typed_as_a_folder_is_refused_by_the_shared_check(tmp_path, typed):
+    """The check every file output goes through reads the path as typed (``Path`` would
+    drop the trailing slash and write ``t.nc``); the same path without the slash passes."""
+    with pytest.raises(InputError, match=re.escape(f"--out {tmp_path}/{typed}: ends ") + ".*, which names a folder"):
+        check_output_file(f"{tmp_path}/{typed}")
+    assert check_output_file(f"{tmp_path}/t.nc") == tmp_path / "t.nc"
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_cli_guard_holds_in_a_real_process(tmp_path):

@@ -319,3 +319,65 @@ def test_calibrate_command_markdown_marks_the_held_out_rows():
     assert next(x for x in lines if x.startswith("| 2 |")).endswith("| missed |")
     assert "Ordering (" in text and "): met." in text
     assert "Why the missed comparisons miss" in text and DIAGNOSIS in text
+
+
+# -- the command, at a test-sized set-up --------------------------------------------------------
+def _small_calibration(folder) -> str:
+    """The committed set-up with a sweep a test can afford: configuration 1 at Zero and High
+    gains, 1.0 and 2.5 m/s (4 trials, in this process), one free parameter and one evaluation."""
+    spec = yaml.safe_load((config_dir() / "calibration.yaml").read_text(encoding="utf-8"))
+    spec["sweep"] = {"configurations": [1], "gains": ["zero", "high"], "speeds": [1.0, 2.5], "repeats": 1,
+                     "workers": 1}
+    spec["parameters"] = {"contact.restitution": spec["parameters"]["contact.restitution"]}
+    spec["optimizer"]["max_nfev"] = 1
+    path = folder / "small_calibration.yaml"
+    path.write_text(yaml.safe_dump(spec), encoding="utf-8")
+    return str(path)
+
+
+def _campaign(argv, folder, monkeypatch, capsys):
+    from campaign.cli.main import main
+
+    monkeypatch.chdir(folder)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    status = main(argv)
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def test_calibrate_skip_fit_validate_reports_both_parts_and_writes_the_report(tmp_path, monkeypatch, capsys):
+    import json
+
+    small = _small_calibration(tmp_path)
+    status, out, err = _campaign(["calibrate", "--skip-fit", "--validate", "--report", "calib", "--calibration", small],
+                                 tmp_path, monkeypatch, capsys)
+    assert status == 0, err
+    assert sorted(p.name for p in (tmp_path / "calib").iterdir()) == ["calibration.json", "calibration.md"]
+    md = (tmp_path / "calib" / "calibration.md").read_text()
+    assert out == md + "\n"
+    lines = md.splitlines()
+    assert lines[0] == "# Calibration report" and "## Fitted observations" in lines and "## Fitted parameters" not in lines
+    # the sweep's configuration alone, then the held-out flexible base: four Table 4 cells, two Figure 9 rows
+    assert [x.split(" [kg]")[0] for x in lines if x.startswith("| Table 2 ")] == [
+        "| Table 2 m2, configuration 1", "| Table 2 m3, configuration 1"]
+    assert "## Held out: flexible base" in lines
+    assert [x.split(" |")[0] for x in lines if x.startswith("| Table 4, ")] == [
+        f"| Table 4, {c}-{g}" for c in (1, 2) for g in ("low", "high")]
+    assert all(x.endswith(("| met |", "| missed |")) for x in lines if x.startswith(("| Table 4, ", "| 1 |", "| 2 |")))
+    record = json.loads((tmp_path / "calib" / "calibration.json").read_text())
+    assert record["fit"] is None and set(record["validation"]["table4"]) == {"1-low", "1-high", "2-low", "2-high"}
+    assert list(record["summary"]["m2"]) == ["1"]
+
+
+def test_calibrate_no_write_fits_reports_and_leaves_the_rig_file_alone(tmp_path, monkeypatch, capsys):
+    rig = config_dir() / "rig.yaml"
+    before = rig.read_bytes()
+    small = _small_calibration(tmp_path)
+    status, out, err = _campaign(["calibrate", "--no-write", "--calibration", small], tmp_path, monkeypatch, capsys)
+    assert status == 0, err
+    assert rig.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["small_calibration.yaml"]
+    lines = out.splitlines()
+    assert "## Fitted parameters" in lines and "## Held out: flexible base" not in lines
+    assert [x.split(" |")[0] for x in lines if x.startswith("| contact.")] == ["| contact.restitution"]
+    assert any(x.startswith("Objective ") and " after 2 sweeps " in x for x in lines)   # the start and its Jacobian
+    assert err.startswith("calibrate: evaluation   1  objective ")

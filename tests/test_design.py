@@ -276,6 +276,61 @@ def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
     assert bad.returncode == 2 and "does not exist" in bad.stderr
 
 
+def _design(argv: list[str], folder, monkeypatch, capsys) -> dict[str, dict]:
+    """Run ``campaign ARGV`` (a design) through :func:`campaign.cli.main.main` and read its printed
+    design: ``{"criterion": its line, class: {"header", "poses": [(q, azimuth)], "cond": {design: number}}}``."""
+    from campaign.cli.main import main
+
+    assert argv[0] == "design"
+    monkeypatch.chdir(folder)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    status = main(argv)
+    out, err = capsys.readouterr()
+    assert status == 0 and err == "", err
+    lines = out.splitlines()
+    assert lines[0] == "# Experiment design for lambda"
+    found: dict = {"criterion": lines[2]}
+    for line in lines[3:]:
+        if line.startswith("## "):
+            cls = found.setdefault(line.split()[1], {"header": line, "poses": [], "cond": {}})
+        elif line.startswith("| ") and line[2].isdigit():                   # | pose | q | azimuth | ...
+            cells = [c.strip() for c in line.strip("|").split("|")]
+            cls["poses"].append((cells[1], float(cells[2])))
+        elif line.startswith(("| paper ", "| designed ")):
+            cells = [c.strip() for c in line.strip("|").split("|")]
+            cls["cond"][cells[0].split()[0]] = float(cells[2])
+    assert set(found) == {"criterion", "zero_low", "high"}, out
+    return found
+
+
+def test_design_e_optimal_on_random_candidates_improves_on_the_paper_for_both_classes(tmp_path, monkeypatch, capsys):
+    d = _design(["design", "--criterion", "E", "--candidates", "random", "--n-random", "2000", "--seed", "0"], tmp_path,
+                monkeypatch, capsys)
+    assert d["criterion"].startswith("Criterion E-optimal, K = 6 poses from 2000 candidates")
+    for cls in ("zero_low", "high"):
+        assert len(d[cls]["poses"]) == 6
+        assert d[cls]["cond"]["designed"] < d[cls]["cond"]["paper"] / 10, d[cls]
+
+
+def test_design_at_a_fitted_prior_uses_it_for_its_class_only(tmp_path, monkeypatch, capsys):
+    d = _design(["design", "--prior", "high=2.34,3.55,3.19"], tmp_path, monkeypatch, capsys)
+    assert "prior lambda = [2.34, 3.55, 3.19] kg m^2" in d["high"]["header"]
+    table3 = load_paper()["table3"]["zero_low"]
+    assert f"prior lambda = [{', '.join(f'{v:g}' for v in table3)}] kg m^2" in d["zero_low"]["header"]
+    assert all(len(d[c]["poses"]) == 6 and d[c]["cond"]["designed"] < d[c]["cond"]["paper"] for c in ("zero_low", "high"))
+
+
+def test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n(tmp_path, monkeypatch, capsys):
+    """What the guide says of ``campaign design --k 6 --repeat-information`` (m* is even in n)."""
+    d = _design(["design", "--k", "6", "--repeat-information"], tmp_path, monkeypatch, capsys)
+    assert "all offered" in d["criterion"]
+    poses = d["high"]["poses"]
+    assert len(poses) == 6 and len({q for q, _ in poses}) == 3
+    for q in {q for q, _ in poses}:
+        a, b = sorted(az for p, az in poses if p == q)
+        assert math.isclose(b - a, 180.0), (q, a, b)
+
+
 # -- lambda + Coulomb impulse -------------------------------------------------------------
 def test_apparent_mass_without_friction_is_eq_11_and_the_fit_recovers_its_parameters(robot):
     from campaign.joints.coulomb import CoulombLambdaFit, apparent_mass

@@ -1,13 +1,20 @@
 """The reduced numerical-stability stress set: every corner either passes its
 invariants or is refused before simulating with a message naming the cause.
 
-The full grid is ``campaign bench stress``; this is its reduced
-set (``campaign.bench.stress_cases(reduced=True)``), plus the closed-form stress; a refusal must name its cause (``REFUSAL_CAUSE``).
+The full grid is ``campaign bench stress``; its reduced set
+(``campaign.bench.stress_cases(reduced=True)``) and the closed-form stress run here once,
+as ``campaign bench stress --reduced`` through the CLI (:func:`stress_run`), and the tests
+read the command's output and the results it computed; a refusal must name its cause
+(``REFUSAL_CAUSE``).
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
+import re
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -16,6 +23,7 @@ from campaign import bench
 from campaign.bench.closed_form import _q_dh, singular_pose
 from campaign.bench.common import XARRAY_WRITE_AT_TARGETS
 from campaign.bench.stress import ENERGY_RTOL
+from campaign.cli.main import main
 from campaign.model import exiit
 from campaign.model.robot import load_robot
 
@@ -34,26 +42,100 @@ REFUSAL_CAUSE = {
     "VES bandwidth 300 Hz": "loop is unstable",
 }
 
+#: the last line of ``campaign bench stress``
+SUMMARY_LINE = re.compile(r"^(\d+) cases: (\d+) passed \((\d+) excluded by identification\), (\d+) refused "
+                          r"with a reason, (\d+) reported blow-ups, (\d+) failed$")
+
+
 def _param(case):
     return pytest.param(case, id=f"{case.axis}: {case.label}")
+
+
+def _recording(computed: dict, name: str, fn):
+    """``fn``, keeping what it returns under ``computed[name]``."""
+    def call(*args, **kwargs):
+        computed[name] = fn(*args, **kwargs)
+        return computed[name]
+    return call
+
+
+def _run_cli(argv: list[str], folder) -> SimpleNamespace:
+    """``campaign ARGV`` through :func:`campaign.cli.main.main` in ``folder``: its exit status,
+    stdout, stderr, the folder, and the stress results and closed-form stress it computed."""
+    computed: dict = {}
+    out, err = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(bench, "run_stress", _recording(computed, "results", bench.run_stress))
+        mp.setattr(bench, "closed_form_stress", _recording(computed, "closed_form", bench.closed_form_stress))
+        mp.setenv("CAMPAIGN_PROGRESS", "0")
+        mp.chdir(folder)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            status = main(argv)
+    return SimpleNamespace(status=status, out=out.getvalue(), err=err.getvalue(), folder=folder, **computed)
+
+
+@pytest.fixture(scope="module")
+def stress_run(tmp_path_factory):
+    """``campaign bench stress --reduced``, run once through the CLI."""
+    return _run_cli(["bench", "stress", "--reduced"], tmp_path_factory.mktemp("stress"))
 
 
 def test_the_reduced_set_covers_every_axis_of_the_grid():
     axes = {c.axis for c in CASES}
     assert {"pose", "gains", "contact", "speed", "hammer", "servo", "integration", "beam"} <= axes
     assert set(REFUSAL_CAUSE) <= {c.label for c in CASES}
+    assert len({c.label for c in CASES}) == len(CASES)          # a label names one case
+
+
+def test_the_command_runs_every_case_prints_its_tables_and_exits_0(stress_run):
+    assert stress_run.status == 0, stress_run.err[-2000:]
+    results = stress_run.results
+    assert [r.case.label for r in results] == [c.label for c in CASES]
+    lines = stress_run.out.splitlines()
+    assert lines[0].startswith("| cases run | passed | (of which identification excluded) |")
+    for header in ("| axis | run | passed | refused | blow-up | failed |",
+                   "| axis | case | outcome | time [s] | reason / note | measured |"):
+        assert header in lines
+    for r in results:       # a row per case with its outcome, a progress line per case on stderr
+        assert any(line.startswith(f"| {r.case.axis} | {r.case.label} | {r.status} |") for line in lines), r.case.label
+        assert f"{r.case.axis}: {r.case.label}" in stress_run.err
+    for axis in {c.axis for c in CASES}:
+        n = sum(c.axis == axis for c in CASES)
+        assert any(line.startswith(f"| {axis} | {n} |") for line in lines), axis
+    assert "condition number of the sensitivity matrix" in stress_run.out      # the closed-form stress
+    counts = SUMMARY_LINE.match(lines[-1])
+    assert counts, lines[-1]
+    s = bench.stress_summary(results)
+    assert [int(x) for x in counts.groups()] == [s[k] for k in ("run", "passed", "excluded", "refused", "blow-up",
+                                                                 "failed")]
+    assert s["run"] == len(CASES) and s["passed"] + s["refused"] == len(CASES)
+    assert list(stress_run.folder.iterdir()) == []     # the cases' files went to a temporary folder, now gone
 
 
 @pytest.mark.parametrize("case", [_param(c) for c in CASES])
-def test_corner_passes_its_invariants_or_is_refused_naming_the_cause(case, tmp_path):
-    res = bench.run_case(case, tmp_path)
+def test_corner_passes_its_invariants_or_is_refused_naming_the_cause(case, stress_run):
+    res = next(r for r in stress_run.results if r.case.label == case.label)
+    # a file left behind turns a case into "failed" (bench.run_case)
     assert res.status in ("passed", "refused"), f"{res.status}: {res.reason}"
     if res.status == "refused":
         assert case.label in REFUSAL_CAUSE, f"unexpected refusal: {res.reason}"
         assert REFUSAL_CAUSE[case.label] in res.reason
     else:
         assert case.label not in REFUSAL_CAUSE, "expected a refusal"
-    assert list(tmp_path.iterdir()) == [], "a file was left behind"
+
+
+def test_a_failed_case_makes_the_command_exit_1_with_the_count_in_its_last_line(tmp_path, monkeypatch):
+    """The exit status follows the results (a failure planted in what the run returns),
+    and ``--quiet --no-closed-form`` print the tables alone."""
+    case = CASES[0]
+    planted = [bench.StressResult(case, "failed", "planted", 0.0, {})]
+    monkeypatch.setattr(bench, "stress_cases", lambda **kw: [case])
+    monkeypatch.setattr(bench.stress, "run_case", lambda c, folder, **kw: planted[0])
+    run = _run_cli(["bench", "stress", "--quiet", "--no-closed-form"], tmp_path)
+    assert run.status == 1 and run.err == ""
+    assert "condition number" not in run.out and not hasattr(run, "closed_form")
+    assert run.out.splitlines()[-1] == ("1 cases: 0 passed (0 excluded by identification), 0 refused with a reason, "
+                                        "0 reported blow-ups, 1 failed")
 
 
 def test_invariants_catch_a_nan_filled_trial_and_an_energy_gain():
@@ -98,8 +180,8 @@ def test_exiit_is_inf_at_the_stretched_singularity_and_grows_finite_towards_it(p
         assert np.all(np.diff(scalar[finite]) > 0)         # grows monotonically, no garbage jumps
 
 
-def test_closed_form_stress_reports_no_problem_and_the_paper_designs_conditioning():
-    c = bench.closed_form_stress(log=None)
+def test_closed_form_stress_reports_no_problem_and_the_paper_designs_conditioning(stress_run):
+    c = stress_run.closed_form
     assert c["problems"] == []
     assert c["random"]["bad"] == 0 and c["random"]["mismatches"] == 0
     S = c["sensitivity"]["S"]

@@ -44,16 +44,19 @@ from .stress import (
     run_case,
     run_stress,
     stress_cases,
+    stress_summary,
 )
 from .work_precision import (
     Setting,
     WPScene,
+    format_wp_references,
     format_wp_table,
     pareto_front,
     plot_work_precision,
     work_precision,
     wp_scenes,
     wp_settings,
+    wp_verdict,
 )
 
 __all__ = [
@@ -61,5 +64,5 @@ __all__ = [
     "pareto_front", "format_wp_table", "plot_work_precision", "trial_cost", "format_cost",
     "StressCase", "StressResult", "stress_cases", "run_case", "run_stress", "check_invariants",
     "format_stress", "closed_form_stress", "format_closed_form", "write_section", "machine_line",
-    "truth_m_impulse", "write_probe",
+    "truth_m_impulse", "write_probe", "stress_summary", "format_wp_references", "wp_verdict",
 ]

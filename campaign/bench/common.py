@@ -41,6 +41,18 @@ TARGET_REL_ERR = 1e-3
 REF_FACTOR = 32
 #: relative error shown (and plotted) for a setting identical to the reference
 ERR_FLOOR = 1e-16
+#: the sizes of the work-precision and per-trial cost runs: ``full`` (the recorded run),
+#: ``quick`` (fewer scenes, a coarser sweep, fewer repeats) and ``smoke`` (one fixed-base
+#: scene, its default setting and one finer one, one timed repeat, the cost of one trial:
+#: the whole command in seconds, which shows it runs; its times and errors measure nothing)
+SIZES = ("full", "quick", "smoke")
+
+
+def check_size(size: str) -> str:
+    """``size`` if it is one of :data:`SIZES`; else a ``ValueError`` naming it."""
+    if size not in SIZES:
+        raise ValueError(f"size {size!r}: expected one of {', '.join(SIZES)}")
+    return size
 
 
 # ---------------------------------------------------------------------------------------

@@ -27,6 +27,7 @@ from .common import (
     XARRAY_WRITE_AT_TARGETS,
     _md,
     _timed,
+    check_size,
 )
 from .naive import naive_rk4, naive_trial
 from .work_precision import _identify, rig_available
@@ -35,10 +36,14 @@ from .work_precision import _identify, rig_available
 # ---------------------------------------------------------------------------------------
 # per-trial cost
 # ---------------------------------------------------------------------------------------
-def cost_scenes(*, quick: bool = False) -> list[tuple[str, dict]]:
-    """(group, make_scene kwargs): the campaign's trials at the paper's speeds."""
-    speeds = (1.0, 2.5) if not quick else (1.75,)
-    configs = (1, 2, 3) if not quick else (1, 2)
+def cost_scenes(*, size: str = "full") -> list[tuple[str, dict]]:
+    """(group, make_scene kwargs): the campaign's trials at the paper's speeds; ``quick``
+    configurations 1-2 at one speed, ``smoke`` one fixed-base trial
+    (:data:`~campaign.bench.common.SIZES`)."""
+    if check_size(size) == "smoke":
+        return [("fixed", dict(base="fixed", config=1, gain="zero", speed=1.5))]
+    speeds = (1.0, 2.5) if size == "full" else (1.75,)
+    configs = (1, 2, 3) if size == "full" else (1, 2)
     out = []
     for base in bases():
         gains = gain_sets() if base == "fixed" else ("low", "high")
@@ -92,13 +97,16 @@ def write_probe(*, repeats: int = 7, samples: int = 500) -> dict[str, float]:
     return out
 
 
-def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repeats: int | None = None,
+def trial_cost(*, size: str = "full", repeats: int | None = None, baseline_repeats: int | None = None,
                log: Callable[[str], None] = print) -> dict[str, Any]:
     """Median simulation time per trial (default setting), file writing time separately, and
-    the naive baseline (0.5 s of fixed-base trial, fixed-step RK4 at 0.1 ms) in the same run."""
+    the naive baseline (0.5 s of fixed-base trial, fixed-step RK4 at 0.1 ms) in the same run;
+    ``size`` chooses the scenes (:func:`cost_scenes`) and the default repeats."""
 
-    repeats = repeats or (2 if quick else 3)
-    baseline_repeats = baseline_repeats or (2 if quick else 5)
+    check_size(size)
+    repeats = repeats or {"full": 3, "quick": 2, "smoke": 1}[size]
+    baseline_repeats = baseline_repeats or {"full": 5, "quick": 2, "smoke": 1}[size]
+    probe_repeats = 1 if size == "smoke" else 3
     sims: dict[str, list] = {}
     per: dict[tuple, list] = {}
     writes: dict[str, list] = {}
@@ -107,13 +115,14 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
     # the xarray write reference is timed after every scene, so each trial's time can
     # be scaled by the machine's speed of the same minute: it drifts by 1.5x within a run
     naive_scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
-    naive_rk4(naive_scene)   # warm-up
+    if size != "smoke":
+        naive_rk4(naive_scene)   # warm-up
     write_probe(repeats=1)   # warm-up (h5py, h5netcdf imports)
     scaled: dict[str, list] = {}
     writes_scaled: dict[str, list] = {}
     probes: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
-        for group, kw in cost_scenes(quick=quick):
+        for group, kw in cost_scenes(size=size):
             scene = make_scene(**kw)
             ok, why = rig_available(scene)
             if not ok:
@@ -126,7 +135,7 @@ def trial_cost(*, quick: bool = False, repeats: int | None = None, baseline_repe
                 walls.append(w)
                 sims.setdefault(group, []).append(w)
                 per.setdefault((group, kw["gain"]), []).append(w)
-            probe = write_probe(repeats=3)
+            probe = write_probe(repeats=probe_repeats)
             probes.append(probe)
             factor = probe["xarray"] / XARRAY_WRITE_AT_TARGETS   # this machine now vs the targets' one
             scaled.setdefault(group, []).extend(w / factor for w in walls)

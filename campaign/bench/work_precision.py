@@ -29,6 +29,7 @@ from .common import (
     _md,
     _rel,
     _timed,
+    check_size,
 )
 from .naive import naive_trial
 
@@ -66,14 +67,16 @@ class Setting:
                                             "substeps_free": self.substeps_free})
 
 
-def wp_scenes(*, quick: bool = False, flexible: bool = True) -> list[WPScene]:
+def wp_scenes(*, size: str = "full", flexible: bool = True) -> list[WPScene]:
     """Representative scenes: configurations 2 (nearly stretched) and 3 (folded), ideal and
-    default, Zero and High gains, fixed base and (when the rig accepts it) flexible base."""
-    out = [
-        WPScene("fixed ideal c2", dict(base="fixed", config=2, scene="ideal", speed=1.5)),
-        WPScene("fixed default c2 high", dict(base="fixed", config=2, gain="high", speed=1.5)),
-    ]
-    if not quick:
+    default, Zero and High gains, fixed base and (when the rig accepts it) flexible base.
+    ``size`` (:data:`~campaign.bench.common.SIZES`): ``quick`` keeps two scenes per base,
+    ``smoke`` only the fixed-base default scene of configuration 2 at High gains."""
+    high = WPScene("fixed default c2 high", dict(base="fixed", config=2, gain="high", speed=1.5))
+    if check_size(size) == "smoke":
+        return [high]
+    out = [WPScene("fixed ideal c2", dict(base="fixed", config=2, scene="ideal", speed=1.5)), high]
+    if size == "full":
         out += [
             WPScene("fixed ideal c3", dict(base="fixed", config=3, scene="ideal", speed=1.5)),
             WPScene("fixed default c2 zero", dict(base="fixed", config=2, gain="zero", speed=1.5)),
@@ -86,7 +89,7 @@ def wp_scenes(*, quick: bool = False, flexible: bool = True) -> list[WPScene]:
             WPScene("flexible ideal-coupling c2 high",
                     dict(base="flexible", config=2, gain="high", speed=1.5, params={"ves.mode": "ideal"})),
         ]
-        if not quick:
+        if size == "full":
             out += [
                 WPScene("flexible loop c3 low", dict(base="flexible", config=3, gain="low", speed=1.5)),
                 WPScene("flexible ideal scene c2",
@@ -104,13 +107,21 @@ def rig_available(scene) -> tuple[bool, str]:
     return True, ""
 
 
-def wp_settings(default_contact: int, default_free: int, *, quick: bool = False,
+#: per size: the multiples of the default contact substeps swept, and how many of the free
+#: substep multiples (None: all)
+_SWEEP = {"full": ((0.125, 0.25, 0.5, 1, 2, 4, 8), None), "quick": ((0.25, 1, 4), 2), "smoke": ((1, 2), 1)}
+
+
+def wp_settings(default_contact: int, default_free: int, *, size: str = "full",
                 naive: bool = True, frees: Sequence[int] = (1, 2, 4)) -> list[Setting]:
     """The sweep around a scene's default (``default_contact``, ``default_free`` substeps per
     servo tick): contact substeps from 1/8x to 8x the default, free substeps ``frees`` x the
-    default, a uniform 0.1 ms step (10 substeps per 1 ms tick everywhere) and the naive RK4."""
-    mults = (0.25, 1, 4) if quick else (0.125, 0.25, 0.5, 1, 2, 4, 8)
-    frees = tuple(frees)[:2] if quick else tuple(frees)
+    default, a uniform 0.1 ms step (10 substeps per 1 ms tick everywhere) and the naive RK4.
+    ``quick`` sweeps 1/4x, 1x and 4x with the first two ``frees``; ``smoke`` only 1x and 2x
+    the default contact substeps at the default free substeps, without the uniform step and
+    the naive RK4."""
+    mults, n_free = _SWEEP[check_size(size)]
+    frees = tuple(frees)[:n_free] if n_free else tuple(frees)
     contact = sorted({max(1, int(round(default_contact * m))) for m in mults})
     out = []
     for c in contact:
@@ -120,6 +131,8 @@ def wp_settings(default_contact: int, default_free: int, *, quick: bool = False,
             out.append(Setting(f"rk4 {c}/{f_abs}", c, f_abs, default=is_def))
     if not any(s.default for s in out):   # pragma: no cover - the grid always holds it
         out.append(Setting(f"rk4 {default_contact}/{default_free}", default_contact, default_free, default=True))
+    if size == "smoke":
+        return out
     out.append(Setting("rk4 uniform 0.1 ms", 10, 10))
     if naive:
         out.append(Setting("naive rk4 0.1 ms", naive=True))
@@ -220,7 +233,7 @@ def assign_fronts(rows: Sequence[dict]) -> float:
     return tol
 
 
-def work_precision(*, quick: bool = False, repeats: int | None = None, flexible: bool = True,
+def work_precision(*, size: str = "full", repeats: int | None = None, flexible: bool = True,
                    log: Callable[[str], None] = print, only: str | None = None,
                    checkpoint: Callable[[dict], None] | None = None) -> dict[str, Any]:
     """Run the work-precision sweep; returns ``{"rows": [...], "scenes": [...], "skipped": [...]}``.
@@ -228,11 +241,13 @@ def work_precision(*, quick: bool = False, repeats: int | None = None, flexible:
     Each row: scene, setting, substeps, steps, RHS evaluations, median/min/max wall and median
     CPU time per trial [s], and the errors of :func:`trial_errors`; ``front`` marks the Pareto
     front of (median wall time, max(rel. error of m*, e, v'_a, v'_b)) within its scene.
+    ``size`` (:data:`~campaign.bench.common.SIZES`) chooses the scenes (:func:`wp_scenes`), the
+    sweep (:func:`wp_settings`) and the default ``repeats`` (5, 3, 1).
     """
 
-    repeats = repeats or (3 if quick else 5)
+    repeats = repeats or {"full": 5, "quick": 3, "smoke": 1}[check_size(size)]
     rows, skipped, scenes = [], [], []
-    for spec in wp_scenes(quick=quick, flexible=flexible):
+    for spec in wp_scenes(size=size, flexible=flexible):
         if only and only not in spec.label:
             continue
         try:
@@ -248,7 +263,7 @@ def work_precision(*, quick: bool = False, repeats: int | None = None, flexible:
         rig = build(scene)
         dc, df = int(rig.substeps_contact), int(rig.substeps_free)
         flex = scene.base != "fixed"
-        settings = wp_settings(dc, df, quick=quick, naive=not flex, frees=(1, 2, 4, 8) if flex else (1, 2, 4))
+        settings = wp_settings(dc, df, size=size, naive=not flex, frees=(1, 2, 4, 8) if flex else (1, 2, 4))
         n_rep = max(2, repeats - 2) if flex else repeats
         log(f"[wp] {spec.label}: default {dc}/{df}; reference {REF_FACTOR * dc}/{REF_FACTOR * df}; "
             f"{len(settings)} settings x {repeats} repeats")
@@ -396,7 +411,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
     fig, axes = plt.subplots(nrows, cols, figsize=(5.2 * cols, 4.0 * nrows), squeeze=False)
     series = (("ident", "m*, e (identified)", "o"), ("velocity", "v'_a, v'_b (truth)", "s"),
               ("measured", "measured channels", "^"))
-    for ax, label in zip(axes.flat, labels, strict=True):
+    for ax, label in zip(list(axes.flat)[:n], labels, strict=True):     # a last row may have spare panels
         mine = [r for r in result["rows"] if r["scene"] == label and math.isfinite(r.get("wall", math.nan))]
         for key, name, marker in series:
             t = np.array([r["wall"] * 1e3 for r in mine])

@@ -1,6 +1,6 @@
 """``campaign bench``: work-precision and per-trial cost, stress suite.
 
-``campaign bench work-precision [--quick] [--out DIR]`` times every integration setting of
+``campaign bench work-precision [--quick | --smoke] [--out DIR]`` times every integration setting of
 the rig (and a naive fixed-step RK4) on representative scenes against a converged
 reference, prints the table and the verdict, and writes the table (markdown), the raw rows
 (JSON) and the log-log plot (PNG) to DIR. ``campaign bench stress [--reduced]`` runs the
@@ -38,12 +38,17 @@ def register(sub) -> None:
         "and e, the true post-impact velocities and the recorded channels. Also times the default per-trial "
         "simulation and file writing beside the naive baseline.",
     )
-    wp.add_argument("--quick", action="store_true",
-                    help="two scenes per base, a coarser sweep and fewer repeats (about a minute or two)")
+    size = wp.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true",
+                      help="two scenes per base, a coarser sweep and fewer repeats (a few minutes)")
+    size.add_argument("--smoke", action="store_true",
+                      help="one fixed-base scene, its default setting and one with twice the contact substeps, one "
+                      "timed repeat, the cost of one trial: the whole command in seconds, to check that it runs "
+                      "(its times and errors measure nothing)")
     wp.add_argument("--out", metavar="DIR", default=None,
                     help="write work_precision.md, work_precision.json and work_precision.png here")
     wp.add_argument("--repeats", type=int, default=None, metavar="N",
-                    help="timed trials per setting (default 5, quick 3)")
+                    help="timed trials per setting (default 5, quick 3, smoke 1)")
     wp.add_argument("--no-cost", action="store_true", help="skip the per-trial cost table")
     wp.add_argument("--no-flexible", action="store_true", help="fixed-base scenes only")
     wp.set_defaults(func=run_work_precision)
@@ -56,7 +61,8 @@ def register(sub) -> None:
         "near singular poses, eq 11 conditioning, lambda fit on ill-conditioned designs). Exit status 1 if any "
         "case failed or blew up.",
     )
-    st.add_argument("--reduced", action="store_true", help="the reduced set of the test suite (under a minute)")
+    st.add_argument("--reduced", action="store_true",
+                    help="the reduced set the test suite runs: one or two cases per axis (about 10 s)")
     st.add_argument("--no-closed-form", action="store_true", help="skip the closed-form stress")
     st.add_argument("--quiet", action="store_true", help="print only the tables")
     st.set_defaults(func=run_stress)
@@ -82,7 +88,8 @@ def run_work_precision(args) -> int:
     if args.out:
         check_output_dir(args.out, files=WORK_PRECISION_FILES)
     log = (lambda s: print(s, file=sys.stderr))
-    res = bench.work_precision(quick=args.quick, repeats=args.repeats, flexible=not args.no_flexible, log=log)
+    size = "smoke" if args.smoke else "quick" if args.quick else "full"
+    res = bench.work_precision(size=size, repeats=args.repeats, flexible=not args.no_flexible, log=log)
     table = bench.format_wp_table(res)
     refs = bench.format_wp_references(res)
     verdict = "\n".join(bench.wp_verdict(res))
@@ -90,16 +97,16 @@ def run_work_precision(args) -> int:
     if res["skipped"]:
         parts += ["", "Skipped: " + "; ".join(f"{a} ({b})" for a, b in res["skipped"])]
     if not args.no_cost:
-        cost = bench.trial_cost(quick=args.quick, log=log)
+        cost = bench.trial_cost(size=size, log=log)
         parts += ["", bench.format_cost(cost)]
     parts += ["", bench.machine_line()]
     text = "\n".join(parts)
     print(text)
     if args.out:
         md, js, png = (Path(args.out) / name for name in WORK_PRECISION_FILES)
+        bench.plot_work_precision(res, png)      # the figure first: if it fails, no table is left without it
         write_atomic(md, text + "\n")
         write_atomic(js, json.dumps(_jsonable(res), indent=1))
-        bench.plot_work_precision(res, png)
         print(f"\nwrote {md}, {js}, {png}")
     return 0
 

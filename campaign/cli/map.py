@@ -77,7 +77,7 @@ def run(args) -> int:
     if out.suffix.lower() != ".png":
         raise InputError(f"--out {args.out}: the figure must be a .png file (a .pdf is written beside it)")
     pdf = out.with_suffix(".pdf")
-    check_output_file(out, option="--out")
+    check_output_file(args.out, option="--out")     # as typed: a trailing slash names a folder
     check_output_file(pdf, option="--out's PDF")
     if not (args.resolution > 0):
         raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")

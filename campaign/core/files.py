@@ -106,9 +106,13 @@ def check_output_file(path: str | os.PathLike, *, option: str = "--out", need: i
     Raises
     ------
     InputError
-        Naming ``option`` and ``path``: a folder, a device, FIFO or socket, a file in the
+        Naming ``option`` and ``path``: a path that names a folder (an existing one, or one
+        written with a trailing slash, ``x.nc/``), a device, FIFO or socket, a file in the
         way of its folder, a folder or file that is not writable, too little free space.
     """
+    folder = _names_a_folder(path)
+    if folder:
+        raise InputError(f"{option} {path}: {folder}, which names a folder; name a file")
     out = Path(path)
     if out.is_dir():
         raise InputError(f"{option} {path}: is a folder; name a file")
@@ -154,6 +158,19 @@ def check_output_dir(path: str | os.PathLike, *, option: str = "--out", files: I
         _check_parent(out, option=option, path=path)
     _check_free(out, need=need, option=option, path=path)
     return out
+
+
+def _names_a_folder(path: str | os.PathLike) -> str:
+    """Why ``path``, as typed, names a folder whatever exists: it ends with a path separator
+    or in ``.`` or ``..`` (:class:`~pathlib.Path` drops a trailing slash, so the text decides);
+    ``""`` when it does not."""
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        text = os.fsdecode(text)
+    if text.endswith((os.sep, os.altsep) if os.altsep else os.sep):
+        return "ends with a slash"
+    last = os.path.basename(text)
+    return f"ends in {last!r}" if last in (".", "..") else ""
 
 
 def _check_parent(out: Path, *, option: str, path) -> None:

@@ -112,9 +112,9 @@ def feasible(robot, Q_paper, D, *, speed: float, rig=None) -> tuple[np.ndarray, 
     data = robot.model.createData()
     ok = np.zeros(len(Q_paper), bool)
     reasons = []
-    for i, (qp, n) in enumerate(zip(Q_paper, D, strict=True)):
+    Q = paper_q(Q_paper) if len(Q_paper) else []
+    for i, (q, n) in enumerate(zip(Q, D, strict=True)):
         try:
-            q = paper_q(qp)
             if place is not None:
                 place_pendulum(robot, q, n, radius=pend.radius, release_angle=theta0, data=data, **place)
             else:

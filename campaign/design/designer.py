@@ -47,7 +47,7 @@ Z95 = 1.959963984540054
 
 
 def _arrays(robot, Q_paper, D):
-    Q = np.array([paper_q(q) for q in Q_paper]) if len(Q_paper) else np.empty((0, robot.nv))
+    Q = paper_q(Q_paper) if len(Q_paper) else np.empty((0, robot.nv))
     return design_arrays(robot, Q, D)
 
 

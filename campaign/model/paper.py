@@ -38,10 +38,11 @@ def paper_offset_deg() -> np.ndarray:
 
 
 def paper_q(q_paper_deg) -> np.ndarray:
-    """Map the paper's joint angles [deg] to the model's DH angles [rad]."""
+    """Map the paper's joint angles [deg] to the model's DH angles [rad]: one pose, shape
+    (n,), or a pose per row, shape (N, n)."""
     q = np.asarray(q_paper_deg, dtype=float)
     off = paper_offset_deg()
-    if q.shape != off.shape:
+    if q.ndim not in (1, 2) or q.shape[-1:] != off.shape:
         raise ValueError(f"expected {off.size} paper angles, got {q.tolist()}")
     return np.radians(q + off)
 

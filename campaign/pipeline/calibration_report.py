@@ -349,7 +349,9 @@ def validate(*, rig=None, speeds=(1.0, 1.75, 2.5), workers: int = 2, fixed: Mapp
         for k, v in table4.items():
             c, g = k.split("-")
             group = fixed["m3" if g == "high" else "m2"]
-            v["fixed"] = float(group[c] if c in group else group[int(c)])
+            value = group.get(c, group.get(int(c)))
+            if value is not None:       # a sweep without this configuration: the reason goes without it
+                v["fixed"] = float(value)
     out["assessment"] = assess_held_out(
         table4, {c: {"reduction": v["reduction"], "eq8_paper_lambda": v["eq8_paper_lambda"]}
                  for c, v in out["figure9"].items()})
