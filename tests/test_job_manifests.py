@@ -158,7 +158,7 @@ def test_a_rerun_keeps_a_trial_within_the_tolerance_and_names_one_that_moved(job
     lines = capsys.readouterr().out.splitlines()
     r00, r01 = (next(line for line in lines if line.endswith(rel)) for rel in (R00, R01))
     assert "kept (same trial) [largest difference: " in r00 and "truth/v; one-step flips: 1 in measured/q_enc]" in r00, r00
-    assert "written: the file there held another trial (measured/q_enc" in r01 and "2 sample(s) one step apart" in r01
+    assert "written: the file there held another trial (measured/q_enc" in r01 and "2 sample(s) one step (" in r01
     entries = read_job_manifests([manifest])
     assert [e.kept for e in entries] == [True, False]
     # the kept file stays byte for byte, and its entry is the kept file's

@@ -45,15 +45,15 @@ BIT_FOR_BIT = 0.0
 #: They round differently (a dot product summed in another order, a product formed on an
 #: array or on Python floats: one unit roundoff, 1.1e-16, per operation), and the
 #: integration carries those differences over its ~10^3 steps and event locations. The
-#: largest measured is 5.8e-14 (about 500 roundoffs); 1e-11 is 170 times that, and 100 times
+#: largest measured is 5.8e-14 (about 500 roundoffs); 1e-11 is 170 times that, and 150 times
 #: below what a change of 1e-9 in one rig parameter moves.
 CROSS_PATH_RTOL = 1e-11
 
 #: A trial's channels computed on another machine (another CPU, BLAS kernel or libm),
 #: relative to each channel's scale. The same roundoff as :data:`CROSS_PATH_RTOL`, in more
 #: places (every BLAS call, the transcendental functions, the compiled dynamics library),
-#: carried through the VES loop's feedback: the largest measured is 2.1e-13 of a channel's
-#: scale; 1e-9 leaves a margin of 4700 for machines not measured, and is far below any
+#: carried through the VES loop's feedback: the largest measured is 9.5e-14 of a channel's
+#: scale; 1e-9 leaves a margin of 10^4 for machines not measured, and is far below any
 #: physical effect (noise, quantisation steps and the sensors' accuracy are >= 1e-6).
 CROSS_MACHINE_RTOL = 1e-9
 
@@ -110,6 +110,8 @@ class Difference:
         Samples of a quantised channel that differ by exactly one step.
     max_flips : int
         The most such samples allowed.
+    step : float
+        The step those samples differ by (the largest, per-column steps differing).
     note : str
         Why the two cannot be compared number by number (shape, missing, text), else "".
     """
@@ -120,6 +122,7 @@ class Difference:
     allowed: float
     flips: int = 0
     max_flips: int = 0
+    step: float = 0.0
     note: str = ""
 
     @property
@@ -141,11 +144,13 @@ class Difference:
     def __str__(self) -> str:
         if self.note:
             return f"{self.name}: {self.note}"
-        text = (f"{self.name}: largest difference {self.largest:.3g} ({self.relative:.3g} of its scale "
-                f"{self.scale:.3g}), allowed {self.allowed:.3g}")
+        parts = []
+        if self.largest or not self.flips:
+            parts.append(f"largest difference {self.largest:.3g} ({self.relative:.3g} of its scale {self.scale:.3g}), "
+                         f"allowed {self.allowed:.3g}")
         if self.flips:
-            text += f"; {self.flips} sample(s) one step apart (allowed {self.max_flips})"
-        return text
+            parts.append(f"{self.flips} sample(s) one step ({self.step:.3g}) apart (allowed {self.max_flips})")
+        return f"{self.name}: " + "; ".join(parts)
 
 
 def _floats(x: Any) -> np.ndarray | None:
@@ -240,14 +245,15 @@ def _compare_values(a: np.ndarray, b: np.ndarray, name: str, rtol: float, floor:
     with np.errstate(invalid="ignore"):
         d = np.where(nan_a | (a == b), 0.0, np.abs(a - b))   # equal infinities are equal
     d = np.where(np.isnan(d), math.inf, d)
-    flips, max_flips = 0, 0
+    flips, max_flips, size = 0, 0, 0.0
     if quantum is not None and d.size:
         step = np.broadcast_to(np.asarray(quantum, float), d.shape[-1:] if d.ndim else ())
         one = (d > allowed) & (np.abs(d - step) <= allowed + 1e-9 * step)
         flips = int(np.count_nonzero(one))
         max_flips = max(1, int(flip_fraction * d.size))
+        size = float(np.max(d[one], initial=0.0))
         d = np.where(one, 0.0, d)
-    return Difference(name, float(np.max(d, initial=0.0)), scale, allowed, flips, max_flips)
+    return Difference(name, float(np.max(d, initial=0.0)), scale, allowed, flips, max_flips, size)
 
 
 def worst(found: Iterable[Difference]) -> Difference:
