@@ -1,7 +1,8 @@
 """Job manifests (campaign.archive.jobs): a simulation job lists what it wrote with the digests
 taken as it wrote; finalize builds the archive's index, README and manifest from them without
 opening a trial, the same files as from scratch, and still refuses, naming it, a trial file
-changed since, deleted since, or written by no job; a rerun that reproduces a trial keeps its file.
+changed since, deleted since, or written by no job; a rerun that reproduces a trial (within
+the tolerance policy) keeps its file, and names a trial that moved.
 """
 
 from __future__ import annotations
@@ -13,9 +14,11 @@ from pathlib import Path
 import h5py
 import pytest
 
-from campaign.archive import JOBS, finalize_campaign, read_job_manifests, verify
+from campaign.archive import JOBS, finalize_campaign, open_trial_tree, read_job_manifests, verify, write_trial
 from campaign.core.errors import TrialFileError
 from campaign.pipeline.simulate import run_cells
+from campaign.rig.sensors import measured_quanta
+from campaign.scene.description import Scene
 
 CELL = ("fixed", 1, "zero")
 SPEEDS, REPEATS = [1.5], 2
@@ -122,5 +125,45 @@ def test_a_damaged_file_is_not_kept_but_rewritten(job):
     simulate(archive)
     assert [e.kept for e in read_job_manifests([manifest])] == [False, True]
     assert verify(archive)[0].file == "MANIFEST.sha256"   # not finalized, otherwise intact
+    finalize_campaign(archive, job_manifests=[manifest])
+    assert verify(archive) == []
+
+
+def _rewrite(path: Path, group: str, name: str, change) -> None:
+    """Write ``path`` again with one channel changed (``change(values) -> values``): an intact
+    file with its own content digests, as another machine or another code version leaves it."""
+    tree = open_trial_tree(path)
+    da = tree[group][name]
+    tree[group][name] = da.copy(data=change(da.values.copy()))
+    write_trial(tree, path)
+
+
+def test_a_rerun_keeps_a_trial_within_the_tolerance_and_names_one_that_moved(job, capsys):
+    archive, manifest = job
+    scene = Scene.from_json(open_trial_tree(archive / R00).attrs["scene_json"])
+    step = measured_quanta(scene)["q_enc"]
+
+    def one_flip(q, k=1):
+        q[5:5 + k, 1] += step[1]      # k samples of one encoder one count up
+        return q
+
+    # R00 as another machine leaves it: roundoff in the truth, one encoder count flipped
+    _rewrite(archive / R00, "truth", "v", lambda v: v * (1 + 1e-13))
+    _rewrite(archive / R00, "measured", "q_enc", one_flip)
+    # R01 moved: two encoder counts flipped (more than roundoff explains)
+    _rewrite(archive / R01, "measured", "q_enc", lambda q: one_flip(q, 2))
+    stored = {rel: (archive / rel).read_bytes() for rel in (R00, R01)}
+    capsys.readouterr()
+    simulate(archive)
+    lines = capsys.readouterr().out.splitlines()
+    r00, r01 = (next(line for line in lines if line.endswith(rel)) for rel in (R00, R01))
+    assert "kept (same trial) [largest difference: " in r00 and "truth/v; one-step flips: 1 in measured/q_enc]" in r00, r00
+    assert "written: the file there held another trial (measured/q_enc" in r01 and "2 sample(s) one step (" in r01
+    entries = read_job_manifests([manifest])
+    assert [e.kept for e in entries] == [True, False]
+    # the kept file stays byte for byte, and its entry is the kept file's
+    assert (archive / R00).read_bytes() == stored[R00] and (archive / R01).read_bytes() != stored[R01]
+    with h5py.File(archive / R00, "r") as f:
+        assert entries[0].content == tuple(str(f[g].attrs["content_sha256"]) for g in ("measured", "truth"))
     finalize_campaign(archive, job_manifests=[manifest])
     assert verify(archive) == []

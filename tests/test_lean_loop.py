@@ -1,13 +1,16 @@
 """The lean trial loop (campaign.rig.trial_run on the float kernels of campaign.rig.kernels)
 against the loop it replaced (tests/reference_loop.py: NumPy arrays through the plant's own
-array methods): every step, every recorded channel and the truth, bit for bit.
+array methods): every step, every recorded channel and the truth, within the tolerance
+policy's cross-path tolerance (campaign.core.tolerance.CROSS_PATH_RTOL) of each quantity's
+scale, and tight enough that a change of one part in 10^9 of a rig parameter fails it.
 
-The lean loop evaluates the same functions in the same order on Python floats (elementwise
-IEEE operations give the same bits on a float as on an array element; the few dot products
-are summed in the order of the BLAS kernel NumPy calls), so no tolerance is needed. Its only
-intended difference is the count of right-hand-side evaluations: locating an event it
-evaluates that event's function alone (a stop needs only the state, a contact event the
-kinematics), where the reference evaluated the whole dynamics for every event function.
+The lean loop evaluates the same functions in the same order on Python floats, but a
+product formed on Python floats and the dot products NumPy hands to its BLAS kernel round
+differently on some kernels (AVX-512, Prescott), so the two paths agree to roundoff, not
+always bit for bit. Its only intended difference is the count of right-hand-side
+evaluations: locating an event it evaluates that event's function alone (a stop needs only
+the state, a contact event the kinematics), where the reference evaluated the whole
+dynamics for every event function.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import pytest
 from reference_loop import integrate_reference
 
 from campaign.core.errors import SimulationError
+from campaign.core.tolerance import CROSS_PATH_RTOL, compare, differences, worst
 from campaign.model.paper import gain_counts
 from campaign.rig.flexible import VesLoopPlant
 from campaign.rig.integrate import integrate_trial
@@ -53,36 +57,57 @@ SCENES = {
                                             params={"ves.mode": "ideal", "flexible.trial_periods": 0.02}),
 }
 
+#: the trajectory's arrays; those whose columns are separate quantities (state components, joints)
 _FIELDS = ("t", "x", "xd", "servo_t", "servo_tau", "tau_static", "x0")
-_VALUES = ("contacts", "v_a_post", "v_b_post", "impulse", "t_end", "t_static", "settled", "n_steps", "n_events")
+_COLUMNS = ("x", "xd", "servo_tau", "tau_static", "x0", "contacts")
+_VALUES = ("contacts", "v_a_pre", "v_b_pre", "v_a_post", "v_b_post", "impulse", "t_end", "t_static", "settled",
+           "n_steps", "n_events")
 
 
-def _same_array(a, b, label):
-    a, b = np.asarray(a), np.asarray(b)
-    assert a.dtype == b.dtype and a.shape == b.shape, (label, a.dtype, b.dtype, a.shape, b.shape)
-    assert a.tobytes() == b.tobytes(), f"{label}: largest difference {np.max(np.abs(a - b))}"
+def _value(x):
+    """A trajectory value as numbers (an open contact's end and an absent time as NaN)."""
+    if x is None:
+        return np.nan
+    if isinstance(x, list):
+        return np.array([[np.nan if v is None else v for v in item] for item in x], dtype=float)
+    return x
+
+
+def _group_attrs(attrs):
+    return {k: (np.asarray(v).astype(str) if isinstance(v, str) else v) for k, v in attrs.items()}
+
+
+def _differences(scene, integration=None, *, lean_scene=None):
+    """Every difference of the lean loop (on ``lean_scene``, default ``scene``) from the
+    reference loop: trajectory, event values and counts, each recorded channel and the truth,
+    under the cross-path tolerance."""
+    ref_rig, lean_rig = build(scene, integration=integration), build(lean_scene or scene, integration=integration)
+    ref = integrate_reference(ref_rig.plant, ref_rig.pid, **integration_args(ref_rig))
+    lean = integrate_trial(lean_rig.plant, lean_rig.pid, **integration_args(lean_rig))
+    names = _FIELDS + _VALUES
+    found = differences({n: _value(getattr(ref, n)) for n in names}, {n: _value(getattr(lean, n)) for n in names},
+                        rtol=CROSS_PATH_RTOL, prefix="trajectory ", per_column=_COLUMNS)
+    assert lean.n_rhs <= ref.n_rhs
+    a, b = record_arrays(ref_rig, ref), record_arrays(lean_rig, lean)
+    for group in ("measured", "truth"):
+        found += differences(_group_attrs(a[group].attrs), _group_attrs(b[group].attrs), rtol=CROSS_PATH_RTOL,
+                             prefix=f"{group} attribute ")
+        found += differences({k: v.values for k, v in a[group].variables.items()},
+                             {k: v.values for k, v in b[group].variables.items()},
+                             rtol=CROSS_PATH_RTOL, prefix=f"{group}/")
+    return found, (a.attrs, b.attrs)
 
 
 def _compare(scene, integration=None):
-    ref_rig, lean_rig = build(scene, integration=integration), build(scene, integration=integration)
-    ref = integrate_reference(ref_rig.plant, ref_rig.pid, **integration_args(ref_rig))
-    lean = integrate_trial(lean_rig.plant, lean_rig.pid, **integration_args(lean_rig))
-    for name in _FIELDS:
-        _same_array(getattr(lean, name), getattr(ref, name), name)
-    for name in _VALUES:
-        assert getattr(lean, name) == getattr(ref, name), name
-    assert lean.n_rhs <= ref.n_rhs
-    a, b = record_arrays(ref_rig, ref), record_arrays(lean_rig, lean)
-    assert a.attrs == b.attrs
-    for group in ("measured", "truth"):
-        assert a[group].attrs == b[group].attrs, group
-        assert set(a[group].variables) == set(b[group].variables), group
-        for name, var in a[group].variables.items():
-            _same_array(b[group].variables[name].values, var.values, f"{group}/{name}")
+    found, (ref_attrs, lean_attrs) = _differences(scene, integration)
+    assert ref_attrs == lean_attrs
+    beyond = [str(d) for d in found if not d.ok]
+    assert beyond == [], beyond
+    return worst(found)
 
 
 @pytest.mark.parametrize("label", list(SCENES))
-def test_the_lean_loop_records_every_channel_of_the_reference_loop_bit_for_bit(label):
+def test_the_lean_loop_records_every_channel_of_the_reference_loop_to_roundoff(label):
     _compare(SCENES[label])
 
 
@@ -99,6 +124,18 @@ def test_the_stress_corners_integrate_as_the_reference_loop_does():
         _compare(scene, case.integration)
         compared += 1
     assert compared >= 5
+
+
+def test_a_change_of_one_part_in_a_billion_of_the_hammer_mass_fails_the_oracle():
+    # the lean loop on a hammer 1e-9 heavier: the oracle must see it, far beyond its tolerance
+    scene = SCENES["fixed/config2/low/v2.5"]
+    planted = _scene("fixed", 2, "low", 2.5, {"pendulum.head_mass": scene.p("pendulum.head_mass") * (1 + 1e-9)})
+    found, _ = _differences(scene, lean_scene=planted)
+    moved = worst(found)
+    assert not moved.ok, str(moved)
+    assert moved.largest > 100 * moved.allowed, str(moved)
+    # and many quantities see it, not one channel by accident
+    assert sum(not d.ok for d in found) >= 10, [str(d) for d in found if not d.ok]
 
 
 def test_a_blow_up_and_an_event_cascade_fail_as_in_the_reference_loop():
@@ -136,7 +173,7 @@ def _random_states(plant, rng, n):
                                            ("fixed/config3/low/v2.5", FixedKernel),
                                            ("flexible/config2/low", VesKernel),
                                            ("ideal coupling/config1/high", ArrayKernel)])
-def test_each_kernel_evaluates_the_plants_array_methods_bit_for_bit(label, kernel):
+def test_each_kernel_evaluates_the_plants_array_methods_to_roundoff(label, kernel):
     plant = build(SCENES[label]).plant
     k = kernel_for(plant)
     assert type(k) is kernel
@@ -147,13 +184,32 @@ def test_each_kernel_evaluates_the_plants_array_methods_bit_for_bit(label, kerne
             plant.loop.advance(plant.w_static + np.array([30.0 * np.sin(0.3 * i), 5.0, 0.0, 0.0, 2.0, -1.0]))
         plant._cache = {}
     t = plant.t_last + 0.37e-3 if isinstance(plant, VesLoopPlant) else 0.2
+    kernel_out, plant_out = {}, {}
+
+    def both(key, k_value, p_value):
+        kernel_out.setdefault(key, []).append(k_value)
+        plant_out.setdefault(key, []).append(p_value)
+
     for x, tau, fs, v0, caught in _random_states(plant, rng, 120):
         xl, taul = x.tolist(), tuple(tau.tolist())
-        assert k.stage(xl, t, taul, fs, v0, caught) == plant.rhs(x, tau, fs, v0, caught, t).tolist()
+        both("stage", k.stage(xl, t, taul, fs, v0, caught), plant.rhs(x, tau, fs, v0, caught, t).tolist())
         xd, lam, gap = plant.evaluate(x, tau, fs, v0, caught, t)
         got = k.full(xl, t, taul, fs, v0, caught)
-        assert got[0] == xd.tolist() and got[1] == np.asarray(lam).tolist()
-        assert (got[2] is None) == (gap is None) and (gap is None or tuple(got[2]) == tuple(map(float, gap[:2])))
-        assert k.holding(xl, t, taul, fs, v0) == np.asarray(plant.holding(x, tau, fs, v0, t)[0]).tolist()
+        both("full xd", got[0], xd.tolist())
+        both("full holding torques", list(got[1]), np.asarray(lam).tolist())
+        assert (got[2] is None) == (gap is None)
+        if gap is not None:
+            both("full gap", tuple(got[2]), tuple(map(float, gap[:2])))
+        both("holding", list(k.holding(xl, t, taul, fs, v0)), np.asarray(plant.holding(x, tau, fs, v0, t)[0]).tolist())
         plant._t = t
-        assert tuple(k.gap(xl, t)) == tuple(map(float, plant.gap(x)[:2]))
+        both("gap", tuple(k.gap(xl, t)), tuple(map(float, plant.gap(x)[:2])))
+    # each output over the 120 states as one channel: state components and the gap's terms
+    # column by column, the holding torques of the stuck joints (as many as stick) as one
+    found = []
+    for key in kernel_out:
+        ragged = "torques" in key or key == "holding"
+        k_value = np.concatenate([np.ravel(v) for v in kernel_out[key]]) if ragged else np.array(kernel_out[key])
+        p_value = np.concatenate([np.ravel(v) for v in plant_out[key]]) if ragged else np.array(plant_out[key])
+        found.append(compare(k_value, p_value, name=key, rtol=CROSS_PATH_RTOL, per_column=not ragged))
+    beyond = [str(d) for d in found if not d.ok]
+    assert beyond == [], beyond

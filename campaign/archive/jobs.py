@@ -30,12 +30,14 @@ from typing import Any
 
 from ..core.errors import InputError, TrialFileError
 from ..core.files import sha256_file
+from ..core.tolerance import Difference, worst
 from ..core.vocabulary import repeat_file, speed_folder
 from ..scene.schema import CLOCKS, TrialArrays
-from .fileformat import _STRUCTURAL, GROUPS, JOBS, _digest, _plan, provenance
+from .fileformat import _STRUCTURAL, GROUPS, JOBS, _plan
 from .filing import group_digests
 from .folder import _record_from_attrs, _rel, _trial_files, outside_layout
 from .read import _inspect_isolated_many
+from .sametrial import _what_it_holds, plan_differences
 from .write import _replace_atomically, _write_plan
 
 __all__ = ["JOBS", "JOB_MANIFEST_FORMAT", "TrialEntry", "write_trial_entry", "intact_trials",
@@ -43,12 +45,6 @@ __all__ = ["JOBS", "JOB_MANIFEST_FORMAT", "TrialEntry", "write_trial_entry", "in
 
 #: the ``format`` a job manifest states
 JOB_MANIFEST_FORMAT = "campaign job manifest 1"
-#: root attributes that say when a file was written, not what it holds (with those of
-#: :func:`campaign.archive.provenance`: with what): an existing trial that differs from a new
-#: one only in these is kept (:func:`write_trial_entry`)
-_WHEN_WRITTEN = frozenset({"date_created", "history", "content_sha256"})
-
-
 @dataclasses.dataclass(frozen=True)
 class TrialEntry:
     """One trial as its simulation job wrote it.
@@ -70,8 +66,11 @@ class TrialEntry:
         ``{rate key: Hz}`` of the clocks (``campaign.scene.schema.CLOCKS``) in the
         trial's scene, for the README.
     kept : bool
-        The file was already there with the same content and stays as it was (its
-        provenance names the run that first wrote it).
+        The file was already there holding the same trial and stays as it was (its
+        provenance names the run that first wrote it; ``content`` and ``sha256`` are its).
+    compared : list of campaign.core.tolerance.Difference
+        How an existing file's channels compared with the trial just computed, when its
+        content digests differed (empty otherwise); not part of the job manifest.
     """
 
     path: str
@@ -81,6 +80,7 @@ class TrialEntry:
     row: dict[str, Any]
     rates: dict[str, float]
     kept: bool = False
+    compared: tuple[Difference, ...] = dataclasses.field(default=(), compare=False, repr=False)
 
     def to_json(self) -> dict[str, Any]:
         return {"path": self.path, "sha256": self.sha256, "size": self.size, "content": list(self.content),
@@ -112,14 +112,8 @@ def _stored_content(path: Path) -> tuple[dict[str, Any], tuple[str, ...]]:
     return root, content
 
 
-def _what_it_holds(root: Mapping[str, Any]) -> str:
-    """Digest of a trial's root attributes without those that say when and with what it was written."""
-    skip = _WHEN_WRITTEN | set(provenance())
-    return _digest({k: v for k, v in root.items() if k not in skip}, {})
-
-
 def write_trial_entry(tree: Any | TrialArrays, path: str | os.PathLike, *, campaign_dir: str | os.PathLike,
-                      keep_identical: bool = False, fsync: bool = True) -> TrialEntry:
+                      keep_same: bool = False, fsync: bool = True) -> TrialEntry:
     """Write one trial like :func:`campaign.archive.write_trial` and return its entry for the job manifest.
 
     Parameters
@@ -130,12 +124,14 @@ def write_trial_entry(tree: Any | TrialArrays, path: str | os.PathLike, *, campa
         Its file, inside ``campaign_dir``.
     campaign_dir : path-like
         The campaign folder the entry's path is relative to.
-    keep_identical : bool
+    keep_same : bool
         When ``path`` holds an intact trial (checked beforehand with :func:`intact_trials`)
-        whose groups and root attributes are those of ``tree`` except for when and with
-        what it was written (``date_created``, ``git_commit``, library versions), keep that
-        file as it is: a rerun that reproduces a trial leaves its file, and so the archive's
-        manifest, unchanged.
+        that is the same trial as ``tree`` (:mod:`campaign.archive.sametrial`: the same
+        root attributes but for when and with what it was written, and every channel
+        within the tolerance policy's cross-machine tolerance), keep that file as it is: a
+        rerun that reproduces a trial, on this machine or another, leaves its file, and so
+        the archive's manifest, unchanged. The channels are read and compared only when
+        the groups' content digests differ.
     fsync : bool
         As :func:`campaign.archive.write_trial`.
 
@@ -146,17 +142,23 @@ def write_trial_entry(tree: Any | TrialArrays, path: str | os.PathLike, *, campa
     path = Path(path)
     root, groups = _plan(tree)
     content = tuple(str(groups[g].attrs["content_sha256"]) for g in GROUPS)
-    kept = False
-    if keep_identical:
+    kept, compared, old_root = False, [], root
+    if keep_same:
         old_root, old_content = _stored_content(path)
-        kept = old_content == content and _what_it_holds(old_root) == _what_it_holds(root)
+        if old_content == content and _what_it_holds(old_root) == _what_it_holds(root):
+            kept = True
+        else:   # another machine's roundoff, or another trial: channel by channel
+            compared = plan_differences(path, root, groups)
+            kept = worst(compared).ok
+        if kept:
+            content = old_content
     if not kept:
         _write_plan((root, groups), path, fsync=fsync)
-    rec = _record_from_attrs(Path(campaign_dir), path, root)
+    rec = _record_from_attrs(Path(campaign_dir), path, old_root if kept else root)
     params = json.loads(rec.scene_json).get("params", {})
     rates = {c.rate_key: float(params[c.rate_key]) for c in CLOCKS.values() if c.rate_key in params}
     return TrialEntry(path=rec.path, sha256=sha256_file(path), size=path.stat().st_size, content=content,
-                      row=rec.row(), rates=rates, kept=kept)
+                      row=rec.row(), rates=rates, kept=kept, compared=tuple(compared))
 
 
 def write_job_manifest(path: str | os.PathLike, entries: Iterable[TrialEntry], *, job: str) -> Path:

@@ -18,6 +18,7 @@ from typing import Any
 from ..archive import intact_trials, trial_path, write_job_manifest, write_trial, write_trial_entry
 from ..core.errors import SimulationError
 from ..core.timing import Timer
+from ..core.tolerance import worst
 from ..model.paper import gain_counts
 from ..plan.stroke import check_scene_stroke
 from ..rig.batch import simulate_batch
@@ -112,8 +113,8 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     entries: list = []
 
     def write(trial, path):
-        entries.append(write_trial_entry(trial, path, campaign_dir=archive_dir, keep_identical=path in intact))
-        return "kept (same trial)" if entries[-1].kept else "written"
+        entries.append(write_trial_entry(trial, path, campaign_dir=archive_dir, keep_same=path in intact))
+        return _what_was_done(entries[-1])
 
     written = _write_trials(plan, results, timer=timer, per_trial_ms=per_trial, write=write)
     with timer("write"):
@@ -170,6 +171,20 @@ def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float,
         raise SimulationError(f"{len(failed)} of {n} trials failed (the other {n - len(failed)} are written): "
                               + "; ".join(failed))
     return written
+
+
+def _what_was_done(entry) -> str:
+    """A progress line's account of one trial file: kept (with the largest difference of each
+    group when the digests differed), written, or replaced naming the worst difference."""
+    if not entry.compared:
+        return "kept (same trial)" if entry.kept else "written"
+    if entry.kept:
+        per_group = {g: worst(d for d in entry.compared if d.name.startswith(f"{g}/")) for g in ("measured", "truth")}
+        flips = [f"{d.flips} in {d.name}" for d in entry.compared if d.flips]
+        return "kept (same trial) [largest difference: " + ", ".join(
+            f"{d.relative:.2g} of its scale in {d.name}" if d.largest else f"none in {g}"
+            for g, d in per_group.items()) + (f"; one-step flips: {', '.join(flips)}" if flips else "") + "]"
+    return f"written: the file there held another trial ({worst(entry.compared)})"
 
 
 def _write_plain(trial, path: Path) -> str:

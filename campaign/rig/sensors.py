@@ -14,10 +14,11 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from ..model.robot import load_robot
 from .integrate import Trajectory
 from .plant import FixedBasePlant, base_wrench
 
-__all__ = ["StateSampler", "sample_grid", "quantize", "noise_streams", "base_wrench", "mount_wrenches", "truth_terms"]
+__all__ = ["StateSampler", "sample_grid", "quantize", "measured_quanta", "noise_streams", "base_wrench", "mount_wrenches", "truth_terms"]
 
 STREAMS = ("contact_time", "joint_encoder", "pendulum_encoder", "piezo", "ft")
 
@@ -39,6 +40,18 @@ def quantize(x, step: float):
     if step <= 0:
         return np.asarray(x, dtype=float)
     return np.round(np.asarray(x, dtype=float) / step) * step
+
+
+def measured_quanta(scene) -> dict[str, float | np.ndarray]:
+    """The step of each quantised channel of a scene's ``/measured`` group, as the rig rounds
+    them: ``q_enc`` (each joint's encoder resolution [rad]), ``theta_pend`` (the pendulum
+    encoder's [rad]), ``f_piezo`` (the ADC step [N]); empty when the scene does not quantise."""
+    p = scene.p
+    if not bool(p("sensors.quantize")):
+        return {}
+    return {"q_enc": np.asarray(load_robot(p("robot")).encoder_resolution, dtype=float),
+            "theta_pend": 2 * np.pi / float(p("sensors.pendulum_encoder_counts")),
+            "f_piezo": float(p("sensors.piezo_resolution"))}
 
 
 class StateSampler:

@@ -30,12 +30,14 @@ if SIMULATE:
 
     # the campaign's identification as one CSV, every trial in path order: where the
     # configuration key identification_csv says (then part of `all`; config/reference.yaml:
-    # archive/reference.identification.csv), else results/<campaign>/identification.csv on demand
+    # archive/reference.identification.csv), else results/<campaign>/identification.csv on demand.
+    # update(): Snakemake leaves the existing file in place for the job, which keeps each row
+    # the tolerance policy calls the same identification (campaign.pipeline.stages.export_identification)
     rule identification_csv:
         input:
             [t for base in SWEEPS for t in ident_tables(base)],
         output:
-            IDENTIFICATION_CSV,
+            update(IDENTIFICATION_CSV),
         priority: PRIORITY["identification_csv"]
         log:
             log_file("identification_csv"),
