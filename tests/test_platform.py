@@ -107,7 +107,7 @@ def test_a_rerun_on_another_platform_that_reproduces_a_trial_keeps_its_file(tmp_
         write_trial(tree, path)
     before = path.read_bytes()
     assert _root(path)["computing_platform"] == other != provenance()["computing_platform"]
-    entry = write_trial_entry(tree, path, campaign_dir=tmp_path, keep_identical=True)
+    entry = write_trial_entry(tree, path, campaign_dir=tmp_path, keep_same=True)
     assert entry.kept and path.read_bytes() == before
 
 
@@ -117,7 +117,7 @@ def test_a_file_written_before_trials_recorded_their_platform_is_kept_by_a_rerun
     path.parent.mkdir(parents=True)
     shutil.copyfile(REFERENCE / OLD_TRIAL, path)
     assert "computing_platform" not in _root(path)
-    entry = write_trial_entry(open_trial_tree(path), path, campaign_dir=tmp_path, keep_identical=True)
+    entry = write_trial_entry(open_trial_tree(path), path, campaign_dir=tmp_path, keep_same=True)
     assert entry.kept and path.read_bytes() == (REFERENCE / OLD_TRIAL).read_bytes()
 
 
