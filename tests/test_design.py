@@ -24,6 +24,8 @@ from campaign.scene.description import (
     make_scene,
 )
 
+import snakemake_forks
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -298,9 +300,10 @@ def test_apparent_mass_without_friction_is_eq_11_and_the_fit_recovers_its_parame
 
 # -- the designed campaign's workflow -------------------------------------------------------
 def test_snakemake_designed_plans_its_jobs(tmp_path):
-    r = subprocess.run([str(Path(sys.executable).with_name("snakemake")), "designed", "-n", "--directory", str(ROOT),
-                        "--config", f"results_root={tmp_path}/results", f"archive_root={tmp_path}/archive"],
-                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    """In a folder laid out like the repository's root (its config/), nothing written there."""
+    (tmp_path / "config").symlink_to(ROOT / "config")
+    r = snakemake_forks.run(["-s", str(ROOT / "Snakefile"), "designed", "-n", "--directory", str(tmp_path)],
+                            cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = r.stdout + r.stderr
     for rule, count in (("designed_plan", 1), ("designed_trials", 9), ("designed_report", 1)):

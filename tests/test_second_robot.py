@@ -27,6 +27,8 @@ from campaign.identify.table import read_identification
 from campaign.model.exiit import effective_mass
 from campaign.model.robot import load_robot
 
+import snakemake_forks
+
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "config" / "planar2.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -39,7 +41,10 @@ def snakemake(workdir: Path, *args: str, configs=(CONFIG,), check: bool = True) 
     cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args]
     for config in configs:
         cmd += ["--configfile", str(config)]
-    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=600)
+    if "-n" in args:        # a dry run: the same command, without loading Snakemake again
+        proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=600)
+    else:
+        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=600)
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-6000:]}")
     return proc
