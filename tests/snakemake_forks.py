@@ -123,8 +123,9 @@ def _child(request: dict) -> None:
 def _serve() -> None:
     """Load what every start-up loads, then fork a child per request line on stdin."""
     import snakemake.api  # noqa: F401
-    import snakemake.cli  # noqa: F401
+    import snakemake.cli
     import snakemake.dag  # noqa: F401
+    import snakemake.report  # noqa: F401
     import snakemake.workflow  # noqa: F401
     import yaml  # noqa: F401
 
@@ -132,7 +133,14 @@ def _serve() -> None:
     sys.path.insert(0, str(_SERVER.parents[1]))
     from campaign.pipeline import config, digests, paths  # noqa: F401
 
-    digests.modules()                       # the import graph, cached by the files' times and sizes
+    # Snakemake's plugin registries (entry points, read once per process)
+    for registry in ("ExecutorPluginRegistry", "StoragePluginRegistry", "ReportPluginRegistry",
+                     "LoggerPluginRegistry", "SchedulerPluginRegistry"):
+        getattr(snakemake.cli, registry)()
+    # the package's import graph and sources for the stage digests, cached by each file's
+    # modification time (and size)
+    for path in digests.modules().values():
+        digests._content(path, os.stat(path).st_mtime_ns)
     for line in sys.stdin:
         request = json.loads(line)
         pid = os.fork()

@@ -62,6 +62,7 @@ def campaign_run(tmp_path_factory):
     return work, snakemake(work, "--cores", "2")
 
 
+@pytest.mark.slow
 def test_the_campaign_makes_its_trials_identification_fits_and_figure_7(campaign_run):
     work, _ = campaign_run
     archive, results = work / "archive" / "planar2", work / "results" / "planar2"
@@ -80,6 +81,7 @@ def test_the_campaign_makes_its_trials_identification_fits_and_figure_7(campaign
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (results / "figures" / "fig7.pdf").is_file()
 
 
+@pytest.mark.slow
 def test_the_fits_are_the_robots_and_high_gains_add_a_virtual_rotor_inertia(campaign_run):
     work, _ = campaign_run
     fits = {cls: json.loads((work / "results" / "planar2" / "fit" / f"lambda_{cls}.json").read_text())
@@ -96,6 +98,7 @@ def test_the_fits_are_the_robots_and_high_gains_add_a_virtual_rotor_inertia(camp
     assert max(fits["zero_low"]["lambda"]) < 0.01 < min(high["lambda"])
 
 
+@pytest.mark.slow
 def test_the_papers_products_are_skipped_with_their_reason(campaign_run):
     work, proc = campaign_run
     results = work / "results" / "planar2"
@@ -110,6 +113,7 @@ def test_the_papers_products_are_skipped_with_their_reason(campaign_run):
     assert "table2 cannot be made from campaign 'planar2': it needs the paper's robot puma560" in out.stdout + out.stderr
 
 
+@pytest.mark.slow
 def test_the_tables_command_refuses_another_robots_archive(campaign_run, tmp_path, capsys):
     work, _ = campaign_run
     assert main(["tables", str(work / "archive" / "planar2"), "--out", str(tmp_path / "tables")]) == 2
