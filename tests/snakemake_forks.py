@@ -122,6 +122,7 @@ def _child(request: dict) -> None:
 
 def _serve() -> None:
     """Load what every start-up loads, then fork a child per request line on stdin."""
+    sys.path[0] = str(Path(sys.executable).parent)      # as for the console script, not tests/
     import snakemake.api  # noqa: F401
     import snakemake.cli
     import snakemake.dag  # noqa: F401
