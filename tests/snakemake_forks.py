@@ -1,16 +1,17 @@
-"""Snakemake commands that only start the workflow (dry runs, ``--lint``, ``--list-rules``,
-start-up errors), each run by the ``snakemake`` command's own entry point in a copy of one
-process that has Snakemake and the workflow's start-up modules loaded.
+"""The ``snakemake`` command, run by its own entry point in a copy of one process that has
+Snakemake and the workflow's start-up modules loaded.
 
-A Snakemake start-up spends about half of its CPU loading Snakemake and reading the
+A Snakemake start-up spends about a second of CPU loading Snakemake, its plugins and the
 package's import graph for the stage digests before it reads the configuration; the tests
-start the workflow about fifty times. :func:`run` sends each command to one server process
-per test process (started on first use): it forks, and the child runs
-``snakemake.cli.main`` with the command's arguments, working folder and environment, its
-stdout and stderr in files of their own, as the console script does in a process of its own.
-The child evaluates the Snakefile, checks the configuration and plans the jobs itself;
-only the imports and the import graph (cached by each file's modification time and size)
-come from the server.
+start the workflow about sixty times, most of them dry runs that cost little more. :func:`run`
+sends each command to one server process per test process (started on first use): it forks,
+and the child runs ``snakemake.cli.main`` with the command's arguments, working folder and
+environment, its stdout and stderr in files of their own, as the console script does in a
+process of its own. The child evaluates the Snakefile, checks the configuration, plans and
+runs the jobs (each a process of its own, as always) itself; only the imports, the plugin
+registries and the import graph (cached by each file's modification time and size) come from
+the server. The reduced campaign, the documented re-analysis and the killed run start the
+console script itself.
 """
 
 from __future__ import annotations
@@ -57,8 +58,8 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 def run(args: list[str], *, cwd: Path, env: dict | None = None, timeout: float = 600) -> subprocess.CompletedProcess:
-    """``snakemake ARGS`` in ``cwd`` with the environment ``env`` (default: this process's),
-    for a command that runs no job; returns its exit status, stdout and stderr."""
+    """``snakemake ARGS`` in ``cwd`` with the environment ``env`` (default: this process's);
+    returns its exit status, stdout and stderr."""
     with _lock, tempfile.TemporaryDirectory() as tmp:
         out, err = Path(tmp, "stdout"), Path(tmp, "stderr")
         request = {"args": [str(a) for a in args], "cwd": str(cwd), "env": dict(os.environ if env is None else env),

@@ -41,10 +41,7 @@ def snakemake(workdir: Path, *args: str, configs=(CONFIG,), check: bool = True) 
     cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args]
     for config in configs:
         cmd += ["--configfile", str(config)]
-    if "-n" in args:        # a dry run: the same command, without loading Snakemake again
-        proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=600)
-    else:
-        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=600)
+    proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=600)   # the command, without loading Snakemake again
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-6000:]}")
     return proc

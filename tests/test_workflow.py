@@ -44,17 +44,17 @@ TIMEOUT = 900
 
 
 def snakemake(workdir: Path, *args: str, config: Path | None = CI_CONFIG, check: bool = True,
-              timeout: float = TIMEOUT) -> subprocess.CompletedProcess:
-    """Run the repository's workflow in ``workdir`` (targets first, then the options); a
-    command that runs no job (a dry run, ``--lint``, ``--unlock``) through
-    :mod:`snakemake_forks` (the same command, without loading Snakemake again)."""
+              timeout: float = TIMEOUT, own_process: bool = False) -> subprocess.CompletedProcess:
+    """Run the repository's workflow in ``workdir`` (targets first, then the options): the
+    ``snakemake`` command through :mod:`snakemake_forks` (its entry point, without loading
+    Snakemake again), or with ``own_process`` as a process of its own."""
     cmd = [SNAKEMAKE, "-s", str(SNAKEFILE), "--directory", str(workdir), *args]
     if config is not None:
         cmd += ["--configfile", str(config)]
-    if {"-n", "--lint", "--unlock"} & set(args):
-        proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=timeout)
-    else:
+    if own_process:
         proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout)
+    else:
+        proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=timeout)
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n"
                              f"{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}")
@@ -275,7 +275,7 @@ def test_reuse_of_the_reference_archive_as_documented(ci_run, tmp_path):
     shutil.copytree(ci_run / "results" / "ci", tmp_path / "results" / "full")   # the campaign run before
     campaign = _digest_tree(tmp_path / "results" / "full")
     before = _digest_tree(REPO / "archive" / "reference")
-    out = snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None)
+    out = snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None, own_process=True)
     assert _digest_tree(REPO / "archive" / "reference") == before
     assert _digest_tree(tmp_path / "results" / "full") == campaign
     # the reference holds the structure the default configuration names: nothing to say
