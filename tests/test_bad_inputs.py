@@ -33,6 +33,8 @@ from campaign.pipeline.fit import fit_lambda
 from campaign.pipeline.simulate import run_cells
 from campaign.scene.checks import check_speeds, pendulum_reach
 
+import snakemake_forks
+
 REPO = Path(__file__).resolve().parents[1]
 REFERENCE = REPO / "archive" / "reference"
 TRIAL = REFERENCE / "fixed" / "config1" / "zero" / "v1.500" / "r00.nc"
@@ -437,7 +439,7 @@ def test_api_names_the_bad_value(tmp_path, index):
 
 
 # -------------------------------------------------------------------------------------------
-# the workflow: every row's dry run is started at once (2 cores), then each is checked
+# the workflow: every row's dry run, then each is checked
 # -------------------------------------------------------------------------------------------
 WORKFLOW_CASES = [
     # (--config arguments, or a dict merged into config/ci.yaml; text the error must contain[;
@@ -462,10 +464,9 @@ WORKFLOW_CASES = [
 
 @pytest.fixture(scope="module")
 def workflow_runs(tmp_path_factory):
-    """Start every row's dry run in its own folder, then collect (folder, process result)."""
-    snakemake = str(Path(sys.executable).parent / "snakemake")
+    """Each row's dry run in its own folder (through :mod:`snakemake_forks`): (folder, output, status)."""
     base = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
-    procs = []
+    runs = []
     for i, (change, _, *env) in enumerate(WORKFLOW_CASES):
         work = tmp_path_factory.mktemp(f"wf{i}")
         cfg = dict(base)
@@ -475,11 +476,11 @@ def workflow_runs(tmp_path_factory):
         else:
             extra = ["--config", *change]
         (work / "c.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
-        cmd = [snakemake, "-s", str(REPO / "Snakefile"), "--directory", str(work), "-n", "--configfile",
-               str(work / "c.yaml"), *extra]
-        procs.append((work, subprocess.Popen(cmd, cwd=work, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                             text=True, env={**os.environ, **(env[0] if env else {})})))
-    return [(work, p.communicate(timeout=600)[0], p.returncode) for work, p in procs]
+        args = ["-s", str(REPO / "Snakefile"), "--directory", str(work), "-n", "--configfile", str(work / "c.yaml"),
+                *extra]
+        proc = snakemake_forks.run(args, cwd=work, env={**os.environ, **(env[0] if env else {})}, timeout=600)
+        runs.append((work, proc.stdout + proc.stderr, proc.returncode))
+    return runs
 
 
 @pytest.mark.parametrize("index", range(len(WORKFLOW_CASES)),

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import math
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +23,8 @@ from campaign.scene.description import (
     make_scene,
 )
 
+import snakemake_forks
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -32,9 +33,24 @@ def robot():
     return load_robot("puma560")
 
 
-def _cli(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "campaign.cli.main", *args], cwd=cwd, capture_output=True, text=True,
-                          timeout=300)
+@pytest.fixture
+def cli(monkeypatch, capsys):
+    """``cli(*args, cwd=folder)``: ``campaign ARGS`` run by the command's entry point in this
+    process, in ``folder``; returns its exit status, stdout and stderr. (The console script
+    in a process of its own: tests/test_bad_inputs.py.)"""
+    from campaign.cli.main import main
+
+    def run(*args, cwd):
+        monkeypatch.chdir(cwd)
+        monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+        try:
+            status = main(list(args))
+        except SystemExit as exc:          # argparse's usage errors end the process
+            status = exc.code
+        out, err = capsys.readouterr()
+        return subprocess.CompletedProcess(["campaign", *args], status, out, err)
+
+    return run
 
 
 # -- directions and scenes --------------------------------------------------------------
@@ -113,11 +129,11 @@ def test_a_swing_along_the_forearm_from_the_elbow_is_refused(robot):
 
 
 # -- the CLI (the must-show runs) ---------------------------------------------------------
-def test_trial_cli_runs_a_pose_with_joint_1_at_45_deg_struck_30_deg_from_minus_x(tmp_path):
+def test_trial_cli_runs_a_pose_with_joint_1_at_45_deg_struck_30_deg_from_minus_x(cli, tmp_path):
     from campaign.archive import list_trials, open_trial_arrays
 
     out = tmp_path / "camp" / "fixed" / "x.nc"
-    r = _cli("trial", "--q", "45,150,90", "--direction=-0.8660254,-0.5,0", "--speed", "1.5", "--out", str(out),
+    r = cli("trial", "--q", "45,150,90", "--direction=-0.8660254,-0.5,0", "--speed", "1.5", "--out", str(out),
              "--quiet", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     measured = open_trial_arrays(out)
@@ -143,9 +159,9 @@ def test_trial_cli_runs_a_pose_with_joint_1_at_45_deg_struck_30_deg_from_minus_x
     (("--q", "0,150,90", "--direction=-0.8,0,0.6"), "not horizontal"),
     (("--q", "170,150,90"), "outside its limits"),
 ])
-def test_trial_cli_refuses_with_one_line_exit_2_and_no_file(tmp_path, args, words):
+def test_trial_cli_refuses_with_one_line_exit_2_and_no_file(cli, tmp_path, args, words):
     out = tmp_path / "t.nc"
-    r = _cli("trial", *args, "--speed", "2.5", "--out", str(out), cwd=tmp_path)
+    r = cli("trial", *args, "--speed", "2.5", "--out", str(out), cwd=tmp_path)
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and words in lines[0]
@@ -258,11 +274,11 @@ def test_candidates_of_the_same_measurement_are_offered_once(robot):
     assert rep.n_offered_ == len(Q) and len(set(np.round(rep.m_eff_, 9))) < 4
 
 
-def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
+def test_design_cli_writes_json_and_markdown_from_a_candidate_file(cli, tmp_path):
     cand = tmp_path / "c.csv"
     cand.write_text("q1,q2,q3,azimuth\n0,90,90,0\n45,180,0,-120\n45,120,135,-120\n0,150,90,90\n0,120,135,180\n"
                     "-45,180,0,60\n", encoding="utf-8")
-    r = _cli("design", "--k", "3", "--candidates", str(cand), "--json", str(tmp_path / "d.json"), "--md",
+    r = cli("design", "--k", "3", "--candidates", str(cand), "--json", str(tmp_path / "d.json"), "--md",
              str(tmp_path / "d.md"), "--quiet", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     d = json.loads((tmp_path / "d.json").read_text())
@@ -272,7 +288,7 @@ def test_design_cli_writes_json_and_markdown_from_a_candidate_file(tmp_path):
     md = (tmp_path / "d.md").read_text()
     assert "paper (configurations 1-3" in md
     assert "m* is even in n" in md and "only the first is offered" in md and not d["repeat_information"]
-    bad = _cli("design", "--candidates", str(tmp_path / "missing.csv"), cwd=tmp_path)
+    bad = cli("design", "--candidates", str(tmp_path / "missing.csv"), cwd=tmp_path)
     assert bad.returncode == 2 and "does not exist" in bad.stderr
 
 
@@ -353,9 +369,10 @@ def test_apparent_mass_without_friction_is_eq_11_and_the_fit_recovers_its_parame
 
 # -- the designed campaign's workflow -------------------------------------------------------
 def test_snakemake_designed_plans_its_jobs(tmp_path):
-    r = subprocess.run([str(Path(sys.executable).with_name("snakemake")), "designed", "-n", "--directory", str(ROOT),
-                        "--config", f"results_root={tmp_path}/results", f"archive_root={tmp_path}/archive"],
-                       cwd=ROOT, capture_output=True, text=True, timeout=300)
+    """In a folder laid out like the repository's root (its config/), nothing written there."""
+    (tmp_path / "config").symlink_to(ROOT / "config")
+    r = snakemake_forks.run(["-s", str(ROOT / "Snakefile"), "designed", "-n", "--directory", str(tmp_path)],
+                            cwd=tmp_path, timeout=300)
     assert r.returncode == 0, r.stderr[-2000:]
     out = r.stdout + r.stderr
     for rule, count in (("designed_plan", 1), ("designed_trials", 9), ("designed_report", 1)):

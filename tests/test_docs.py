@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import shutil
 import subprocess
 import sys
 from html import unescape
@@ -34,11 +35,17 @@ STAGE_PAGES = {
 @pytest.fixture(scope="module")
 def built_guide(tmp_path_factory):
     """The guide built as ``make docs`` builds it (warnings are errors, every reference
-    checked), into a temporary folder."""
-    out = tmp_path_factory.mktemp("guide")
+    checked), into a temporary folder: from a copy of docs/ beside links to the package and
+    config/, so the API pages its configuration writes (docs/generated/) go into the copy,
+    not into the repository."""
+    root = tmp_path_factory.mktemp("guide")
+    shutil.copytree(REPO / "docs", root / "docs", ignore=shutil.ignore_patterns("_build", "generated"))
+    for name in ("campaign", "config"):
+        (root / name).symlink_to(REPO / name)
+    out = root / "html"
     proc = subprocess.run(
         [sys.executable, "-m", "sphinx", "-b", "html", "-W", "--keep-going", "-n", "-q",
-         str(REPO / "docs"), str(out)],
+         str(root / "docs"), str(out)],
         capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, f"sphinx-build failed:\n{proc.stderr}\n{proc.stdout}"
     assert "WARNING" not in proc.stderr, proc.stderr

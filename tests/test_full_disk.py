@@ -162,6 +162,7 @@ def _in_tiny_filesystem(script: str, mount: Path, size: str) -> str:
     return proc.stdout + proc.stderr
 
 
+@pytest.mark.slow
 def test_sweep_and_trial_on_a_real_small_filesystem(tmp_path):
     disk = tmp_path / "disk"
     campaign = f"'{sys.executable}' -m campaign.cli.main"
@@ -218,6 +219,7 @@ os.write = _full_write
 '''
 
 
+@pytest.mark.slow
 def test_a_workflow_job_on_a_disk_that_fills_leaves_no_partial_output(tmp_path):
     if not Path("/proc/self/fd").is_dir():
         pytest.skip("the injection reads /proc/self/fd")
@@ -252,6 +254,7 @@ def test_a_workflow_job_on_a_disk_that_fills_leaves_no_partial_output(tmp_path):
     assert all(archive.intact_trials(left)), left
 
 
+@pytest.mark.slow
 def test_a_workflow_job_on_a_real_small_filesystem_leaves_no_partial_output(tmp_path):
     work = tmp_path / "work"
     work.mkdir()

@@ -27,6 +27,8 @@ from campaign.identify.table import read_identification
 from campaign.model.exiit import effective_mass
 from campaign.model.robot import load_robot
 
+import snakemake_forks
+
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = REPO / "config" / "planar2.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -39,7 +41,7 @@ def snakemake(workdir: Path, *args: str, configs=(CONFIG,), check: bool = True) 
     cmd = [SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(workdir), *args]
     for config in configs:
         cmd += ["--configfile", str(config)]
-    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=600)
+    proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=600)   # the command, without loading Snakemake again
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n{proc.stderr[-6000:]}")
     return proc
@@ -57,6 +59,7 @@ def campaign_run(tmp_path_factory):
     return work, snakemake(work, "--cores", "2")
 
 
+@pytest.mark.slow
 def test_the_campaign_makes_its_trials_identification_fits_and_figure_7(campaign_run):
     work, _ = campaign_run
     archive, results = work / "archive" / "planar2", work / "results" / "planar2"
@@ -75,6 +78,7 @@ def test_the_campaign_makes_its_trials_identification_fits_and_figure_7(campaign
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (results / "figures" / "fig7.pdf").is_file()
 
 
+@pytest.mark.slow
 def test_the_fits_are_the_robots_and_high_gains_add_a_virtual_rotor_inertia(campaign_run):
     work, _ = campaign_run
     fits = {cls: json.loads((work / "results" / "planar2" / "fit" / f"lambda_{cls}.json").read_text())
@@ -91,6 +95,7 @@ def test_the_fits_are_the_robots_and_high_gains_add_a_virtual_rotor_inertia(camp
     assert max(fits["zero_low"]["lambda"]) < 0.01 < min(high["lambda"])
 
 
+@pytest.mark.slow
 def test_the_papers_products_are_skipped_with_their_reason(campaign_run):
     work, proc = campaign_run
     results = work / "results" / "planar2"
@@ -105,6 +110,7 @@ def test_the_papers_products_are_skipped_with_their_reason(campaign_run):
     assert "table2 cannot be made from campaign 'planar2': it needs the paper's robot puma560" in out.stdout + out.stderr
 
 
+@pytest.mark.slow
 def test_the_tables_command_refuses_another_robots_archive(campaign_run, tmp_path, capsys):
     work, _ = campaign_run
     assert main(["tables", str(work / "archive" / "planar2"), "--out", str(tmp_path / "tables")]) == 2

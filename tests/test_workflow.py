@@ -32,6 +32,8 @@ from campaign.identify.table import read_identification
 from campaign.model.paper import gain_counts
 from campaign.pipeline.paths import cell_trials
 
+import snakemake_forks
+
 pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[1]
@@ -42,12 +44,17 @@ TIMEOUT = 900
 
 
 def snakemake(workdir: Path, *args: str, config: Path | None = CI_CONFIG, check: bool = True,
-              timeout: float = TIMEOUT) -> subprocess.CompletedProcess:
-    """Run the repository's workflow in ``workdir`` (targets first, then the options)."""
+              timeout: float = TIMEOUT, own_process: bool = False) -> subprocess.CompletedProcess:
+    """Run the repository's workflow in ``workdir`` (targets first, then the options): the
+    ``snakemake`` command through :mod:`snakemake_forks` (its entry point, without loading
+    Snakemake again), or with ``own_process`` as a process of its own."""
     cmd = [SNAKEMAKE, "-s", str(SNAKEFILE), "--directory", str(workdir), *args]
     if config is not None:
         cmd += ["--configfile", str(config)]
-    proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout)
+    if own_process:
+        proc = subprocess.run(cmd, cwd=workdir, capture_output=True, text=True, timeout=timeout)
+    else:
+        proc = snakemake_forks.run(cmd[1:], cwd=workdir, timeout=timeout)
     if check and proc.returncode != 0:
         raise AssertionError(f"snakemake {' '.join(args)} failed ({proc.returncode}):\n"
                              f"{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}")
@@ -85,15 +92,12 @@ def num(value: str) -> float:
 
 
 # ------------------------------------------------------------------------------------------
-# the reduced campaign, run once for the module
+# the reduced campaign, run once per test run (conftest.py: ci_campaign; read only, a test
+# that writes into it works on ci_campaign_copy)
 # ------------------------------------------------------------------------------------------
-@pytest.fixture(scope="module")
-def ci_run(tmp_path_factory) -> Path:
-    work = tmp_path_factory.mktemp("ci_campaign")
-    t0 = time.perf_counter()
-    snakemake(work)
-    print(f"reduced campaign: {time.perf_counter() - t0:.1f} s")
-    return work
+@pytest.fixture
+def ci_run(ci_campaign) -> Path:
+    return ci_campaign
 
 
 def test_reduced_campaign_makes_every_product(ci_run):
@@ -175,12 +179,12 @@ def test_rerun_has_nothing_to_do(ci_run):
     assert "Nothing to be done" in out.stdout + out.stderr
 
 
-def test_report_builds(ci_run):
+def test_report_builds(ci_run, tmp_path):
     """The report groups its results as the campaign is, shows the tables and calibration
     notes as HTML (rendered inline, not download links) and holds every figure's PDF."""
     import json
 
-    report = ci_run / "results" / "ci" / "report.html"
+    report = tmp_path / "report.html"
     snakemake(ci_run, "--report", str(report))
     text = report.read_text(errors="replace")
     assert report.stat().st_size > 100_000 and "Table 2" in text and "Figure 9" in text
@@ -210,10 +214,11 @@ def test_editing_one_gain_reruns_only_its_dependents(ci_run, tmp_path):
     assert not rules & {"model_figures", "fig5_joint3_motion"}, rules
 
 
-def test_reuse_reanalyses_an_archive_without_simulating(ci_run, tmp_path):
+def test_reuse_reanalyses_an_archive_without_simulating(ci_campaign_copy, tmp_path):
     """Re-analysing the campaign's own archive in its own folder: the products go to
     results/reuse-ci, the simulated campaign's results/ci stay byte-identical (and untouched),
     and identification from the archive reproduces every number."""
+    ci_run = ci_campaign_copy
     reuse = write_config(tmp_path / "reuse.yaml", simulate=False, reuse_archive="archive/ci")
     out = snakemake(ci_run, "-n", config=reuse)
     dry = planned_jobs(out.stdout + out.stderr)
@@ -232,9 +237,10 @@ def test_reuse_reanalyses_an_archive_without_simulating(ci_run, tmp_path):
     assert verified.startswith(f"archive {ci_run / 'archive' / 'ci'}: intact, 26 trials checked")
 
 
-def test_reuse_refuses_to_mix_the_results_of_two_archives_of_one_name(ci_run, tmp_path):
+def test_reuse_refuses_to_mix_the_results_of_two_archives_of_one_name(ci_campaign_copy, tmp_path):
     """results/reuse-ci already holds the re-analysis of <ci_run>/archive/ci: another folder
     named ci is refused at start-up, naming the key and both archives."""
+    ci_run = ci_campaign_copy
     other = tmp_path / "elsewhere" / "ci"
     other.mkdir(parents=True)
     (other / "index.csv").write_text("path,base,config,gain,speed,repeat\n")
@@ -269,7 +275,7 @@ def test_reuse_of_the_reference_archive_as_documented(ci_run, tmp_path):
     shutil.copytree(ci_run / "results" / "ci", tmp_path / "results" / "full")   # the campaign run before
     campaign = _digest_tree(tmp_path / "results" / "full")
     before = _digest_tree(REPO / "archive" / "reference")
-    out = snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None)
+    out = snakemake(tmp_path, "--cores", "2", "--config", "simulate=false", config=None, own_process=True)
     assert _digest_tree(REPO / "archive" / "reference") == before
     assert _digest_tree(tmp_path / "results" / "full") == campaign
     # the reference holds the structure the default configuration names: nothing to say
@@ -372,21 +378,23 @@ def test_a_single_trial_can_be_asked_for(ci_run, tmp_path):
     assert out.returncode != 0 and "is not a trial of campaign ci" in out.stdout + out.stderr, out.stdout
 
 
-def test_finalize_after_a_trial_changed_on_disk_fails_naming_it(tmp_path):
+def test_finalize_after_a_trial_changed_on_disk_fails_naming_it(ci_campaign_copy):
     """The archive's finalisation takes each trial's digests from the job that wrote it (it
-    opens no trial), and still refuses a file changed since, naming it."""
-    cfg = write_config(tmp_path / "tiny.yaml", campaign="tiny", speeds=[1.5, 2.5], repeats=1,
-                       bases={"fixed": {"configurations": [1], "gains": ["zero"]}})
-    snakemake(tmp_path, "trials", config=cfg)
-    changed = "archive/tiny/fixed/config1/zero/v2.500/r00.nc"
-    data = bytearray((tmp_path / changed).read_bytes())
+    opens no trial), and still refuses a file changed since, naming it: the reduced campaign
+    as before its finalisation (no MANIFEST.sha256), one trial changed since its job."""
+    work = ci_campaign_copy
+    manifest = work / "archive" / "ci" / "MANIFEST.sha256"
+    manifest.unlink()
+    assert sorted(r for r, _ in planned_jobs(snakemake(work, "archive", "-n").stdout)) == ["archive", "finalize_archive"]
+    changed = "archive/ci/fixed/config1/zero/v2.500/r00.nc"
+    data = bytearray((work / changed).read_bytes())
     data[-64] ^= 0x01
-    (tmp_path / changed).write_bytes(bytes(data))
-    out = snakemake(tmp_path, "archive", config=cfg, check=False)
+    (work / changed).write_bytes(bytes(data))
+    out = snakemake(work, "archive", check=False)
     assert out.returncode != 0
     said = [line for line in (out.stdout + out.stderr).splitlines() if "changed since its simulation job" in line]
     assert said and changed in said[0] and "v1.500" not in said[0], out.stdout + out.stderr
-    assert not (tmp_path / "archive" / "tiny" / "MANIFEST.sha256").exists()
+    assert not manifest.exists()
 
 
 def test_killed_run_completes_on_rerun(tmp_path):

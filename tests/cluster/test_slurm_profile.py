@@ -10,15 +10,14 @@ SLURM nor its plugin.
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
 
+import snakemake_forks
+
 REPO = Path(__file__).resolve().parents[2]
-SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 PROFILE = yaml.safe_load((REPO / "profiles" / "slurm" / "config.yaml").read_text())
 # rules that stay one SLURM job each (simulations, the calibration fit, the designed campaign's plan and
 # trials) or only name targets
@@ -27,17 +26,22 @@ NOT_GROUPED = re.compile(r"simulate_\w+|\w+_study|study_\w+|studies|calibrate|al
                          r"designed_trials|designed_flexible_trials")
 
 
-def workflow_rules(*config: str) -> set[str]:
-    proc = subprocess.run([SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--configfile", str(REPO / "config" / "ci.yaml"),
-                           "--list-rules", *(["--config", *config] if config else [])],
-                          cwd=REPO, capture_output=True, text=True, timeout=300)
+def workflow_rules(work: Path, *config: str) -> set[str]:
+    proc = snakemake_forks.run(["-s", str(REPO / "Snakefile"), "--directory", str(work), "--configfile",
+                                str(REPO / "config" / "ci.yaml"), "--list-rules",
+                                *(["--config", *config] if config else [])], cwd=work, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return set(proc.stdout.split())
 
 
 @pytest.fixture(scope="module")
-def rules() -> set[str]:
-    return workflow_rules() | workflow_rules("simulate=False", "reuse_archive=archive/reference")
+def rules(tmp_path_factory) -> set[str]:
+    """The workflow's rules, listed in a folder laid out like the repository's root."""
+    work = tmp_path_factory.mktemp("rules")
+    (work / "config").symlink_to(REPO / "config")
+    (work / "archive").mkdir()
+    (work / "archive" / "reference").symlink_to(REPO / "archive" / "reference")
+    return workflow_rules(work) | workflow_rules(work, "simulate=False", "reuse_archive=archive/reference")
 
 
 def test_group_holds_exactly_the_downstream_rules(rules):
