@@ -1,7 +1,10 @@
 """The campaign's vocabulary: bases, gain sets and classes, and where a trial lives in an archive.
 
 The names come from ``config/paper.yaml`` (its ``bases``, the gain sets of its Table 1 and
-the gain classes of its Tables 2-3); the archive layout is spelled here once:
+the gain classes of its Tables 2-3) and ``config/rig.yaml`` (its ``structures``); code names
+one of them through the constants below, never by a string of its own (``tests/test_layout.py``
+finds such strings, ``tests/test_vocabulary.py`` checks the constants against the files). The
+archive layout is spelled here once:
 
     <base>/<pose>/<gain>/v<speed m/s, 3 decimals>/r<repeat, 2 digits>.nc
 
@@ -24,10 +27,22 @@ from .errors import InputError
 from .yamlfile import config_dir, read_yaml
 
 __all__ = [
-    "TRIAL_SUFFIX", "SPEED_DECIMALS", "bases", "gain_sets", "gain_classes", "check_cell", "speed_folder",
+    "FIXED", "FLEXIBLE", "ZERO", "LOW", "HIGH", "ZERO_LOW", "STIFF_MAST", "SPACE_CLASS", "NAMES", "TRIAL_SUFFIX", "SPEED_DECIMALS", "bases", "gain_sets", "gain_classes", "check_cell", "speed_folder",
     "repeat_file", "config_folder", "layout", "custom_pose_folder", "direction_azimuth", "pose_folder", "cell_dir",
     "trial_relpath", "misfiled",
 ]
+
+#: the bases (``config/paper.yaml`` ``bases``)
+FIXED, FLEXIBLE = "fixed", "flexible"
+#: the gain sets of the paper's Table 1 (``config/paper.yaml`` ``gains``)
+ZERO, LOW, HIGH = "zero", "low", "high"
+#: the gain class pooling Zero and Low (``config/paper.yaml`` ``gain_classes``); the other
+#: class holds High alone and is named :data:`HIGH`
+ZERO_LOW = "zero_low"
+#: the structures a flexible base emulates (``config/rig.yaml`` ``structures``)
+STIFF_MAST, SPACE_CLASS = "stiff_mast", "space_class"
+#: every name above: code spells none of them as a string of its own
+NAMES = frozenset({FIXED, FLEXIBLE, ZERO, LOW, HIGH, ZERO_LOW, STIFF_MAST, SPACE_CLASS})
 
 #: suffix of a trial file
 TRIAL_SUFFIX = ".nc"
