@@ -209,6 +209,14 @@ def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot)
     assert np.allclose(res["relative_ci"], np.expm1(1.959963984540054 * sd), rtol=1e-3)
 
 
+def test_z95_is_the_normal_quantile_of_a_95_percent_interval():
+    from scipy.stats import norm
+
+    from campaign.core.stats import Z95
+
+    assert Z95 == float(norm.ppf(0.975))
+
+
 def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):
     from campaign.design.candidates import feasible, grid_candidates, paper_design
     from campaign.design.designer import ExperimentDesign

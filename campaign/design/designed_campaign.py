@@ -35,6 +35,7 @@ import numpy as np
 from ..archive import trial_path, write_trial
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.stats import Z95
 from ..core.timing import Timer
 from ..core.vocabulary import direction_azimuth, gain_classes, gain_sets
 from ..identify.table import identify_trials, read_identification
@@ -264,7 +265,7 @@ def _fit_summary(est) -> dict[str, Any]:
             "rms_log_residual": est.rms_log_residual_}
 
 
-def _asymptotic_ci(est, rows, *, z: float = 1.959963984540054) -> dict[str, Any]:
+def _asymptotic_ci(est, rows, *, z: float = Z95) -> dict[str, Any]:
     """Gauss-Newton 95 % intervals of a LambdaFit from its per-trial sensitivities and residuals:
     ``cov(ln lambda) = s^2 (S^T S)^-1``, ``s^2 = RSS / (N - nv)``. Used where a stratified
     bootstrap cannot vary (one trial per pose, as in a fit per speed)."""

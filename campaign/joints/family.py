@@ -39,10 +39,7 @@ from .params import Params
 from .setting import Setting
 from .terms import arm_terms
 
-__all__ = ["ResponseModel", "Eq11Model", "LambdaModel", "CoulombModel", "class_of", "json_numbers", "Z95"]
-
-#: the standard normal's 97.5 % quantile: half-width of a 95 % interval in standard deviations
-Z95 = 1.959963984540054
+__all__ = ["ResponseModel", "Eq11Model", "LambdaModel", "CoulombModel", "class_of", "json_numbers"]
 
 
 def class_of(gain: str) -> str:
