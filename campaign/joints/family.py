@@ -325,9 +325,10 @@ class CoulombModel(ResponseModel):
         robot = self._the_setting().robot
         classes = np.array([class_of(g) for g in impacts.gain])
         self.fits_ = {}
+        e_paper = float(load_paper()["restitution_mean"])   # where the impacts carry no e
         for cls in sorted(set(classes)):
             sel = classes == cls
-            e = impacts.restitution[sel] if impacts.restitution is not None else np.full(sel.sum(), 0.55)
+            e = impacts.restitution[sel] if impacts.restitution is not None else np.full(sel.sum(), e_paper)
             self.fits_[cls] = CoulombLambdaFit(robot).fit(impacts.q[sel], impacts.direction[sel], impacts.m_eff[sel],
                                                           speed=impacts.speed[sel], e=e, m_b=self._masses(impacts)[sel])
         self._record_fit(impacts, self.predict(impacts), 2 * len(self.fits_) * robot.nv)
