@@ -38,6 +38,7 @@ from ..core.files import write_atomic
 from ..core.stats import Z95
 from ..core.timing import Timer
 from ..core.vocabulary import direction_azimuth, gain_classes, gain_sets
+from ..identify.results import is_usable
 from ..identify.table import identify_trials, read_identification
 from ..joints.coulomb import CoulombLambdaFit
 from ..joints.impacts import Impacts
@@ -315,8 +316,7 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
 
     with open(plan_json, encoding="utf-8") as fh:
         the_plan = json.load(fh)
-    rows = {role: [r for r in read_identification(ident_tables.get(role, ()))
-                   if not r["excluded"] and math.isfinite(r["m_eff"]) and r["m_eff"] > 0] for role in ROLES}
+    rows = {role: [r for r in read_identification(ident_tables.get(role, ())) if is_usable(r)] for role in ROLES}
     excluded = {role: sum(1 for r in read_identification(ident_tables.get(role, ())) if r["excluded"])
                 for role in ROLES}
     robot = load_robot(next(r["robot"] for role in ROLES for r in rows[role]))

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.vocabulary import bases
+from ..identify.results import is_usable
 
 __all__ = ["Impacts"]
 
@@ -119,9 +120,7 @@ class Impacts:
         ``q_cmd``, ``impact_direction``, ``speed``, ``gain``, ``hammer_mass`` (the rig's hammer
         where a record lacks it), ``m_eff``, ``e``, ``path``, ``base``; all of one base.
         ``gain_sets`` keeps those gain sets only."""
-        rows = [r for r in records if not r.get("excluded") and r.get("m_eff") is not None
-                and math.isfinite(float(r["m_eff"])) and float(r["m_eff"]) > 0
-                and (gain_sets is None or r.get("gain") in gain_sets)]
+        rows = [r for r in records if is_usable(r) and (gain_sets is None or r.get("gain") in gain_sets)]
         if not rows:
             raise InputError("no usable identification records (every one is excluded or has no finite m*)")
         base = {str(r.get("base") or "fixed") for r in rows}

@@ -39,6 +39,7 @@ from ..core import vocabulary
 from ..core.errors import InputError
 from ..core.files import write_atomic
 from ..identify import find_trials, identify_files
+from ..identify.results import is_usable
 from ..joints.impacts import Impacts
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.exiit import effective_mass_batch, effective_mass_from_G, exiit_floating
@@ -163,7 +164,7 @@ def as_records(records: Iterable) -> list[dict]:
 def _usable(recs, base=None, gains=None):
     out = []
     for r in recs:
-        if r["excluded"] or not (math.isfinite(r["m_eff"]) and r["m_eff"] > 0):
+        if not is_usable(r):
             continue
         if base is not None and r["base"] != base:
             continue

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import os
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -17,6 +16,7 @@ import pinocchio as pin
 
 from ..core.files import write_atomic
 from ..identify import identify_trial
+from ..identify.results import is_usable
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.paper import impact_direction, load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -122,8 +122,7 @@ def reduction(low: float, high: float) -> float:
 # lambda from the rig's fixed base
 # ----------------------------------------------------------------------------------------
 def _usable(trials, members) -> list[dict]:
-    return [t["record"] for t in trials if t["gain"] in members and not t["excluded"]
-            and t["record"]["m_eff"] is not None and math.isfinite(t["record"]["m_eff"]) and t["record"]["m_eff"] > 0]
+    return [t["record"] for t in trials if t["gain"] in members and is_usable(t["record"])]
 
 
 def identified_lambda(*, speeds: Sequence[float] = SPEEDS, log: Log = quiet) -> dict:

@@ -39,6 +39,7 @@ from ..core.errors import InputError
 from ..core.files import write_atomic
 from ..design.candidates import feasible, random_candidates, rig_refusal
 from ..identify import identify_trial
+from ..identify.results import is_usable
 from ..joints.impacts import Impacts
 from ..joints.modelfile import load_model, save_model, shipped_model_path
 from ..model.paper import load_paper, paper_offset_deg
@@ -118,7 +119,7 @@ def simulate_case(case: dict, *, campaign_seed: int) -> dict | None:
         return None
     m, t = trial["measured"], trial["truth"]
     rec = identify_trial(m, meta=dict(trial.attrs)).to_dict()
-    if rec["excluded"] or rec["m_eff"] is None or not rec["m_eff"] > 0:
+    if not is_usable(rec):
         return None
     tv = {k: float(np.asarray(t[k].values)) for k in ("v_a_pre", "v_a_post", "v_b_pre", "v_b_post")}
     rec["m_truth"] = rec["hammer_mass"] * (tv["v_b_pre"] - tv["v_b_post"]) / (tv["v_a_post"] - tv["v_a_pre"])
