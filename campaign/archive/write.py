@@ -11,6 +11,7 @@ import h5py
 import numpy as np
 from h5py import h5a, h5d, h5ds, h5p, h5s, h5t
 
+from ..core.vocabulary import FIXED, FLEXIBLE
 from .. import __version__
 from ..core.errors import InputError
 from ..core.files import replace_atomically, write_file
@@ -22,7 +23,7 @@ from .fileformat import _DEFLATE_LEVEL, GROUPS, TRIAL_SUFFIX, _Group, _plan
 #: a little less than a default scene's trial file takes [bytes], per base: the free space a
 #: command asks for per trial before it simulates (denser channels, as the ideal scene's on
 #: the flexible base, take more; a disk that fills part-way fails the write cleanly)
-TRIAL_BYTES = {"fixed": 150_000, "flexible": 750_000}
+TRIAL_BYTES = {FIXED: 150_000, FLEXIBLE: 750_000}
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
