@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.vocabulary import HIGH
 from ..model import exiit
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -69,7 +70,7 @@ def closed_form_stress(*, log: Callable[[str], None] | None = print) -> dict[str
 
     robot = load_robot()
     paper = load_paper()
-    lam_hi = np.asarray(paper["table3"]["high"], float)
+    lam_hi = np.asarray(paper["table3"][HIGH], float)
     frobot = attach_to_floating_base(robot, BaseBody(mass=150.0, inertia=np.diag([50.0, 50.0, 5.0])))
     rows, problems = [], []
 
@@ -174,7 +175,7 @@ def _run_fit_stress(fitmod, robot, paper, *, log=None) -> dict[str, Any]:
     every value is finite and inside its bounds, the condition number is reported, and any
     component more than 2x off the truth (or whose CI misses it) is flagged not identifiable."""
 
-    lam_true = np.asarray(paper["table3"]["high"], float)
+    lam_true = np.asarray(paper["table3"][HIGH], float)
     qs = singular_pose(robot)
     c = {k: np.array(v, float) for k, v in paper["configurations"].items()}
     designs = [

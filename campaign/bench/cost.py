@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .. import archive
-from ..core.vocabulary import bases, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO, bases, gain_sets
 from ..rig import simulate
 from ..scene.description import make_scene
 from ..studies.closed_forms import truth_m_impulse  # noqa: F401  (campaign.bench names it too)
@@ -41,13 +41,13 @@ def cost_scenes(*, size: str = "full") -> list[tuple[str, dict]]:
     configurations 1-2 at one speed, ``smoke`` one fixed-base trial
     (:data:`~campaign.bench.common.SIZES`)."""
     if check_size(size) == "smoke":
-        return [("fixed", dict(base="fixed", config=1, gain="zero", speed=1.5))]
+        return [(FIXED, dict(base=FIXED, config=1, gain=ZERO, speed=1.5))]
     speeds = (1.0, 2.5) if size == "full" else (1.75,)
     configs = (1, 2, 3) if size == "full" else (1, 2)
     out = []
     for base in bases():
-        gains = gain_sets() if base == "fixed" else ("low", "high")
-        cfgs = configs if base == "fixed" else tuple(c for c in configs if c in (1, 2))
+        gains = gain_sets() if base == FIXED else (LOW, HIGH)
+        cfgs = configs if base == FIXED else tuple(c for c in configs if c in (1, 2))
         for c in cfgs:
             for g in gains:
                 for v in speeds:
@@ -114,7 +114,7 @@ def trial_cost(*, size: str = "full", repeats: int | None = None, baseline_repea
     skipped = []
     # the xarray write reference is timed after every scene, so each trial's time can
     # be scaled by the machine's speed of the same minute: it drifts by 1.5x within a run
-    naive_scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
+    naive_scene = make_scene(base=FIXED, config=1, gain=ZERO, speed=1.5)
     if size != "smoke":
         naive_rk4(naive_scene)   # warm-up
     write_probe(repeats=1)   # warm-up (h5py, h5netcdf imports)
@@ -189,7 +189,7 @@ def _verdict(measured: float, scaled: float, target: float) -> str:
 
 def format_cost(c: dict[str, Any]) -> str:
     rows = []
-    for group, target in (("fixed", TARGET_FIXED), ("flexible", TARGET_FLEXIBLE)):
+    for group, target in ((FIXED, TARGET_FIXED), (FLEXIBLE, TARGET_FLEXIBLE)):
         if group not in c["sim"]:
             why = next((w for g, w in c["skipped"] if g == group), "not run")
             rows.append([group, "-", "-", "-", f"{target * 1e3:.0f}", "not available: " + why[:70]])

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError, SimulationError
+from ..core.vocabulary import FIXED
 from ..rig.integrate import Trajectory
 from ..rig.plant import FrictionState
 from ..rig.simulate import build, record
@@ -42,7 +43,7 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
 
-    if scene.base != "fixed":
+    if scene.base != FIXED:
         raise InputError("the naive RK4 baseline is defined for fixed-base scenes only")
     rig = build(scene)
     min_post = float(getattr(rig, "min_post", scene.p("trial.min_post_contact")))

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO
 from ..identify import identify_trial
 from ..rig import build, simulate
 from ..scene.description import make_scene
@@ -72,28 +73,28 @@ def wp_scenes(*, size: str = "full", flexible: bool = True) -> list[WPScene]:
     default, Zero and High gains, fixed base and (when the rig accepts it) flexible base.
     ``size`` (:data:`~campaign.bench.common.SIZES`): ``quick`` keeps two scenes per base,
     ``smoke`` only the fixed-base default scene of configuration 2 at High gains."""
-    high = WPScene("fixed default c2 high", dict(base="fixed", config=2, gain="high", speed=1.5))
+    high = WPScene("fixed default c2 high", dict(base=FIXED, config=2, gain=HIGH, speed=1.5))
     if check_size(size) == "smoke":
         return [high]
-    out = [WPScene("fixed ideal c2", dict(base="fixed", config=2, scene="ideal", speed=1.5)), high]
+    out = [WPScene("fixed ideal c2", dict(base=FIXED, config=2, scene="ideal", speed=1.5)), high]
     if size == "full":
         out += [
-            WPScene("fixed ideal c3", dict(base="fixed", config=3, scene="ideal", speed=1.5)),
-            WPScene("fixed default c2 zero", dict(base="fixed", config=2, gain="zero", speed=1.5)),
-            WPScene("fixed default c3 zero", dict(base="fixed", config=3, gain="zero", speed=1.5)),
-            WPScene("fixed default c3 high", dict(base="fixed", config=3, gain="high", speed=1.5)),
+            WPScene("fixed ideal c3", dict(base=FIXED, config=3, scene="ideal", speed=1.5)),
+            WPScene("fixed default c2 zero", dict(base=FIXED, config=2, gain=ZERO, speed=1.5)),
+            WPScene("fixed default c3 zero", dict(base=FIXED, config=3, gain=ZERO, speed=1.5)),
+            WPScene("fixed default c3 high", dict(base=FIXED, config=3, gain=HIGH, speed=1.5)),
         ]
     if flexible:
         out += [
-            WPScene("flexible loop c2 high", dict(base="flexible", config=2, gain="high", speed=1.5)),
+            WPScene("flexible loop c2 high", dict(base=FLEXIBLE, config=2, gain=HIGH, speed=1.5)),
             WPScene("flexible ideal-coupling c2 high",
-                    dict(base="flexible", config=2, gain="high", speed=1.5, params={"ves.mode": "ideal"})),
+                    dict(base=FLEXIBLE, config=2, gain=HIGH, speed=1.5, params={"ves.mode": "ideal"})),
         ]
         if size == "full":
             out += [
-                WPScene("flexible loop c3 low", dict(base="flexible", config=3, gain="low", speed=1.5)),
+                WPScene("flexible loop c3 low", dict(base=FLEXIBLE, config=3, gain=LOW, speed=1.5)),
                 WPScene("flexible ideal scene c2",
-                        dict(base="flexible", config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
+                        dict(base=FLEXIBLE, config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
             ]
     return out
 
@@ -262,7 +263,7 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
             continue
         rig = build(scene)
         dc, df = int(rig.substeps_contact), int(rig.substeps_free)
-        flex = scene.base != "fixed"
+        flex = scene.base != FIXED
         settings = wp_settings(dc, df, size=size, naive=not flex, frees=(1, 2, 4, 8) if flex else (1, 2, 4))
         n_rep = max(2, repeats - 2) if flex else repeats
         log(f"[wp] {spec.label}: default {dc}/{df}; reference {REF_FACTOR * dc}/{REF_FACTOR * df}; "
@@ -332,7 +333,7 @@ def wp_verdict(result: dict) -> list[str]:
     for sc in result["scenes"]:
         mine = [r for r in result["rows"] if r["scene"] == sc["label"]]
         d = next(r for r in mine if r["default"])
-        target = TARGET_FLEXIBLE if sc["label"].startswith("flexible") else TARGET_FIXED
+        target = TARGET_FLEXIBLE if sc["label"].startswith(FLEXIBLE) else TARGET_FIXED
         if "error" in d:
             ok = [r for r in mine if "error" not in r and r["ident"] <= TARGET_REL_ERR]
             best = min(ok, key=lambda r: r["wall"]) if ok else None
@@ -430,7 +431,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
             if r["setting"] == "rk4 uniform 0.1 ms":
                 ax.scatter([r["wall"] * 1e3], [max(r["combined"], ERR_FLOOR)], s=120, marker="+", color="k",
                            label="rig RK4, uniform 0.1 ms", zorder=5)
-        target = TARGET_FLEXIBLE if label.startswith("flexible") else TARGET_FIXED
+        target = TARGET_FLEXIBLE if label.startswith(FLEXIBLE) else TARGET_FIXED
         ax.axhline(TARGET_REL_ERR, color="grey", lw=0.7, ls=":")
         ax.axvline(target * 1e3, color="grey", lw=0.7, ls=":")
         ax.set_xscale("log")
