@@ -29,7 +29,7 @@ import re
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, ZERO_LOW, bases, gain_sets
 from ..model.conventions import configurations
 from ..model.exiit import effective_mass
 from ..model.paper import configuration_q, impact_direction, load_paper
@@ -85,7 +85,7 @@ model file that is corrupted, malformed or fitted for another robot or rig file.
 """
 
 #: Table 2 columns: (column, Table 3 gain class whose lambda it uses, or None for zero)
-TABLE2_COLUMNS = (("m1", None), ("m2", "zero_low"), ("m3", "high"))
+TABLE2_COLUMNS = (("m1", None), ("m2", ZERO_LOW), ("m3", HIGH))
 
 # Python 3.11's argparse takes "-1,0,0" for an option flag; accept any argument that starts
 # like a negative number as a value (the rule Python 3.13 adopted; this command has no
@@ -231,10 +231,10 @@ def flexible_base_body(rig_path=None):
     campaign.model.robot.floating.BaseBody
     """
 
-    return Beam.from_scene(make_scene(base="flexible", rig=rig_path)).base_body()
+    return Beam.from_scene(make_scene(base=FLEXIBLE, rig=rig_path)).base_body()
 
 
-def evaluate(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> float:
+def evaluate(robot, q, *, lam, n, base: str = FIXED, base_body=None) -> float:
     """Effective mass [kg] of ``robot`` at DH angles ``q`` [rad] (eq 11, ``inf`` off range).
 
     Parameters
@@ -252,9 +252,9 @@ def evaluate(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> float:
         Base of the flexible case; default :func:`flexible_base_body`.
     """
 
-    if base == "fixed":
+    if base == FIXED:
         return effective_mass(robot, q, n, lam)
-    if base == "flexible":
+    if base == FLEXIBLE:
         frobot = attach_to_floating_base(robot, flexible_base_body() if base_body is None else base_body)
         return effective_mass(frobot, q, n, lam)
     raise ValueError(f"unknown base {base!r}; expected 'fixed' or 'flexible'")
@@ -297,7 +297,7 @@ def format_table2(rows: list[dict]) -> str:
     lines = ["Table 2: effective mass m* [kg] of the tip along the paper's n, fixed base (eq 7, 11)"]
     for column, gain_class in TABLE2_COLUMNS:
         lam = by[(configs[0], column)]["lambda"]
-        source = "zero" if gain_class is None else f"the paper's Table 3, {gain_class} gains"
+        source = "zero" if gain_class is None else f"the paper's Table 3, {gain_class} gains"  # not a vocabulary name
         lines.append(f"  {column}: lambda = {_fmt(lam)} kg m^2 ({source})")
     lines.append("")
     head = "config" + "".join(f"  {c + ' model':>9} {c + ' paper':>9} {'diff':>7}" for c in columns)
@@ -333,14 +333,14 @@ def run(args) -> int:
     if args.table:
         extra = [f"{opt} {val}" for opt, val in (("--lambda", args.lam), ("--direction", args.direction),
                                                  ("--robot", args.robot)) if val is not None]
-        if args.base == "flexible":
+        if args.base == FLEXIBLE:
             extra.append("--base flexible")
         if extra:
             raise InputError(f"--table reproduces the paper's Table 2 (fixed base, the paper's n and "
                              f"Table 3 lambda) and takes no {', '.join(extra)}")
         rows = table2_rows()
         if args.json:
-            print(json.dumps({"table": "2", "units": "kg", "base": "fixed", "robot": paper["robot"],
+            print(json.dumps({"table": "2", "units": "kg", "base": FIXED, "robot": paper["robot"],
                               "direction": impact_direction().tolist(), "rows": rows}))
         else:
             print(format_table2(rows))
@@ -352,7 +352,7 @@ def run(args) -> int:
     if args.model is not None:
         return run_model(args, robot=robot, config=config, q_paper=q_paper, q=q, n=n)
     lam = _lambda(args, robot.nv)
-    base = args.base or "fixed"
+    base = args.base or FIXED
     m = evaluate(robot, q, lam=lam, n=n, base=base)
     infinite = math.isinf(m)
     if args.json:
@@ -365,7 +365,7 @@ def run(args) -> int:
     where = f", configuration {config}" if config is not None else ""
     value = "inf (n leaves the range of G*_33: the tip cannot move along n)" if infinite else f"{m:.6g}"
     print(f"m*        = {value} kg")
-    print(f"base      = {base} (eq {'7' if base == 'fixed' else '8'})")
+    print(f"base      = {base} (eq {'7' if base == FIXED else '8'})")
     convention = "paper" if robot.name == paper["robot"] else f"{robot.name}'s angles"
     print(f"arm       = {robot.name}{where}, q = {_fmt(q_paper)} deg ({convention}) = "
           f"{_fmt(np.degrees(q))} deg ({'DH' if robot.name == paper['robot'] else 'model'})")

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases
+from ..core.vocabulary import FIXED, FLEXIBLE, bases
 from ..joints.modelfile import shipped_model_path
 from ..joints.setting import display_path
 from ..model.conventions import angle_count
@@ -105,7 +105,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--speed", type=float, default=2.0, help="object speed along n [m/s] (default 2.0)")
     p.add_argument("--restitution", type=float, default=None,
                    help="restitution e (default: contact.restitution of config/rig.yaml)")
-    p.add_argument("--base", choices=bases(), default="fixed",
+    p.add_argument("--base", choices=bases(), default=FIXED,
                    help="fixed: ground-fixed arm (eq 7); flexible: on the rig's cantilever (eq 8)")
     p.add_argument("--model", metavar="FILE", default=None,
                    help="a saved response model (default: the shipped config/response_model.json)")
@@ -190,7 +190,7 @@ def run(args) -> int:
     if args.top < 0:
         raise InputError(f"--top {args.top}: must be >= 0")
     weights = parse_vector(args.weights, option="--weights", size=3)
-    if args.objective == "displacement" and args.base != "flexible":
+    if args.objective == "displacement" and args.base != FLEXIBLE:
         raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
@@ -213,7 +213,7 @@ def run(args) -> int:
             "candidates": rows,
         }))
         return 0
-    flex = args.base == "flexible"
+    flex = args.base == FLEXIBLE
     how = f"(eq {'8' if flex else '7'})" if model is None else "(response model)"
     print(f"point      = {_fmt(point, '.4g')} m, base {args.base} {how}")
     print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")

@@ -11,7 +11,7 @@ from pathlib import Path
 from ..archive import TRIAL_BYTES
 from ..core.errors import InputError
 from ..core.files import check_output_dir
-from ..core.vocabulary import bases, config_folder, gain_sets, layout
+from ..core.vocabulary import FIXED, bases, config_folder, gain_sets, layout
 from ..pipeline.simulate import run_cells
 from .commands import HELP
 from .trial import _param
@@ -45,7 +45,7 @@ def register(sub) -> None:
         "write one NetCDF4/HDF5 file per trial under OUT, at the campaign's paths "
         "(<base>/config<N>/<gain>/v<speed>/r<repeat>.nc). Rig parameters come from config/rig.yaml (SI units).",
     )
-    p.add_argument("--base", choices=bases(), default="fixed", help="base of every trial (default fixed)")
+    p.add_argument("--base", choices=bases(), default=FIXED, help="base of every trial (default fixed)")
     p.add_argument("--configs", default="1,2,3", metavar="N,N",
                    help="arm configurations of the robot (the PUMA 560's: the paper's Table 1; default 1,2,3)")
     p.add_argument("--gains", default=",".join(gain_sets()), metavar="G,G",

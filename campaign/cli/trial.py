@@ -7,7 +7,7 @@ import time
 
 from ..archive import TRIAL_BYTES, write_trial
 from ..core.files import check_output_file
-from ..core.vocabulary import bases, gain_sets
+from ..core.vocabulary import FIXED, ZERO, bases, gain_sets
 from ..core.yamlfile import yaml_load
 from ..model.conventions import angle_count
 from ..plan.stroke import check_scene_stroke
@@ -32,7 +32,7 @@ def register(sub) -> None:
         "its raw sensor channels (group /measured) and the simulator truth (group /truth) to one file. "
         "Rig parameters come from config/rig.yaml (SI units); --set overrides any of them.",
     )
-    p.add_argument("--base", choices=bases(), default="fixed",
+    p.add_argument("--base", choices=bases(), default=FIXED,
                    help="ground-fixed base, or the flexible long-reach base emulated by the VES (default: fixed)")
     pose = p.add_mutually_exclusive_group()
     pose.add_argument("--config", type=int, default=None, metavar="N",
@@ -46,7 +46,7 @@ def register(sub) -> None:
                    help="impact direction n in the arm's base frame: a horizontal unit vector (the hammer moves "
                         "horizontally at the bottom of its swing; default the paper's -x). The pendulum is placed to "
                         "strike the impact point along n; a pose or direction it cannot strike is refused")
-    p.add_argument("--gain", choices=gain_sets(), default="zero",
+    p.add_argument("--gain", choices=gain_sets(), default=ZERO,
                    help="servo gain set of Table 1, in the paper's controller counts (default zero)")
     p.add_argument("--speed", type=float, required=True, metavar="V",
                    help="hammer speed along the impact direction at the touch [m/s] (the paper: 1.0-2.5)")
