@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED
 from ..model.exiit import effective_mass
 from ..model.paper import impact_direction, load_paper, paper_offset_deg, paper_q
 from ..rig.pendulum import Pendulum
@@ -134,7 +135,7 @@ def rig_refusal(q_paper, n, *, gains: Sequence[str], speeds: Sequence[float], ri
     for gain in gains:
         for v in speeds:
             try:
-                build(make_scene(base="fixed", config=0, q_paper_deg=[float(x) for x in q_paper],
+                build(make_scene(base=FIXED, config=0, q_paper_deg=[float(x) for x in q_paper],
                                  direction=[float(x) for x in n], gain=gain, speed=float(v), rig=rig))
             except (InputError, ValueError) as exc:
                 return f"{gain} gains, {v:g} m/s: {exc}"

@@ -37,7 +37,7 @@ from ..core.errors import InputError
 from ..core.files import write_atomic
 from ..core.stats import Z95
 from ..core.timing import Timer
-from ..core.vocabulary import direction_azimuth, gain_classes, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, direction_azimuth, gain_classes, gain_sets
 from ..identify.results import is_usable
 from ..identify.table import identify_trials, read_identification
 from ..joints.coulomb import CoulombLambdaFit
@@ -174,7 +174,7 @@ def scenes(the_plan: Mapping[str, Any], role: str, gain: str, *, structure: str 
 
     if role not in ROLES:
         raise InputError(f"unknown role {role!r}; expected one of {ROLES}")
-    base = "fixed" if structure is None else "flexible"
+    base = FIXED if structure is None else FLEXIBLE
     params = None if structure is None else {"flexible.structure": structure}
     out = []
     for p in the_plan["poses"][role]:
