@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.lazy import LazyModule
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..model.robot import Robot, load_robot
 from ..scene.schema import GroupArrays
 from .channels import (
@@ -249,7 +250,7 @@ def _check_measured(measured, meta: Mapping, where: str) -> tuple[str, bool, tup
                          f"campaign.scene.schema.GroupArrays), got {type(measured).__name__}")
     _check_channels(measured, REQUIRED_CHANNELS, where)
     base_kind = str(meta.get("base", "") or "")
-    flexible = base_kind == "flexible" or (not base_kind and "base_mass" in measured.variables)
+    flexible = base_kind == FLEXIBLE or (not base_kind and "base_mass" in measured.variables)
     pose_names = None
     if flexible:
         _check_channels(measured, FLEXIBLE_CONSTANTS, where)
@@ -314,7 +315,7 @@ def _read_channels(measured, meta: Mapping, flexible: bool, pose_names: tuple | 
 def _identity(meta: Mapping, robot: Robot, base_kind: str, ch: _Channels, opt: IdentifyOptions) -> dict:
     """The trial's file and scene identity and constants, as the result's fields."""
     return dict(
-        path=str(meta.get("path", "")), robot=robot.name, base=base_kind or ("flexible" if ch.flexible else "fixed"),
+        path=str(meta.get("path", "")), robot=robot.name, base=base_kind or (FLEXIBLE if ch.flexible else FIXED),
         config=_int_or(meta.get("config"), -1), gain=str(meta.get("gain", "") or ""),
         speed=_float_or(meta.get("speed")), repeat=_int_or(meta.get("repeat"), -1),
         q_cmd=tuple(float(x) for x in ch.q_cmd), hammer_mass=ch.m_b, impact_direction=tuple(float(x) for x in ch.n),
