@@ -16,7 +16,7 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases
+from ..core.vocabulary import FIXED, bases
 from ..identify.results import is_usable
 
 __all__ = ["Impacts"]
@@ -58,7 +58,7 @@ class Impacts:
     gain: tuple
     mass: np.ndarray | None = None
     pendulum: bool = True
-    base: str = "fixed"
+    base: str = FIXED
     structure: str | None = None
     m_eff: np.ndarray | None = None
     restitution: np.ndarray | None = None
@@ -123,7 +123,7 @@ class Impacts:
         rows = [r for r in records if is_usable(r) and (gain_sets is None or r.get("gain") in gain_sets)]
         if not rows:
             raise InputError("no usable identification records (every one is excluded or has no finite m*)")
-        base = {str(r.get("base") or "fixed") for r in rows}
+        base = {str(r.get("base") or FIXED) for r in rows}
         if len(base) != 1:
             raise InputError(f"the records mix bases {sorted(base)}; give one base at a time")
         nv = len(rows[0]["q_cmd"])

@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED
 from .cases import (
     Cases,
     ContactPulse,
@@ -250,10 +251,10 @@ def _checked(terms, kp, kd, damping, coulomb_pos, coulomb_neg, coupling, loop):
     if not (np.all(np.isfinite(kp) & (kp >= 0)) and np.all(np.isfinite(kd) & (kd >= 0))):
         raise InputError("servo gains must be finite and >= 0")
     if coupling is None:
-        coupling = "fixed" if terms.base is None else "loop"
-    if coupling not in ("fixed", "ideal", "loop"):
+        coupling = FIXED if terms.base is None else "loop"
+    if coupling not in (FIXED, "ideal", "loop"):
         raise InputError(f"coupling {coupling!r} is not one of fixed, ideal, loop")
-    if (coupling == "fixed") != (terms.base is None):
+    if (coupling == FIXED) != (terms.base is None):
         raise InputError(f"coupling {coupling!r} does not fit terms {'without' if terms.base is None else 'with'} "
                          "a flexible base")
     if coupling == "loop" and loop is None:
@@ -318,7 +319,7 @@ def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, direc
     ko = np.broadcast_to(np.asarray(object_stiffness, float), (C, D))
     cases = Cases(terms=terms, kp=kp, damping=damping_total, tc_pos=vals["coulomb_pos"], tc_neg=vals["coulomb_neg"],
                   n=n, speed=sp, mass=mb, restitution=e, gravity=float(gravity), object_stiffness=ko)
-    sys = LinearArm(cases, flexible=coupling != "fixed")
+    sys = LinearArm(cases, flexible=coupling != FIXED)
     m0 = start_mass(cases)
     h = float(np.min(pulse_of(cases, contact, m0)[0])) / int(steps)
     coarse = max(int(round(math.log2(int(steps) / GUESS_STEPS))), 0)
