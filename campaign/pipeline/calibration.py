@@ -30,6 +30,7 @@ import yaml
 from .. import __version__
 from ..core.errors import InputError, SimulationError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, ZERO, ZERO_LOW
 from ..core.yamlfile import config_dir, read_yaml
 from ..model.paper import load_paper
 from ..rig.batch import simulate_batch
@@ -102,13 +103,13 @@ def _record(job, trial) -> dict:
         "peak_force": float(tr["peak_force"].values),
         "joint3_excursion_deg": float(np.degrees(np.max(np.abs(q3 - q3[0])))),
     }
-    if base == "flexible":
+    if base == FLEXIBLE:
         x = m["base_position"].values[:, 0]     # axis x
         rec["peak_base_x"] = float(np.max(np.abs(x)))
     return rec
 
 
-def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = "fixed", rig=None,
+def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = FIXED, rig=None,
                   configs=None, gains=None, workers: int | None = None) -> list[dict]:
     """Simulate the sweep with rig parameter overrides ``params``; one record per trial.
 
@@ -135,7 +136,7 @@ def _summary(records: list[dict]) -> dict:
     classes = paper["gain_classes"]
     out: dict[str, Any] = {"m2": {}, "m3": {}}
     for c in sorted({r["config"] for r in records}):
-        for name, gains in (("m2", classes["zero_low"]), ("m3", classes["high"])):
+        for name, gains in (("m2", classes[ZERO_LOW]), ("m3", classes[HIGH])):
             vals = [r["m_eff"] for r in records if r["config"] == c and r["gain"] in gains]
             out[name][c] = float(np.mean(vals)) if vals else math.nan
     speeds = sorted({r["speed"] for r in records})
@@ -151,7 +152,7 @@ def _summary(records: list[dict]) -> dict:
     out["force_low"] = float(np.min([r["peak_force"] for r in records if r["speed"] == speeds[0]]))
     out["force_high"] = float(np.max([r["peak_force"] for r in records if r["speed"] == speeds[-1]]))
     mid = speeds[len(speeds) // 2]
-    fig5 = [r["joint3_excursion_deg"] for r in records if r["config"] == 1 and r["gain"] == "zero"
+    fig5 = [r["joint3_excursion_deg"] for r in records if r["config"] == 1 and r["gain"] == ZERO
             and r["speed"] == mid]
     out["figure5_deg"] = float(np.mean(fig5)) if fig5 else math.nan
     out["figure5_speed"] = mid

@@ -15,6 +15,7 @@ import yaml
 
 from ..core.errors import InputError
 from ..core.files import source_date_epoch
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO
 
 __all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_paths", "check_workflow_config",
            "trial_pick_problem", "check_products"]
@@ -157,8 +158,8 @@ def check_products(config: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[st
     from ..plan.grid import grid_points
 
     figures = config.get("figures") or {}
-    for name, (base, picks) in {"fig5": ("fixed", [(1, "zero")]),
-                                "fig9": ("flexible", [(c, g) for c in (1, 2) for g in ("low", "high")])}.items():
+    for name, (base, picks) in {"fig5": (FIXED, [(1, ZERO)]),
+                                "fig9": (FLEXIBLE, [(c, g) for c in (1, 2) for g in (LOW, HIGH)])}.items():
         if not wanted.get(name) or base not in sweeps:
             continue
         pick = figures.get(name) or {}

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.files import check_output_file, write_atomic
 from ..core.timing import Timer
+from ..core.vocabulary import FIXED
 from ..identify.results import is_usable
 from ..identify.table import read_identification
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
@@ -20,7 +21,7 @@ from ..model.robot import load_robot
 __all__ = ["fit_lambda"]
 def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.PathLike, *,
                gain_class: str, gains: Sequence[str],
-               base: str = "fixed", options: Mapping[str, Any] | None = None, seed: int = 0,
+               base: str = FIXED, options: Mapping[str, Any] | None = None, seed: int = 0,
                timer: Timer | None = None) -> dict[str, Any]:
     """Fit lambda (eq 11, 15) to the identified effective masses of one gain class.
 
