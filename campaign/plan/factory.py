@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import gain_classes
+from ..core.vocabulary import FLEXIBLE, gain_classes
 from ..joints.modelfile import load_model, shipped_model_path
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot
@@ -153,7 +153,7 @@ def build_planner(*, base: str, lambdas=None, model=None, mass=None, speed: floa
     values = rig_values(rig=rig, params=over or None)
     robot = load_robot(str(values["robot"])) if robot is None else robot
     d = object_defaults(values)
-    beam = Beam.from_values(values) if base == "flexible" else None
+    beam = Beam.from_values(values) if base == FLEXIBLE else None
     if model is not None:
         return ImpactPlanner(robot, model=model, mass=d["mass"] if mass is None else mass, speed=speed,
                              restitution=model.restitution_ if restitution is None else restitution,

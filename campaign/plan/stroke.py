@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FLEXIBLE
 from ..model.robot import load_robot
 from ..rig.beam import Beam
 from ..rig.contact import Contact
@@ -59,7 +60,7 @@ def check_scene_stroke(scene: Scene) -> None:
     """:func:`check_stroke_before` for one scene: a flexible-base scene whose rig states a
     stroke (``ves.stroke``); nothing to check otherwise."""
     params = scene.param_dict
-    if scene.base != "flexible" or "ves.stroke" not in params:
+    if scene.base != FLEXIBLE or "ves.stroke" not in params:
         return
     robot = load_robot(scene.p("robot"))
     try:
