@@ -38,6 +38,7 @@ import numpy as np
 from ..core import vocabulary
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, ZERO_LOW
 from ..identify import find_trials, identify_files
 from ..identify.results import is_usable
 from ..joints.impacts import Impacts
@@ -236,7 +237,7 @@ def fit_gain_classes(records, *, robot=None, gain_classes: Mapping[str, Sequence
     rob = _robot(robot, recs)
     fits = {}
     for name, members in classes.items():
-        use = _usable(recs, base="fixed", gains=set(members))
+        use = _usable(recs, base=FIXED, gains=set(members))
         if not use:
             continue
         D = _directions(use)
@@ -273,7 +274,7 @@ def table2(records, *, paper: Mapping[str, Any], robot=None, gain_classes=None) 
     :func:`campaign.model.paper.load_paper`)."""
     classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
-    fixed = [r for r in recs if r["base"] == "fixed"]
+    fixed = [r for r in recs if r["base"] == FIXED]
     rob = _robot(robot, fixed)
     configs = _configs(fixed)
     n = _direction(fixed) if fixed else None
@@ -282,9 +283,9 @@ def table2(records, *, paper: Mapping[str, Any], robot=None, gain_classes=None) 
     for cfg in sorted(configs):
         q = np.asarray(configs[cfg])[None, :]
         m1 = float(effective_mass_batch(rob, q, n)[0])
-        m2, sd2, n2 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get("zero_low", ())))
+        m2, sd2, n2 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get(ZERO_LOW, ())))
                               if r["config"] == cfg])
-        m3, sd3, n3 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get("high", ())))
+        m3, sd3, n3 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get(HIGH, ())))
                               if r["config"] == cfg])
         pm1, pm2, pm3 = (p2[k].get(cfg) for k in ("m1", "m2", "m3"))
         r21 = m2 / m1 if m2 is not None else None
@@ -376,7 +377,7 @@ def table4(records, fits: Mapping, *, paper: Mapping[str, Any], robot=None, gain
     model it is) go into the notes."""
     classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
-    flex = [r for r in recs if r["base"] == "flexible"]
+    flex = [r for r in recs if r["base"] == FLEXIBLE]
     rob = _robot(robot, flex or recs)
     p4 = paper["table4"]
     cells: dict[tuple[int, str], list] = {}

@@ -13,13 +13,14 @@ import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ...core.vocabulary import FIXED, HIGH, LOW, ZERO
 from ...identify.table import read_identification
 from . import style
 
 __all__ = ["draw", "make"]
 
 
-def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = "fixed"):
+def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = FIXED):
     """Draw Figure 6 from identification tables (:func:`campaign.identify.table.identify_trials`).
 
     Parameters
@@ -45,9 +46,9 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any],
             continue
         off = style.GAIN_OFFSET
         kw = dict(color=style.PAPER_COLOR, lw=2.2)
-        ax.hlines(table2["m2"][c], c + off["zero"] - 0.09, c + off["low"] + 0.09, **kw,
+        ax.hlines(table2["m2"][c], c + off[ZERO] - 0.09, c + off[LOW] + 0.09, **kw,
                   label=style.paper_label("Table 2 experiments (m2: Z, L; m3: H)") if first else None)
-        ax.hlines(table2["m3"][c], c + off["high"] - 0.09, c + off["high"] + 0.09, **kw)
+        ax.hlines(table2["m3"][c], c + off[HIGH] - 0.09, c + off[HIGH] + 0.09, **kw)
         ax.hlines(table2["m1"][c], c - 0.45, c + 0.45, color=style.PAPER_COLOR, lw=0.9, ls="--",
                   label=style.paper_label("Table 2 link dynamics m1 (lambda = 0)") if first else None)
         first = False
@@ -60,6 +61,6 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any],
 
 
 def make(ident_tables: Sequence[str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None,
-         *, paper: Mapping[str, Any], base: str = "fixed"):
+         *, paper: Mapping[str, Any], base: str = FIXED):
     """Draw Figure 6 and save it as PNG (and PDF). Returns the files written."""
     return style.save(draw(ident_tables, paper=paper, base=base), png, pdf)

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ...archive import open_trial_arrays
+from ...core.vocabulary import HIGH, LOW
 from ...identify import detect_contact
 from ...rig.simulate import structure_modes
 from ...scene.description import Scene, structure_of
@@ -27,7 +28,7 @@ from . import style
 __all__ = ["GAINS", "series", "draw", "make"]
 
 #: gain sets compared, in drawing order
-GAINS = ("low", "high")
+GAINS = (LOW, HIGH)
 
 
 def series(trial: str | os.PathLike) -> dict:
@@ -96,7 +97,7 @@ def draw(trials: Mapping[str, str | os.PathLike], *, paper: Mapping[str, Any], t
             ax.plot(d["t"] / d["T1"], d["x"], color=style.GAIN_COLOR[g], lw=1.1,
                     label=f"{style.GAIN_LABEL[g]}: max |x| = {amp[g]:.2f} mm")
         ax.axvline(0.0, color=style.PAPER_COLOR, lw=0.6, ls=":")
-        reduction = 1.0 - amp["low"] / amp["high"] if amp["high"] > 0 else float("nan")
+        reduction = 1.0 - amp[LOW] / amp[HIGH] if amp[HIGH] > 0 else float("nan")
         ax.set_title(f"({chr(ord('a') + configs.index(c))}) configuration {c}", loc="left")
         ax.set_ylabel("base displacement x [mm]")
         ax.legend(loc="upper right", title=f"Low reduces the maximum amplitude by {100 * reduction:.0f} % "
