@@ -17,6 +17,7 @@ import pinocchio as pin
 
 from ..core.errors import InputError, SimulationError
 from ..core.lazy import LazyModule
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..model.exiit import effective_mass
 from ..model.robot import load_robot
 from ..scene import schema
@@ -114,7 +115,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
             "pushing the arm instead of rebounding")
     streams = noise_streams(scene.seed)
     t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
-    if scene.base == "fixed":
+    if scene.base == FIXED:
         plant, freqs = FixedBasePlant(robot, q0, n, pend, contact, **friction), None
     else:
         plant, freqs, min_post, max_post = _flexible_plant(scene, robot, q0, n, pend, contact, friction,
@@ -203,7 +204,7 @@ def _substeps(scene: Scene, contact, pend, m1: float, freqs, *, servo_period: fl
     structure the ideal coupling cannot resolve, and an override that leaves the contact
     (or the ideal coupling's structure) unresolved."""
     p, T = scene.p, servo_period
-    ideal = scene.base == "flexible" and p("ves.mode") == "ideal"
+    ideal = scene.base == FLEXIBLE and p("ves.mode") == "ideal"
     # contact step from the contact's own time scale (hammer against a wall bounds it)
     t_contact_scale = contact_duration_estimate(contact.stiffness, contact.exponent, pend.m_b, scene.speed)
     if t_contact_scale > max_post:
@@ -388,7 +389,7 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
     (:func:`record` without building xarray objects; :func:`to_tree` makes the tree)."""
     scene, plant = rig.scene, rig.plant
     p = scene.p
-    flexible = scene.base == "flexible"
+    flexible = scene.base == FLEXIBLE
     loop = flexible and hasattr(plant, "loop")
     clocks = _Clocks(p, StateSampler(plant, traj), traj.t_end)
     measured, coords, history = _measured(rig, traj, clocks, loop=loop)
@@ -522,7 +523,7 @@ def _truth(rig: Rig, traj, clocks: _Clocks, history):
         base_truth = np.column_stack([P_hist, V_hist])
     else:
         energy, tip_v = truth_terms(plant, Xt, pre, post)
-        if rig.scene.base == "flexible":
+        if rig.scene.base == FLEXIBLE:
             base_truth = plant.base_state(Xt)
     c0, c1, _ = traj.contacts[0]
     peak = float(np.max(clocks.sampler.contact_force(np.linspace(c0, c1, 2001))))
