@@ -25,6 +25,8 @@ import dataclasses
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from ..core.vocabulary import FIXED, FLEXIBLE
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -52,7 +54,7 @@ class Var:
     dims: tuple[str, ...]
     units: str
     long_name: str
-    bases: tuple[str, ...] = ("fixed", "flexible")  # scenes that carry it
+    bases: tuple[str, ...] = (FIXED, FLEXIBLE)  # scenes that carry it
 
 
 CLOCKS = {
@@ -65,7 +67,7 @@ CLOCKS = {
     "t_truth": Clock("t_truth", "simulator truth sample time", "sensors.truth_rate"),
 }
 
-_FLEX = ("flexible",)
+_FLEX = (FLEXIBLE,)
 
 MEASURED = (
     # channels
