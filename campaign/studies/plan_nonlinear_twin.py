@@ -21,6 +21,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.errors import SimulationError
+from ..core.vocabulary import FLEXIBLE, HIGH, SPACE_CLASS, ZERO
 from ..model.paper import load_paper
 from ..model.robot.floating import attach_to_floating_base
 from ..plan.directions import horizontal_directions
@@ -133,9 +134,9 @@ def compare(speed: float, head_mass: float, *, n_dirs: int = 4, gains=tuple(prc.
     for setting, over in SETTINGS:
         params = {"pendulum.head_mass": head_mass, **over}
         row = prc.check_point(name, point, directions=directions, speed=speed, params=params, gains=gains,
-                              bases=(("flexible", "space_class"),))[0]
-        planner = build_planner(base="flexible", lambdas=table3, speed=speed, mass=prc.hammer_mass(params),
-                                objective="displacement", structure="space_class", params=params)
+                              bases=((FLEXIBLE, SPACE_CLASS),))[0]
+        planner = build_planner(base=FLEXIBLE, lambdas=table3, speed=speed, mass=prc.hammer_mass(params),
+                                objective="displacement", structure=SPACE_CLASS, params=params)
         planner.fit(point, directions)
         meas, pred, twin = _values(row, planner, dt=dt)
         keys = sorted(meas)
@@ -157,6 +158,6 @@ def compare(speed: float, head_mass: float, *, n_dirs: int = 4, gains=tuple(prc.
 def run(out_dir, *, quick: bool = False, log: Log = quiet) -> list[str]:
     """Run the study (2.0 m/s, head mass 5 kg, 4 directions; ``quick``: 2 directions, gain
     sets zero and high, a coarser twin step) and write ``twin.csv`` into ``out_dir``."""
-    kw = dict(n_dirs=2, gains=("zero", "high"), dt=5e-4) if quick else {}
+    kw = dict(n_dirs=2, gains=(ZERO, HIGH), dt=5e-4) if quick else {}
     rows = compare(2.0, 5.0, log=log, **kw)
     return [write_csv(Path(out_dir) / "twin.csv", rows, COLUMNS)]
