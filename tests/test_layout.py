@@ -1,5 +1,6 @@
 """The package's layout: imports flow one way through the declared layers, no circle, small
-modules and functions, and no private name re-exported by a package.
+modules and functions, no private name re-exported by a package, and no base, gain or
+structure name spelled outside the vocabulary.
 
 Read with the standard library's ``ast`` (nothing is imported). Every import counts, also
 one inside a function: a lazy import defers the cost, not the dependency. Each rule is a
@@ -16,10 +17,15 @@ from pathlib import Path
 import pytest
 
 from campaign import LAYERS
+from campaign.core.vocabulary import NAMES
 from campaign.pipeline.digests import PACKAGE, closure, graph, modules
 
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 100
+#: the module that spells the vocabulary's names, relative to the package
+VOCABULARY = "core/vocabulary.py"
+#: a line that uses one of those words for something else says so
+NOT_A_NAME = "# not a vocabulary name"
 
 
 # ---------------------------------------------------------------------------------------
@@ -122,6 +128,35 @@ def private_reexports(root: Path) -> list[str]:
     return found
 
 
+def _docstrings(tree: ast.AST) -> set[int]:
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+                found.add(id(first.value))
+    return found
+
+
+def vocabulary_literals(root: Path, names, *, owner: str = VOCABULARY) -> list[str]:
+    """String constants equal to one of ``names`` in any module but ``owner``: docstrings and
+    lines marked :data:`NOT_A_NAME` aside, code names a base, gain set or structure through
+    the vocabulary's constants."""
+    found = []
+    for name, path in modules(root=root).items():
+        if path.relative_to(root.resolve()).as_posix() == owner:
+            continue
+        text = path.read_text()
+        lines = text.splitlines()
+        tree = ast.parse(text)
+        skip = _docstrings(tree)
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names
+                    and id(node) not in skip and NOT_A_NAME not in lines[node.lineno - 1]):
+                found.append(f"{name} line {node.lineno}: {node.value!r}")
+    return sorted(found)
+
+
 # ---------------------------------------------------------------------------------------
 # the campaign package
 # ---------------------------------------------------------------------------------------
@@ -149,6 +184,10 @@ def test_no_function_over_100_lines():
 
 def test_no_package_re_exports_a_private_name():
     assert private_reexports(PACKAGE) == []
+
+
+def test_no_base_gain_or_structure_name_is_spelled_outside_the_vocabulary():
+    assert vocabulary_literals(PACKAGE, NAMES) == []
 
 
 def test_the_graph_sees_relative_imports_at_every_level_and_imports_inside_functions():
@@ -221,6 +260,16 @@ def test_a_private_re_export_is_found(tmp_path):
                                "low/a.py": "_hidden = shown = extra = used = 1\n"})
     assert private_reexports(root) == ["pkg.low re-exports the private name _hidden",
                                        "pkg.low imports extra without exporting it in __all__"]
+
+
+def test_a_vocabulary_literal_is_found(tmp_path):
+    root = _package(tmp_path, {
+        "low/names.py": 'FIXED = "fixed"\n',
+        "low/a.py": 'def f(base="fixed"):\n    """Only the fixed base."""\n    return {"high": 1, "fixed base": 2}\n',
+        "high/b.py": 'from ..low.names import FIXED\nWORD = "zero"  # not a vocabulary name\nX = [FIXED, f"{FIXED}"]\n'})
+    assert vocabulary_literals(root, {"fixed", "zero", "high"}, owner="low/names.py") == [
+        "pkg.low.a line 1: 'fixed'", "pkg.low.a line 3: 'high'"]
+    assert vocabulary_literals(root, {"fixed"}, owner="low/a.py") == ["pkg.low.names line 1: 'fixed'"]
 
 
 @pytest.mark.parametrize("module", ["campaign.core.vocabulary", "campaign.core.yamlfile", "campaign.pipeline.paths",
