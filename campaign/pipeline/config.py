@@ -153,18 +153,20 @@ def check_products(config: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[st
     campaign makes: ``wanted``), and the planner's maps (``plan_maps.config`` a paper
     configuration, ``plan_maps.resolution`` a grid the map can sample)."""
     # the paper's tables and the map's grid limit: standard library and PyYAML only
+    from ..core.vocabulary import figure_cells
     from ..core.yamlfile import config_file, read_yaml
     from ..plan.grid import grid_points
 
     figures = config.get("figures") or {}
-    for name, (base, picks) in {"fig5": ("fixed", [(1, "zero")]),
-                                "fig9": ("flexible", [(c, g) for c in (1, 2) for g in ("low", "high")])}.items():
+    for name in ("fig5", "fig9"):
+        cells = figure_cells(name)
+        base = cells[0][0]
         if not wanted.get(name) or base not in sweeps:
             continue
         pick = figures.get(name) or {}
         speed = float(pick.get("speed", max(sweeps[base]["speeds"])))
         repeat = int(pick.get("repeat", 0))
-        for c, g in picks:
+        for _, c, g in cells:
             why = trial_pick_problem(base, c, g, speed, repeat, sweeps=sweeps, key=f"figures.{name}",
                                      held=held.get(base, ()))
             if why:
