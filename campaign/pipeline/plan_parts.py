@@ -88,8 +88,9 @@ class JobOutputs:
 
     def fixed_base_products(self) -> list[str]:
         """The products the fixed_base job makes, in the order it makes them (the fits
-        ``fit_<class>`` first: Table 3 reads them)."""
-        out = [f"fit_{k}" for k in self.fit_classes()] if self.complete_fixed_sweep() else []
+        ``fit_<class>`` first: Table 3 reads them). The fits are made whenever the default
+        target asks for them (``fit_requirement`` met), Tables 2-3 only for a complete sweep."""
+        out = [f"fit_{k}" for k in self.fit_classes()] if not self.fit_requirement() else []
         out += [p for p in ("table2", "table3") if not self.missing_requirement(p)]
         return out + [p for p in ("fig6", "fig7") if not self.missing_requirement(p)]
 
