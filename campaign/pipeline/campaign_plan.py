@@ -41,7 +41,7 @@ from .plan_parts import (
     log_path,
 )
 
-__all__ = ["CampaignPlan", "PRIORITY", "STAGE_CODE", "ARCHIVE_FILES"]
+__all__ = ["CampaignPlan", "PRIORITY", "STAGE_CODE", "ARCHIVE_FILES", "CALIBRATION_FILES"]
 
 #: each job's priority: the work on the longest path from it to the end of a campaign, in
 #: seconds of the full campaign's CPU (rounded; docs/benchmarks.rst), so that of the jobs that
@@ -66,6 +66,8 @@ _ROBOT_FILES = "model/robot/*/*"
 #: module loads h5py, so they are named here too; the plan's tests check that both agree)
 ARCHIVE_FILES = {"index": "index.csv", "readme": "README.md", "manifest": "MANIFEST.sha256"}
 _JOBS = ".jobs"
+#: the calibration's files in the results folder, by role
+CALIBRATION_FILES = {"fit": "fit.md", "md": "calibration.md", "html": "calibration.html", "csv": "calibration.csv"}
 
 
 def _read_yaml(path: str) -> dict:
@@ -521,14 +523,15 @@ class CampaignPlan(JobOutputs):
             out.append(self.config["identification_csv"])
         return out
 
-    def calibration_file(self, name: str) -> str:
-        """A file of the calibration's folder (``fit.md``, ``calibration.md``, ...)."""
-        return f"{self.results}/calibration/{name}"
+    def calibration_file(self, role: str) -> str:
+        """A file of the calibration's folder: ``fit`` (what ``snakemake calibrate`` did), the
+        report's ``md``, ``html`` and ``csv``."""
+        return f"{self.results}/calibration/{CALIBRATION_FILES[role]}"
 
     def calibration_targets(self) -> list[str]:
         """The calibration report, when the campaign has what its held-out rows need."""
         if not self.missing_requirement("table4") and not self.missing_requirement("fig9"):
-            return [self.calibration_file("calibration.md"), self.calibration_file("calibration.html")]
+            return [self.calibration_file("md"), self.calibration_file("html")]
         return []
 
     def log_file(self, rule: str, unit: str | None = None, *, root: str | None = None) -> str:

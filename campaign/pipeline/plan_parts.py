@@ -123,11 +123,11 @@ class JobOutputs:
         products = self.flexible_base_products()
         out = self._table_outputs("table4", "Flexible base") if "table4" in products else {}
         if "calibration" in products:
-            out["calibration_md"] = Output(self.calibration_file("calibration.md"))
-            out["calibration_html"] = Output(self.calibration_file("calibration.html"), {
+            out["calibration_md"] = Output(self.calibration_file("md"))
+            out["calibration_html"] = Output(self.calibration_file("html"), {
                 "caption": "calibration", "category": "Calibration", "subcategory": "Fitted and held-out observations",
                 "labels": {"report": "The simulated rig against the paper"}})
-            out["calibration_csv"] = Output(self.calibration_file("calibration.csv"))
+            out["calibration_csv"] = Output(self.calibration_file("csv"))
         return out
 
     def flexible_base_inputs(self) -> dict[str, Any]:

@@ -8,7 +8,7 @@ rule calibrate:
     input:
         calibration=PLAN.calibration_settings,
     output:
-        md=PLAN.calibration_file("fit.md"),
+        md=PLAN.calibration_file("fit"),
     log:
         PLAN.log_file("calibrate"),
     params:
