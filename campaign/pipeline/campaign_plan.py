@@ -10,14 +10,14 @@ only wires it into Snakemake; trial paths are built and read through
 :mod:`campaign.core.vocabulary` only.
 
 Only the standard library, PyYAML and the start-up modules are imported (the vocabulary, the
-robots' conventions, the configuration checks, :mod:`.paths` and :mod:`.digests`): Snakemake
-makes the plan every time it starts, a dry run included. A configuration the plan cannot
+robots' conventions, the configuration checks, :mod:`.paths`, :mod:`.digests` and
+:mod:`.plan_parts`): Snakemake makes the plan every time it starts, a dry run included; a
+check that needs the scene imports it when it runs. A configuration the plan cannot
 run raises :class:`~campaign.core.errors.InputError`, one line naming the key.
 """
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,7 +29,7 @@ from ..core.errors import InputError
 from ..core.yamlfile import config_file
 from ..model import conventions
 from . import config as config_checks
-from . import digests, paths
+from . import paths
 from .plan_parts import (
     ANY_ARM_PRODUCTS,
     FIGURES,
@@ -41,27 +41,8 @@ from .plan_parts import (
     log_path,
 )
 
-__all__ = ["CampaignPlan", "PRIORITY", "STAGE_CODE", "ARCHIVE_FILES", "CALIBRATION_FILES"]
+__all__ = ["CampaignPlan", "ARCHIVE_FILES", "CALIBRATION_FILES"]
 
-#: each job's priority: the work on the longest path from it to the end of a campaign, in
-#: seconds of the full campaign's CPU (rounded; docs/benchmarks.rst), so that of the jobs that
-#: can run, the one that holds up the most work after it starts first. The fixed base's
-#: simulations lead to identification, the lambda fits and the planner's maps (the longest
-#: job after the simulations); the archive's finalisation needs nothing after it.
-PRIORITY = {
-    "simulate_fixed": 16, "identify_fixed": 15, "simulate_flexible": 12, "fixed_base": 11, "planner_maps": 8,
-    "identify_flexible": 7, "model_figures": 2, "fig5_joint3_motion": 1, "fig9_base_motion": 1,
-    "flexible_base": 1, "finalize_archive": 0, "verify_archive": 0, "identification_csv": 0,
-}
-#: the entry modules of each stage (package paths; :func:`campaign.pipeline.digests.code_digest`)
-STAGE_CODE = {
-    "simulate": ("pipeline/simulate.py",), "identify": ("pipeline/stages.py", "identify/table.py"),
-    "fit": ("pipeline/fit.py",), "tables": ("pipeline/tabulate.py",),
-    "calibration_report": ("pipeline/calibration_report.py",), "designed": ("design/designed_campaign.py",),
-    "designed_model": ("design/designed_model.py",),
-}
-#: the robot files every stage's digest covers
-_ROBOT_FILES = "model/robot/*/*"
 #: the archive's own files (campaign.archive.fileformat's INDEX, README, MANIFEST and JOBS: that
 #: module loads h5py, so they are named here too; the plan's tests check that both agree)
 ARCHIVE_FILES = {"index": "index.csv", "readme": "README.md", "manifest": "MANIFEST.sha256"}
@@ -95,6 +76,26 @@ class CampaignPlan(JobOutputs):
     rig_file, paper_file : str
         The rig parameter file and the paper's conventions (``config/paper.yaml``).
 
+    Attributes
+    ----------
+    campaign, archive, results : str
+        The campaign's name, its archive folder and its results folder (a re-analysed
+        archive's: ``<results_root>/reuse-<archive>``).
+    simulate : bool
+        Whether the trials are simulated; else they are read from ``trial_root``, the reused
+        archive, whose trial files by cell are ``reused``.
+    sweeps : dict
+        ``{base: {configurations, gains, speeds, repeats}}`` as the campaign runs (or holds) them.
+    robot, robot_joints, paper_robot, paper_arm
+        The simulated robot, its joints, the paper's robot and whether they are the same arm.
+    structure, shown_structure
+        The flexible sweep's named structure (None: the rig file's default), and the one
+        Table 4 and Figure 9 show (a reused archive's own).
+    studies, designed : StudiesPlan, DesignedPlan
+        The studies' files and the designed campaign's.
+    notes : list of str
+        What the user should know at start-up (not errors).
+
     Raises
     ------
     InputError
@@ -106,6 +107,7 @@ class CampaignPlan(JobOutputs):
     def __init__(self, *, config: Mapping[str, Any], rig_file: str, paper_file: str):
         self.config = config
         self.rig_file, self.paper_file = str(rig_file), str(paper_file)
+        # the paper's two bases, in its order: the arm on the ground, then on the emulated structure
         self.fixed_base, self.flexible_base = vocabulary.bases()
         self.campaign = str(config["campaign"])
         self.archive = f"{config['archive_root']}/{self.campaign}"
@@ -563,21 +565,3 @@ class CampaignPlan(JobOutputs):
     def calibration_settings(self) -> str:
         """The calibration's observations and bounds (``config/calibration.yaml``)."""
         return str(config_file("calibration.yaml"))
-
-    @staticmethod
-    @functools.cache
-    def stage_code(stage: str) -> str:
-        """The digest of a stage's code (:data:`STAGE_CODE`) with the robot files."""
-        return digests.code_digest(*STAGE_CODE[stage], _ROBOT_FILES)
-
-    @staticmethod
-    @functools.cache
-    def figure_code(name: str) -> str:
-        """Digest of a figure's module and every package module it imports, with the robot files."""
-        return digests.code_digest(f"report/figures/{name}.py", _ROBOT_FILES)
-
-    @staticmethod
-    @functools.cache
-    def study_code(name: str) -> str:
-        """Digest of a study's module (and what it imports), with the robot files."""
-        return digests.code_digest(f"studies/{name}.py", _ROBOT_FILES)

@@ -1,5 +1,5 @@
-"""The parts of the campaign's plan that do not depend on its sweeps: the report's products,
-the studies' files and the designed campaign's.
+"""Parts of the campaign's plan: the report's products, the jobs (their code digests,
+priorities, outputs, inputs and logs), the studies' files and the designed campaign's.
 
 The studies do not depend on a campaign's trials: their files go to
 ``<results_root>/studies/<study>/`` whatever the campaign. The designed campaign
@@ -19,9 +19,10 @@ import yaml
 from .. import studies as study_registry
 from ..core import vocabulary
 from ..core.errors import InputError
+from . import digests
 
-__all__ = ["Output", "log_path", "JobOutputs", "StudiesPlan", "DesignedPlan", "FIGURES", "TABLES", "STUDY_PRODUCTS",
-           "ANY_ARM_PRODUCTS", "DESIGNED_ROLES", "DESIGNED_FILES"]
+__all__ = ["Output", "log_path", "JobOutputs", "StudiesPlan", "DesignedPlan", "PRIORITY", "STAGE_CODE", "FIGURES",
+           "TABLES", "STUDY_PRODUCTS", "ANY_ARM_PRODUCTS", "DESIGNED_ROLES", "DESIGNED_FILES"]
 
 #: the report's figures and tables (named targets), in the order the default target lists them
 FIGURES = ("fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "plan_maps", "eq8_validity")
@@ -37,6 +38,26 @@ DESIGNED_ROLES = ("paper", "designed", "heldout")
 DESIGNED_FILES = {"plan": "plan.json", "design": "design.md", "report_json": "report.json", "report": "report.md",
                   "model": "model/response_model.json", "model_md": "model/response_model.md",
                   "shipped": "model/shipped.txt"}
+
+#: each job's priority: the work on the longest path from it to the end of a campaign, in
+#: seconds of the full campaign's CPU (rounded; docs/benchmarks.rst), so that of the jobs that
+#: can run, the one that holds up the most work after it starts first. The fixed base's
+#: simulations lead to identification, the lambda fits and the planner's maps (the longest
+#: job after the simulations); the archive's finalisation needs nothing after it.
+PRIORITY = {
+    "simulate_fixed": 16, "identify_fixed": 15, "simulate_flexible": 12, "fixed_base": 11, "planner_maps": 8,
+    "identify_flexible": 7, "model_figures": 2, "fig5_joint3_motion": 1, "fig9_base_motion": 1,
+    "flexible_base": 1, "finalize_archive": 0, "verify_archive": 0, "identification_csv": 0,
+}
+#: the entry modules of each stage (package paths; :func:`campaign.pipeline.digests.code_digest`)
+STAGE_CODE = {
+    "simulate": ("pipeline/simulate.py",), "identify": ("pipeline/stages.py", "identify/table.py"),
+    "fit": ("pipeline/fit.py",), "tables": ("pipeline/tabulate.py",),
+    "calibration_report": ("pipeline/calibration_report.py",), "designed": ("design/designed_campaign.py",),
+    "designed_model": ("design/designed_model.py",),
+}
+#: the robot files every stage's digest covers
+_ROBOT_FILES = "model/robot/*/*"
 
 
 class Output(NamedTuple):
@@ -57,10 +78,25 @@ def log_path(root: str, rule: str, unit: str | None = None) -> str:
 
 
 class JobOutputs:
-    """The outputs, inputs and logs of the jobs after the simulations (fixed_base,
-    flexible_base, the figures' jobs), by what the campaign can make: a part of
-    :class:`campaign.pipeline.campaign_plan.CampaignPlan`, which names the files and says
-    what each product requires."""
+    """The code digests of the jobs, and the outputs, inputs and logs of the jobs after the
+    simulations (fixed_base, flexible_base, the figures' jobs) by what the campaign can make:
+    a part of :class:`campaign.pipeline.campaign_plan.CampaignPlan`, which names the files and
+    says what each product requires."""
+
+    @staticmethod
+    def stage_code(stage: str) -> str:
+        """The digest of a stage's code (:data:`STAGE_CODE`) with the robot files."""
+        return digests.code_digest(*STAGE_CODE[stage], _ROBOT_FILES)
+
+    @staticmethod
+    def figure_code(name: str) -> str:
+        """Digest of a figure's module and every package module it imports, with the robot files."""
+        return digests.code_digest(f"report/figures/{name}.py", _ROBOT_FILES)
+
+    @staticmethod
+    def study_code(name: str) -> str:
+        """Digest of a study's module (and what it imports), with the robot files."""
+        return digests.code_digest(f"studies/{name}.py", _ROBOT_FILES)
 
     def figure_outputs(self, name: str, category: str) -> dict[str, Output]:
         """{<name>_png, <name>_pdf} of one figure, both shown in the report."""

@@ -18,8 +18,8 @@ from campaign import studies as study_registry
 from campaign.core import vocabulary
 from campaign.core.errors import InputError
 from campaign.core.yamlfile import config_file
-from campaign.pipeline.campaign_plan import ARCHIVE_FILES, PRIORITY, CampaignPlan
-from campaign.pipeline.plan_parts import FIGURES, STUDY_PRODUCTS, TABLES, DesignedPlan, Output, StudiesPlan
+from campaign.pipeline.campaign_plan import ARCHIVE_FILES, CampaignPlan
+from campaign.pipeline.plan_parts import FIGURES, PRIORITY, STUDY_PRODUCTS, TABLES, DesignedPlan, Output, StudiesPlan
 
 REPO = Path(__file__).resolve().parents[2]
 SCHEMA = yaml.safe_load((REPO / "workflow" / "schemas" / "config.schema.yaml").read_text())

@@ -23,7 +23,8 @@ from snakemake.utils import min_version, validate
 from campaign.core import vocabulary
 from campaign.core.errors import InputError
 from campaign.pipeline import config as config_checks
-from campaign.pipeline.campaign_plan import PRIORITY, CampaignPlan
+from campaign.pipeline.campaign_plan import CampaignPlan
+from campaign.pipeline.plan_parts import PRIORITY
 
 min_version("9.0")
 

@@ -91,7 +91,7 @@ rule planner_maps:
         rig=config["rig"],
         resolution=config.get("plan_maps", {}).get("resolution", 0.05),
         config_=config.get("plan_maps", {}).get("config", 1),
-    # scheduling: the longest job after the simulations starts as soon as the fits exist (campaign_plan.PRIORITY)
+    # scheduling: the longest job after the simulations starts as soon as the fits exist (plan_parts.PRIORITY)
     priority: PRIORITY["planner_maps"]
     log:
         PLAN.log_file("plan_maps"),

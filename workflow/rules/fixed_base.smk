@@ -23,7 +23,7 @@ if PLAN.fixed_base_products():
             gains=PLAN.fit_classes(),
             options=config["fit"],
             seed=config["campaign_seed"],
-        # scheduling: the fits lead to the planner's maps, the longest job after them (campaign_plan.PRIORITY)
+        # scheduling: the fits lead to the planner's maps, the longest job after them (plan_parts.PRIORITY)
         priority: PRIORITY["fixed_base"]
         log:
             **PLAN.fixed_base_logs(),

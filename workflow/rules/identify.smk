@@ -18,7 +18,7 @@ for _base in PLAN.sweeps:
             options=config["identify"],
             archive=lambda wc: PLAN.trial_root,
             units=PLAN.identify_units(_base),
-        # scheduling: the fixed base's identification leads to the fits and the maps (campaign_plan.PRIORITY)
+        # scheduling: the fixed base's identification leads to the fits and the maps (plan_parts.PRIORITY)
         priority: PRIORITY[f"identify_{_base}"]
         log:
             # the job's own (start-up, imports), then one per table

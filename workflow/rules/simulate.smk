@@ -37,7 +37,7 @@ if PLAN.simulate:
                 rig_params=PLAN.sweep_params(_base),
                 archive=lambda wc: PLAN.archive,
             # scheduling: the fixed base's jobs unlock the longest chain after them (identification,
-            # the lambda fits, the planner's maps), so they start first (campaign_plan.PRIORITY)
+            # the lambda fits, the planner's maps), so they start first (plan_parts.PRIORITY)
             priority: PRIORITY[f"simulate_{_base}"]
             log:
                 PLAN.log_file(f"simulate_{_base}", PLAN.unit_name(_base)),
