@@ -43,8 +43,8 @@ from .plan_parts import (
 
 __all__ = ["CampaignPlan", "ARCHIVE_FILES", "CALIBRATION_FILES"]
 
-#: the archive's own files (campaign.archive.fileformat's INDEX, README, MANIFEST and JOBS: that
-#: module loads h5py, so they are named here too; the plan's tests check that both agree)
+#: the archive's own files, named here too since campaign.archive.fileformat (INDEX, README,
+#: MANIFEST, JOBS) loads h5py; the plan's tests check that both agree
 ARCHIVE_FILES = {"index": "index.csv", "readme": "README.md", "manifest": "MANIFEST.sha256"}
 _JOBS = ".jobs"
 #: the calibration's files in the results folder, by role
@@ -113,7 +113,7 @@ class CampaignPlan(JobOutputs):
         self.archive = f"{config['archive_root']}/{self.campaign}"
         self.simulate = bool(config["simulate"])
         self.job_unit = config["job_unit"]
-        #: start-up notes for the user (stderr), not errors
+        # start-up notes for the user (stderr), not errors
         self.notes: list[str] = []
         self._rig = _read_yaml(self.rig_file)
         self._paper = _read_yaml(self.paper_file)
@@ -135,7 +135,7 @@ class CampaignPlan(JobOutputs):
             self.sweeps = self._held_sweeps(self.reused)
         self.shown_structure = self._shown_structure()
         config_checks.check_workflow_config(config, sweeps=self.sweeps if self.simulate else {})
-        #: the studies' files; the designed campaign's settings and files
+        # the studies' files; the designed campaign's settings and files
         self.studies = StudiesPlan(results_root=config["results_root"], selected=config["studies"],
                                    quick=config["studies_quick"])
         self.designed = DesignedPlan(settings_file=str(config.get("designed") or config_file("designed.yaml")),
