@@ -68,19 +68,17 @@ class Refusing:
         self._plan = plan
 
     def __getattr__(self, name):
-        value = getattr(self._plan, name)
+        value = self._ask(getattr, self._plan, name)
         if type(value).__module__.startswith("campaign.pipeline."):     # a part of the plan
             return Refusing(value)
-        if not callable(value):
-            return value
+        return (lambda *args, **kwargs: self._ask(value, *args, **kwargs)) if callable(value) else value
 
-        def call(*args, **kwargs):
-            try:
-                return value(*args, **kwargs)
-            except InputError as exc:
-                raise WorkflowError(str(exc)) from None
-
-        return call
+    @staticmethod
+    def _ask(function, *args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except InputError as exc:
+            raise WorkflowError(str(exc)) from None
 
 
 try:
