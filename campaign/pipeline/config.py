@@ -1,6 +1,7 @@
 """The workflow's configuration checked at start-up: one line naming the key, before any job.
 
-``workflow/rules/common.smk`` calls these, so ``snakemake -n`` fails the same way as a run.
+The workflow's wiring (``workflow/rules/common.smk``) and the campaign's plan
+(:mod:`campaign.pipeline.campaign_plan`) call these, so ``snakemake -n`` fails the same way as a run.
 Only the standard library and PyYAML are imported at the top (a dry run evaluates this on
 every start); the scene is imported when a check needs it.
 """
