@@ -29,7 +29,7 @@ import re
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, ZERO_LOW, bases, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, bases, gain_sets, table2_columns
 from ..model.conventions import configurations
 from ..model.exiit import effective_mass
 from ..model.paper import configuration_q, impact_direction, load_paper
@@ -84,8 +84,9 @@ exit status: 0 on success, 2 on bad input (one line on stderr naming the value),
 model file that is corrupted, malformed or fitted for another robot or rig file.
 """
 
-#: Table 2 columns: (column, Table 3 gain class whose lambda it uses, or None for zero)
-TABLE2_COLUMNS = (("m1", None), ("m2", ZERO_LOW), ("m3", HIGH))
+def _table2_columns() -> tuple[tuple[str, str | None], ...]:
+    """Table 2 columns: (column, Table 3 gain class whose lambda it uses, or None for zero)."""
+    return (("m1", None), *table2_columns().items())
 
 # Python 3.11's argparse takes "-1,0,0" for an option flag; accept any argument that starts
 # like a negative number as a value (the rule Python 3.13 adopted; this command has no
@@ -277,7 +278,7 @@ def table2_rows(robot=None) -> list[dict]:
     robot = load_robot(paper["robot"]) if robot is None else robot
     n = impact_direction()
     rows = []
-    for column, gain_class in TABLE2_COLUMNS:
+    for column, gain_class in _table2_columns():
         lam = [0.0] * robot.nv if gain_class is None else [float(v) for v in paper["table3"][gain_class]]
         for config in sorted(paper["configurations"]):
             model = effective_mass(robot, configuration_q(config), n, lam)
@@ -291,11 +292,11 @@ def table2_rows(robot=None) -> list[dict]:
 
 def format_table2(rows: list[dict]) -> str:
     """Plain-text Table 2: configurations as rows, model / paper / difference per column."""
-    columns = [c for c, _ in TABLE2_COLUMNS]
+    columns = [c for c, _ in _table2_columns()]
     by = {(r["config"], r["column"]): r for r in rows}
     configs = sorted({r["config"] for r in rows})
     lines = ["Table 2: effective mass m* [kg] of the tip along the paper's n, fixed base (eq 7, 11)"]
-    for column, gain_class in TABLE2_COLUMNS:
+    for column, gain_class in _table2_columns():
         lam = by[(configs[0], column)]["lambda"]
         source = "zero" if gain_class is None else f"the paper's Table 3, {gain_class} gains"  # not a vocabulary name
         lines.append(f"  {column}: lambda = {_fmt(lam)} kg m^2 ({source})")

@@ -30,7 +30,7 @@ import yaml
 from .. import __version__
 from ..core.errors import InputError, SimulationError
 from ..core.files import write_atomic
-from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, ZERO, ZERO_LOW
+from ..core.vocabulary import FIXED, FLEXIBLE, ZERO, table2_columns
 from ..core.yamlfile import config_dir, read_yaml
 from ..model.paper import load_paper
 from ..rig.batch import simulate_batch
@@ -134,10 +134,10 @@ def _summary(records: list[dict]) -> dict:
     """The observations the paper reports, from trial records."""
     paper = load_paper()
     classes = paper["gain_classes"]
-    out: dict[str, Any] = {"m2": {}, "m3": {}}
+    out: dict[str, Any] = {name: {} for name in table2_columns()}
     for c in sorted({r["config"] for r in records}):
-        for name, gains in (("m2", classes[ZERO_LOW]), ("m3", classes[HIGH])):
-            vals = [r["m_eff"] for r in records if r["config"] == c and r["gain"] in gains]
+        for name, cls in table2_columns().items():
+            vals = [r["m_eff"] for r in records if r["config"] == c and r["gain"] in classes[cls]]
             out[name][c] = float(np.mean(vals)) if vals else math.nan
     speeds = sorted({r["speed"] for r in records})
     out["e_mean"] = float(np.mean([r["e"] for r in records]))

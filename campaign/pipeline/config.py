@@ -1,6 +1,7 @@
 """The workflow's configuration checked at start-up: one line naming the key, before any job.
 
-``workflow/rules/common.smk`` calls these, so ``snakemake -n`` fails the same way as a run.
+The workflow's wiring (``workflow/rules/common.smk``) and the campaign's plan
+(:mod:`campaign.pipeline.campaign_plan`) call these, so ``snakemake -n`` fails the same way as a run.
 Only the standard library and PyYAML are imported at the top (a dry run evaluates this on
 every start); the scene is imported when a check needs it.
 """
@@ -15,7 +16,6 @@ import yaml
 
 from ..core.errors import InputError
 from ..core.files import source_date_epoch
-from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO
 
 __all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_paths", "check_workflow_config",
            "trial_pick_problem", "check_products"]
@@ -154,18 +154,20 @@ def check_products(config: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[st
     campaign makes: ``wanted``), and the planner's maps (``plan_maps.config`` a paper
     configuration, ``plan_maps.resolution`` a grid the map can sample)."""
     # the paper's tables and the map's grid limit: standard library and PyYAML only
+    from ..core.vocabulary import figure_cells
     from ..core.yamlfile import config_file, read_yaml
     from ..plan.grid import grid_points
 
     figures = config.get("figures") or {}
-    for name, (base, picks) in {"fig5": (FIXED, [(1, ZERO)]),
-                                "fig9": (FLEXIBLE, [(c, g) for c in (1, 2) for g in (LOW, HIGH)])}.items():
+    for name in ("fig5", "fig9"):
+        cells = figure_cells(name)
+        base = cells[0][0]
         if not wanted.get(name) or base not in sweeps:
             continue
         pick = figures.get(name) or {}
         speed = float(pick.get("speed", max(sweeps[base]["speeds"])))
         repeat = int(pick.get("repeat", 0))
-        for c, g in picks:
+        for _, c, g in cells:
             why = trial_pick_problem(base, c, g, speed, repeat, sweeps=sweeps, key=f"figures.{name}",
                                      held=held.get(base, ()))
             if why:

@@ -38,7 +38,7 @@ import numpy as np
 from ..core import vocabulary
 from ..core.errors import InputError
 from ..core.files import write_atomic
-from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, ZERO_LOW
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..identify import find_trials, identify_files
 from ..identify.results import is_usable
 from ..joints.impacts import Impacts
@@ -283,10 +283,10 @@ def table2(records, *, paper: Mapping[str, Any], robot=None, gain_classes=None) 
     for cfg in sorted(configs):
         q = np.asarray(configs[cfg])[None, :]
         m1 = float(effective_mass_batch(rob, q, n)[0])
-        m2, sd2, n2 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get(ZERO_LOW, ())))
-                              if r["config"] == cfg])
-        m3, sd3, n3 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get(HIGH, ())))
-                              if r["config"] == cfg])
+        # m2 and m3: the trials of the gain class each column averages (config/paper.yaml)
+        means = {column: _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get(cls, ())))
+                                 if r["config"] == cfg]) for column, cls in vocabulary.table2_columns().items()}
+        (m2, sd2, n2), (m3, sd3, n3) = means["m2"], means["m3"]
         pm1, pm2, pm3 = (p2[k].get(cfg) for k in ("m1", "m2", "m3"))
         r21 = m2 / m1 if m2 is not None else None
         r31 = m3 / m1 if m3 is not None else None
