@@ -203,7 +203,7 @@ def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = No
                    intervals, saturated, bool(complete))
 
 
-class _ContactInput:
+class ContactInput:
     """The measured force shape of the contact, the input of the arm models.
 
     ``g(t)``: baseline-corrected force over the contact divided by its impulse (integral

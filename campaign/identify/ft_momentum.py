@@ -10,7 +10,7 @@ import pinocchio as pin
 
 from ..core.errors import InputError
 from ..core.lazy import LazyModule
-from .channels import _check_channels, _time
+from .channels import check_channels, time_coordinate
 from .contact import Contact
 from .options import FT_CHANNELS, IdentifyOptions
 
@@ -59,7 +59,7 @@ def _momentum_map(model, data, q, frame_id: int):
     return A, p, Jt, com
 
 
-def _zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
+def zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Integral from ``ts[0]`` to each ``t`` of the zero-order-hold signal ``tau`` (value
     ``tau[j]`` held on ``[ts[j], ts[j+1])``), shape (len(t), ncols)."""
     cum = np.vstack([np.zeros((1, tau.shape[1])), np.cumsum(tau[:-1] * np.diff(ts)[:, None], axis=0)])
@@ -198,8 +198,8 @@ def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOp
     too few joint samples before it, or a reading that does not respond to it."""
     if not all(name in measured.variables for name in FT_CHANNELS):
         return None, "no F/T channels (ft_force, ft_torque)"
-    _check_channels(measured, FT_CHANNELS, where)
-    tft = _time(measured, "t_ft", where)
+    check_channels(measured, FT_CHANNELS, where)
+    tft = time_coordinate(measured, "t_ft", where)
     W = np.hstack([np.asarray(measured["ft_force"].values, float), np.asarray(measured["ft_torque"].values, float)])
     if not np.all(np.isfinite(W)):
         raise InputError(f"{where}: F/T channels have non-finite samples")
@@ -230,7 +230,7 @@ def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOp
 def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: Contact, opt: IdentifyOptions, where: str) -> _Balance:
     """The F/T grid over the contact with the reading change, the accumulated piezo impulse
     along n (baseline-corrected, clipped at 0) and the held servo torque on it."""
-    tf = _time(measured, "t_force", where)
+    tf = time_coordinate(measured, "t_force", where)
     r = np.asarray(measured["f_piezo"].values, float) - c.baseline
     inside = (tf > c.start) & (tf < c.end)
     tt = np.concatenate([[c.start], tf[inside], [c.end]])
@@ -259,12 +259,12 @@ def _held_servo_torque(measured: xr.Dataset, grid: np.ndarray, where: str) -> tu
     """
     if not ("tau_cmd" in measured.variables and tuple(measured["tau_cmd"].dims) == ("t_servo", "joint")):
         return None
-    ts = _time(measured, "t_servo", where)
+    ts = time_coordinate(measured, "t_servo", where)
     tau = np.asarray(measured["tau_cmd"].values, float)
     if not bool(np.all(np.isfinite(tau)) and ts[0] <= grid[0]):
         return None
     tau0 = tau[int(np.searchsorted(ts, grid[0], side="right")) - 1]
-    Tcum = _zoh_integral(ts, tau - tau0, grid)
+    Tcum = zoh_integral(ts, tau - tau0, grid)
     # a sample on a tick reads the new torque (the command written at the tick)
     tau_at = tau[np.clip(np.searchsorted(ts, grid + 1e-9 * (grid[1] - grid[0]), side="right") - 1, 0, None)] - tau0
     return Tcum, tau_at
