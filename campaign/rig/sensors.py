@@ -218,7 +218,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
 
 def _platform_chart(pose, twist):
     """Free-flyer configurations (n, 7) and body twists (n, 6) of small-angle platform
-    states ``pose``/``twist`` (n, 6 each): :func:`.flexible._platform_free_flyer` with zero
+    states ``pose``/``twist`` (n, 6 each): :func:`.flexible.platform_free_flyer` with zero
     acceleration, the matrix products done once over all rows."""
     pose = np.asarray(pose, dtype=float)
     twist = np.asarray(twist, dtype=float)
