@@ -10,10 +10,10 @@ from pathlib import Path
 from ..core.files import check_output_dir, check_output_file, write_atomic
 from ..core.yamlfile import config_dir
 from ..pipeline.calibration import (
-    _summary,
     calibrate,
     load_calibration,
     load_paper,
+    observed_summary,
     sweep_records,
     write_back,
 )
@@ -128,7 +128,7 @@ def run(args) -> int:
     fit = None
     if args.skip_fit:
         cfg = load_calibration(args.calibration)
-        summary = _summary(sweep_records({}, cfg["sweep"], rig=args.rig))
+        summary = observed_summary(sweep_records({}, cfg["sweep"], rig=args.rig))
     else:
         result = calibrate(calibration=args.calibration, rig=args.rig, max_nfev=args.max_evaluations,
                            progress=lambda line: print(line, file=sys.stderr, flush=True))
