@@ -2,26 +2,17 @@
 
 from __future__ import annotations
 
-import argparse
 import time
 
 from ..archive import TRIAL_BYTES, write_trial
 from ..core.files import check_output_file
 from ..core.vocabulary import bases, gain_sets
-from ..core.yamlfile import yaml_load
 from ..model.conventions import angle_count
 from ..plan.stroke import check_scene_stroke
 from ..rig import simulate
 from ..scene.description import make_scene, rig_values
+from .args import key_value, parse_vector
 from .commands import HELP
-from .meff import parse_vector
-
-
-def _param(text: str):
-    if "=" not in text:
-        raise argparse.ArgumentTypeError(f"--set expects KEY=VALUE, got {text!r}")
-    key, value = text.split("=", 1)
-    return key.strip(), yaml_load(value)
 
 
 def register(sub) -> None:
@@ -57,7 +48,7 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=None, metavar="S",
                    help="RNG seed of the sensors and the touch instant (default: derived from the cell)")
     p.add_argument("--rig", default=None, metavar="PATH", help="rig parameter file (default config/rig.yaml)")
-    p.add_argument("--set", dest="params", type=_param, action="append", default=[], metavar="KEY=VALUE",
+    p.add_argument("--set", dest="params", type=key_value, action="append", default=[], metavar="KEY=VALUE",
                    help="override a rig parameter by dotted key, e.g. --set contact.stiffness=2000 (SI units)")
     p.add_argument("--out", required=True, metavar="PATH", help="trial file to write (.nc); written atomically")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
