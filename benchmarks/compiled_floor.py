@@ -42,7 +42,7 @@ from campaign.bench.common import blas_line, machine_line, md_table, write_secti
 from campaign.model.paper import gain_counts
 from campaign.model.robot import load_robot
 from campaign.rig.integrate import integrate_trial
-from campaign.rig.simulate import build, integration_args, record_arrays
+from campaign.rig.trial import build, integration_args, record_arrays
 from campaign.scene.description import make_scene
 
 HERE = Path(__file__).resolve().parent

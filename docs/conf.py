@@ -49,8 +49,8 @@ root_doc = "index"
 
 # API reference: one page per public module, written below into docs/generated/ (not
 # committed) and filled by autodoc from the docstrings; numpydoc sections through napoleon.
-# The pages are written here rather than by autosummary's generator because that resolves
-# ``campaign.rig.simulate`` to the function the package re-exports, not to the module.
+# The pages are written here rather than by autosummary's generator because that resolves a
+# module that shares its name with a function its package re-exports to the function.
 autosummary_generate = False
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_member_order = "bysource"
@@ -99,8 +99,8 @@ def _skip_member(app, what, name, obj, skip, options):
     """Keep three kinds of members out of the API reference: the lazily imported third-party
     modules (``xr = LazyModule("xarray")``), a NamedTuple's generated field aliases, and a
     package's re-export of a function that
-    has the name of the submodule defining it (``campaign.rig.simulate``, function and
-    module, would be one target twice; the function stays on its module's page)."""
+    has the name of the submodule defining it (function and module would be one target
+    twice; the function stays on its module's page)."""
     from campaign.core.lazy import LazyModule
 
     if isinstance(obj, LazyModule):

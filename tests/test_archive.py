@@ -342,7 +342,7 @@ def test_plain_arrays_are_stored_as_the_same_file_as_their_tree(tmp_path, base):
     """The campaign's simulation jobs write the rig's plain arrays (no xarray); the file must
     be the one the DataTree of the same trial gives, byte for byte."""
     from campaign.rig import simulate_arrays
-    from campaign.rig.simulate import to_tree
+    from campaign.rig.trial import to_tree
     from campaign.scene.description import make_scene
 
     trial = simulate_arrays(make_scene(base=base, config=1, gain="low", speed=1.5))

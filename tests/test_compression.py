@@ -123,7 +123,7 @@ def test_closer_to_the_rig_than_lambdas_peak_force(puma):
     from the compression is within 3 %, lambda's over-predicts by more."""
     from campaign.model.paper import load_paper, paper_offset_deg
     from campaign.plan.factory import build_planner
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
     from campaign.scene.description import make_scene
 
     params = {"pendulum.head_mass": 5.0}

@@ -228,7 +228,7 @@ def test_synthetic_generator_is_consistent_with_eq_11(puma):
 def high_gain_trials():
     """Rig trials at High gains with the paper's 50 Hz encoders: the case the encoder
     model cannot resolve (the servo reverses the tip between two samples)."""
-    from campaign.rig.simulate import simulate
+    from campaign.rig.trial import simulate
     from campaign.scene.description import make_scene
     out = []
     for config in (1, 2, 3):
@@ -338,7 +338,7 @@ def test_ft_falls_back_to_the_encoders_with_a_reason(puma, high_gain_trials):
 
 
 def _rig_trial_1khz(config, gain, speed, repeat):
-    from campaign.rig.simulate import simulate
+    from campaign.rig.trial import simulate
     from campaign.scene.description import make_scene
     tree = simulate(make_scene(base="fixed", config=config, gain=gain, speed=speed, repeat=repeat,
                                params={"sensors.joint_encoder_rate": 1000.0}))

@@ -9,7 +9,7 @@ import pytest
 from campaign.core.lazy import LazyModule
 
 
-@pytest.mark.parametrize("module", ["campaign.archive", "campaign.rig", "campaign.rig.beam", "campaign.pipeline.simulate"])
+@pytest.mark.parametrize("module", ["campaign.archive", "campaign.rig", "campaign.rig.beam", "campaign.pipeline.sweep"])
 def test_module_does_not_import_xarray_or_pandas(module):
     code = f"import sys, {module}; print(sorted(m for m in ('xarray', 'pandas') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
@@ -42,7 +42,7 @@ def test_lazy_module_raises_for_a_missing_attribute_and_module():
 def test_a_simulation_job_never_imports_xarray(tmp_path):
     """run_cells (the simulate rules) records and writes plain arrays: xarray and
     pandas cost ~0.7 s per job, more than the job's fixed-base trials take to simulate."""
-    code = ("import sys; from campaign.pipeline.simulate import run_cells; "
+    code = ("import sys; from campaign.pipeline.sweep import run_cells; "
             f"out = run_cells([('fixed', 1, 'zero')], archive_dir={str(tmp_path)!r}, speeds=[1.5], "
             "repeats=1, campaign_seed=1); "
             "print(len(out), sorted(m for m in ('xarray', 'pandas') if m in sys.modules))")
@@ -53,7 +53,7 @@ def test_a_simulation_job_never_imports_xarray(tmp_path):
 
 def test_an_identification_job_never_imports_xarray(tmp_path):
     """identify_trials (the identify rules) reads trials as plain arrays."""
-    from campaign.pipeline.simulate import run_cells
+    from campaign.pipeline.sweep import run_cells
 
     [trial] = run_cells([("fixed", 1, "low")], archive_dir=tmp_path, speeds=[1.5], repeats=1,
                                campaign_seed=1)

@@ -163,8 +163,8 @@ def test_the_graph_sees_relative_imports_at_every_level_and_imports_inside_funct
 def test_closure_follows_imports_and_package_inits():
     """A stage's digest covers what its entry module runs: the simulation job checks the stroke
     with the planner's predictions, which use eq 7-14's module."""
-    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "pipeline" / "simulate.py"])}
-    assert {"pipeline/simulate.py", "pipeline/__init__.py", "__init__.py", "rig/simulate.py", "rig/__init__.py",
+    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "pipeline" / "sweep.py"])}
+    assert {"pipeline/sweep.py", "pipeline/__init__.py", "__init__.py", "rig/trial.py", "rig/__init__.py",
             "plan/stroke.py", "plan/prediction.py", "model/exiit.py", "core/errors.py"} <= files
     assert "report/figures/fig5.py" not in files
 

@@ -256,7 +256,7 @@ def test_structure_peak_matches_the_rig_in_the_impulsive_limit(puma):
     stiffer than the calibrated one (~5 ms against the structure's ~230 ms period), the arm and
     structure integrated as one system: the regime eq 8 assumes. The rig's peak base
     displacement must match the prediction."""
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
     from campaign.scene.description import make_scene
 
     params = {"gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0, "ves.mode": "ideal"}

@@ -225,7 +225,7 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
     lambda, which carries the joints' friction) is within 6 % and closer than eq 8's release."""
     from campaign.model.paper import paper_offset_deg
     from campaign.plan.factory import build_planner
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
 
     n = np.array([0.0, 1.0, 0.0])
     planner = build_planner(base="flexible", lambdas={"zero": LAMBDA}, speed=2.0, objective="displacement",

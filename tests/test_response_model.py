@@ -154,7 +154,7 @@ def test_the_model_fits_back_the_joints_it_was_made_with(puma, poses):
 
 def test_the_shipped_model_is_for_this_rig_and_predicts_two_rig_trials(puma):
     from campaign.identify import identify_trial
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
     from campaign.scene.description import make_scene
 
     model = load_model(shipped_model_path())            # checks the rig's, paper's and robot's digests

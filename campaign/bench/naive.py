@@ -10,7 +10,7 @@ import numpy as np
 from ..core.errors import InputError, SimulationError
 from ..rig.integrate import Trajectory
 from ..rig.plant import FrictionState
-from ..rig.simulate import build, record
+from ..rig.trial import build, record
 
 
 # ---------------------------------------------------------------------------------------
@@ -38,7 +38,7 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     -------
     (rig, Trajectory)
         The assembled rig (:func:`campaign.rig.build`) and a
-        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.simulate.record``
+        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.trial.record``
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
 

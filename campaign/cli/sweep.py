@@ -12,7 +12,7 @@ from ..archive import TRIAL_BYTES
 from ..core.errors import InputError
 from ..core.files import check_output_dir
 from ..core.vocabulary import bases, config_folder, gain_sets, layout
-from ..pipeline.simulate import run_cells
+from ..pipeline.sweep import run_cells
 from .args import key_value
 from .commands import HELP
 

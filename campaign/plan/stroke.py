@@ -4,7 +4,7 @@ The planner's eq 8 prediction of the platform's peak excursion (an impulsive con
 the structure's first bending pair, the larger of a free and a locked arm) bounds the
 simulated peak from above, so a trial it puts far beyond ``ves.stroke`` is refused before
 any integration. The rig's own check on the simulated platform
-(:func:`campaign.rig.simulate.check_stroke`) stays the definitive one.
+(:func:`campaign.rig.trial.check_stroke`) stays the definitive one.
 """
 
 from __future__ import annotations

@@ -124,7 +124,7 @@ class StateSampler:
         return np.maximum(F, 0.0)
 
 
-# -- fast recording: the per-sample Pinocchio evaluations of :func:`.simulate.record` ----------
+# -- fast recording: the per-sample Pinocchio evaluations of :func:`.trial.record` ----------
 # Each sample costs a few Pinocchio calls (< 1 us each); everything around them is hoisted
 # (frame ids, placements, the external-force vector) or done once over all samples in NumPy
 # (0.5 v^T H v from the stack of mass matrices, n^T J v, the pendulum's and the contact's

@@ -37,7 +37,7 @@ from ..plan.prediction import pose_terms, predict
 from ..rig.beam import Beam
 from ..rig.contact import Contact, pulse_shape
 from ..rig.pendulum import Pendulum
-from ..rig.simulate import simulate_arrays
+from ..rig.trial import simulate_arrays
 from ..scene.description import make_scene
 from .common import PASSIVE, Log, quiet, write_csv
 

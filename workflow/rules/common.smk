@@ -83,7 +83,7 @@ def code_digest(*patterns):
 
 
 # the code behind each stage (see code_digest)
-CODE_SIMULATE = code_digest("pipeline/simulate.py", "model/robot/*/*")
+CODE_SIMULATE = code_digest("pipeline/sweep.py", "model/robot/*/*")
 CODE_IDENTIFY = code_digest("pipeline/stages.py", "identify/table.py", "model/robot/*/*")
 CODE_FIT = code_digest("pipeline/fit.py", "model/robot/*/*")
 CODE_TABLES = code_digest("pipeline/tabulate.py", "model/robot/*/*")

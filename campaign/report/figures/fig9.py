@@ -20,7 +20,7 @@ import numpy as np
 
 from ...archive import open_trial_arrays
 from ...identify import detect_contact
-from ...rig.simulate import structure_modes
+from ...rig.trial import structure_modes
 from ...scene.description import Scene, structure_of
 from . import style
 

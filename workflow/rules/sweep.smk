@@ -50,7 +50,7 @@ if SIMULATE:
             conda:
                 "../envs/campaign.yaml"
             script:
-                "../scripts/simulate.py"
+                "../scripts/sweep.py"
 
     rule simulate_trial:
         input:
@@ -79,4 +79,4 @@ if SIMULATE:
         conda:
             "../envs/campaign.yaml"
         script:
-            "../scripts/simulate.py"
+            "../scripts/sweep.py"

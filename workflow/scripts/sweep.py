@@ -7,7 +7,7 @@ p = snakemake.params  # noqa: F821 - provided by Snakemake
 with job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}",  # noqa: F821
              exit_process=True) as timer:
     with timer.imports():
-        from campaign.pipeline.simulate import run_cells, run_trial
+        from campaign.pipeline.sweep import run_cells, run_trial
     options = dict(campaign_seed=p.campaign_seed, rig=p.rig, params=p.rig_params, timer=timer)
     if snakemake.rule == "simulate_trial":  # noqa: F821
         t = p.trial
