@@ -122,9 +122,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     pid, T = _servo(scene, robot, plant, q0)
     sub_c, sub_f = _substeps(scene, contact, pend, m1, freqs, servo_period=T, max_post=max_post,
                              integration=integration)
-    rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
-    rig.m1 = m1
-    return rig
+    return Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
 
 
 def _flexible_plant(scene: Scene, robot, q0, n, pend, contact, friction: dict, *, t_contact: float, min_post: float):
