@@ -266,7 +266,7 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
     import pinocchio as pin
     import xarray as xr
 
-    from campaign.identify import Contact, IdentifyOptions
+    from campaign.identify import ContactWindow, IdentifyOptions
     from campaign.identify.ft_momentum import ft_tip_velocity
 
     model = puma.model.copy()
@@ -311,7 +311,7 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
         {"ft_force": (("t_ft", "axis"), W[:, :3]), "ft_torque": (("t_ft", "axis"), W[:, 3:]),
          "f_piezo": (("t_force",), force(tf))},
         coords={"t_ft": tft, "t_force": tf, "t_joint": tj})
-    c = Contact(t_s, t_e, 60.0, 60.0 * 2 * T / np.pi, 0.0, 0.0, 0.5, 1, ((t_s, t_e),), False, True)
+    c = ContactWindow(t_s, t_e, 60.0, 60.0 * 2 * T / np.pi, 0.0, 0.0, 0.5, 1, ((t_s, t_e),), False, True)
     v_a, v_post, why = ft_tip_velocity(ds, puma, n, c, tj, motion(tj)[0], IdentifyOptions(), "synthetic")
     assert why == ""
     pin.computeJointJacobians(model, data, motion(np.array([t_e]))[0][0])

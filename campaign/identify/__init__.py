@@ -17,7 +17,7 @@ The methods, their equations and their measured accuracy: user guide, *Identific
 from __future__ import annotations
 
 from .channels import base_geometry
-from .contact import Contact, detect_contact
+from .contact import ContactWindow, detect_contact
 from .hammer import hammer_velocity
 from .loading import find_trials, identify_file, identify_files, load_trial
 from .options import ACCURACY_NOTE, REQUIRED_CHANNELS, IdentifyOptions
@@ -27,7 +27,7 @@ from .trial import identify_trial
 __all__ = [
     "ACCURACY_NOTE",
     "REQUIRED_CHANNELS",
-    "Contact",
+    "ContactWindow",
     "IdentifyOptions",
     "TrialIdentification",
     "base_geometry",

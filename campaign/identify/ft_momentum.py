@@ -11,7 +11,7 @@ import pinocchio as pin
 from ..core.errors import InputError
 from ..core.lazy import LazyModule
 from .channels import check_channels, time_coordinate
-from .contact import Contact
+from .contact import ContactWindow
 from .options import FT_CHANNELS, IdentifyOptions
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
@@ -124,7 +124,7 @@ class _Balance:
     wrow: np.ndarray
 
 
-def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: np.ndarray, Q: np.ndarray,
+def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: ContactWindow, tj: np.ndarray, Q: np.ndarray,
                     opt: IdentifyOptions, where: str, info: dict | None = None) -> tuple[float, float, str]:
     """Tip velocities along n at the contact edges from the arm's momentum balance.
 
@@ -141,7 +141,7 @@ def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: 
     robot : campaign.model.robot.Robot
     n : ndarray, shape (3,)
         Unit impact direction, base frame.
-    c : Contact
+    c : ContactWindow
     tj, Q : ndarray, shapes (N,), (N, nv)
         Joint encoder samples.
     opt : IdentifyOptions
@@ -191,7 +191,7 @@ def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: 
     return v_a, v_post, ""
 
 
-def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOptions,
+def _ft_record(measured: xr.Dataset, c: ContactWindow, tj: np.ndarray, opt: IdentifyOptions,
                where: str) -> tuple[_FTRecord | None, str]:
     """The F/T channels checked usable for the momentum balance, or ``(None, why)`` not:
     missing, too few samples at rest or over the contact, a record that does not cover it,
@@ -227,7 +227,7 @@ def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOp
     return _FTRecord(t=tft, W=W, W_rest=W_rest, sig=sig, pre=pre), ""
 
 
-def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: Contact, opt: IdentifyOptions, where: str) -> _Balance:
+def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: ContactWindow, opt: IdentifyOptions, where: str) -> _Balance:
     """The F/T grid over the contact with the reading change, the accumulated piezo impulse
     along n (baseline-corrected, clipped at 0) and the held servo torque on it."""
     tf = time_coordinate(measured, "t_force", where)

@@ -24,7 +24,7 @@ from .channels import (
     servo_channel,
     time_coordinate,
 )
-from .contact import Contact, ContactInput, detect_contact
+from .contact import ContactInput, ContactWindow, detect_contact
 from .ft_momentum import ft_tip_velocity
 from .hammer import contact_impulse, hammer_fit
 from .joint_dynamics import joint_dynamics_fit
@@ -326,7 +326,7 @@ def _identity(meta: Mapping, robot: Robot, base_kind: str, ch: _Channels, opt: I
 # ----------------------------------------------------------------------------------------
 # 1. contact
 # ----------------------------------------------------------------------------------------
-def _no_contact(c: Contact, ident: dict) -> TrialIdentification:
+def _no_contact(c: ContactWindow, ident: dict) -> TrialIdentification:
     """The excluded result of a trial whose piezo force shows no contact."""
     return TrialIdentification(
         m_eff=_NAN, e=_NAN, v_a=_NAN, v_a_post=_NAN, v_b=_NAN, v_b_post=_NAN, impulse=_NAN, impulse_momentum=_NAN,
@@ -335,7 +335,7 @@ def _no_contact(c: Contact, ident: dict) -> TrialIdentification:
         **ident)
 
 
-def _contact_reasons(c: Contact, full_scale: float) -> list[str]:
+def _contact_reasons(c: ContactWindow, full_scale: float) -> list[str]:
     """Why the contact found cannot serve: a rebound, saturation, or a cut-off record."""
     reasons = []
     if c.n_contacts > 1:
@@ -351,7 +351,7 @@ def _contact_reasons(c: Contact, full_scale: float) -> list[str]:
 # ----------------------------------------------------------------------------------------
 # 2. hammer
 # ----------------------------------------------------------------------------------------
-def _hammer_velocities(ch: _Channels, c: Contact, opt: IdentifyOptions) -> _Hammer:
+def _hammer_velocities(ch: _Channels, c: ContactWindow, opt: IdentifyOptions) -> _Hammer:
     """The hammer's velocities at the contact edges from the pendulum encoder, and why a
     window has too few samples."""
     v_b, th_s, nb_pre, w2_pre = hammer_fit(ch.tp, ch.theta, c.start, "pre", ch.radius, opt)
@@ -371,7 +371,7 @@ def _hammer_velocities(ch: _Channels, c: Contact, opt: IdentifyOptions) -> _Hamm
 # ----------------------------------------------------------------------------------------
 # 3. arm tip along n
 # ----------------------------------------------------------------------------------------
-def _arm_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: IdentifyOptions,
+def _arm_velocities(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions,
                     where: str) -> _ArmVelocities:
     """The arm tip's velocities along n at the contact edges by the method the options and
     the trial allow (F/T, encoders, or both combined), the base point's on a flexible base,
@@ -397,7 +397,7 @@ def _arm_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: Iden
                           n_post=enc.n_post, cin=win.cin, reasons=reasons)
 
 
-def _arm_window(measured, robot: Robot, ch: _Channels, c: Contact, opt: IdentifyOptions, where: str) -> _ArmWindow:
+def _arm_window(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions, where: str) -> _ArmWindow:
     """The arm model (joint-space or tip-space), its post-contact window and the joint samples in it."""
     tj = ch.tj
     rate = 1.0 / float(np.median(np.diff(tj)))
@@ -422,7 +422,7 @@ def _arm_window(measured, robot: Robot, ch: _Channels, c: Contact, opt: Identify
     return _ArmWindow(t=tj[win], Q=ch.Q[win], post_window=post_window, cin=cin, servo=servo, joint_model=joint_model)
 
 
-def _tip_series(measured, robot: Robot, ch: _Channels, c: Contact, win: _ArmWindow, opt: IdentifyOptions,
+def _tip_series(measured, robot: Robot, ch: _Channels, c: ContactWindow, win: _ArmWindow, opt: IdentifyOptions,
                 where: str) -> _TipSeries:
     """The tip's position along n over the window by forward kinematics, and on a flexible
     base the base point's motion: the arm part rotated with the base, the base point's
@@ -458,7 +458,7 @@ def _base_fit(t, s, t_edge, side, opt: IdentifyOptions) -> float:
     return float(c[1]) / opt.base_window
 
 
-def _ft_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: IdentifyOptions,
+def _ft_velocities(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions,
                    where: str) -> _FTVelocities:
     """The F/T method when asked for (``arm_velocity``: "ft", "combined", or "auto" on
     encoders coarser than ``auto_joint_interval``) and the trial allows it."""
@@ -474,7 +474,7 @@ def _ft_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: Ident
     return _FTVelocities(v_a=v_ft, v_a_post=v_ft_post, method="encoders" if note else want, note=note, info=info)
 
 
-def _encoder_velocities(robot: Robot, ch: _Channels, c: Contact, win: _ArmWindow, tip: _TipSeries, *,
+def _encoder_velocities(robot: Robot, ch: _Channels, c: ContactWindow, win: _ArmWindow, tip: _TipSeries, *,
                         method: str, opt: IdentifyOptions) -> _EncoderVelocities:
     """The encoders' tip velocities: the windows checked, then the joint-space model or the
     tip-space model fitted (neither when the F/T alone serves)."""
@@ -574,7 +574,7 @@ def _estimate_reasons(est: _Estimate, hammer: _Hammer, *, impulse_estimator: boo
     return reasons
 
 
-def _result(c: Contact, hammer: _Hammer, arm: _ArmVelocities, est: _Estimate, reasons: list[str],
+def _result(c: ContactWindow, hammer: _Hammer, arm: _ArmVelocities, est: _Estimate, reasons: list[str],
             ident: dict) -> TrialIdentification:
     """The trial's :class:`TrialIdentification`, excluded when there is a reason."""
     return TrialIdentification(

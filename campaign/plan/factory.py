@@ -23,7 +23,7 @@ from ..joints.modelfile import load_model, shipped_model_path
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot
 from ..rig.beam import Beam
-from ..rig.contact import Contact
+from ..rig.contact import ContactLaw
 from ..rig.controller import joint_gains
 from ..rig.pendulum import Pendulum
 from ..scene.description import rig_values
@@ -78,7 +78,7 @@ def planner_model(*, model=None, fits: Sequence[str | Path] = (), named: Mapping
 def object_defaults(values: Mapping[str, Any]) -> dict[str, float]:
     """The object the planner assumes by default: the rig's hammer (its effective mass
     [kg]), the contact law's stiffness and exponent and its restitution."""
-    contact = Contact.from_values(values)
+    contact = ContactLaw.from_values(values)
     return {"mass": Pendulum.from_values(values).m_b, "restitution": float(contact.restitution),
             "contact_stiffness": float(contact.stiffness), "contact_exponent": float(contact.exponent)}
 

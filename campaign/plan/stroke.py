@@ -14,7 +14,7 @@ import numpy as np
 from ..core.errors import InputError
 from ..model.robot import load_robot
 from ..rig.beam import Beam
-from ..rig.contact import Contact
+from ..rig.contact import ContactLaw
 from ..rig.pendulum import Pendulum
 from ..scene.description import Scene
 from .prediction import pose_terms, predict
@@ -66,7 +66,7 @@ def check_scene_stroke(scene: Scene) -> None:
         q0 = robot.q_from_angles(scene.q_paper_deg, what=f"pose {list(scene.q_paper_deg)} deg ({robot.name} angles)")
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    contact = Contact.from_scene(scene)
+    contact = ContactLaw.from_scene(scene)
     peak = predicted_platform_peak(robot, q0, scene.impact_direction, Beam.from_scene(scene),
                                    mass=Pendulum.from_scene(scene).m_b, speed=scene.speed,
                                    restitution=contact.restitution, contact=contact)

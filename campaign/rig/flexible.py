@@ -34,7 +34,7 @@ import pinocchio as pin
 from ..model.robot import Robot
 from ..model.robot.floating import attach_to_floating_base
 from .beam import Beam
-from .contact import Contact
+from .contact import ContactLaw
 from .ideal_base import IdealBase, static_arm_wrench
 from .pendulum import Pendulum
 from .plant import NO_HOLDING, FixedBasePlant
@@ -160,7 +160,7 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
     State ``x = [p (3), r (3), q_arm, theta, v_base (6), v_arm, thetadot, P, S (3)]``.
     """
 
-    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: ContactLaw, beam: Beam, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float):
         self.q0_arm = np.asarray(q0, dtype=float)
         super().__init__(robot, q0, n, pendulum, contact, coulomb_scale=coulomb_scale,
@@ -341,7 +341,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     acceleration at any instant come from the emulator (:class:`.ves.VesLoop`).
     """
 
-    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: ContactLaw, beam: Beam, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float, rate: float, latency: float,
                  bandwidth: float, duration: float):
         self.q0_arm = np.asarray(q0, dtype=float)

@@ -30,7 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..model.robot import Robot
-from .contact import Contact
+from .contact import ContactLaw
 from .pendulum import Pendulum
 
 __all__ = ["FixedBasePlant", "FrictionState", "base_wrench", "NO_HOLDING"]
@@ -120,14 +120,14 @@ class FixedBasePlant:
     n : ndarray
         Unit impact direction, base frame.
     pendulum : Pendulum
-    contact : Contact
+    contact : ContactLaw
     coulomb_scale, viscous_scale : float
         Multiply the drive file's joint-side Coulomb and viscous friction.
     gravity : float
         [m/s^2]; along -z of the base frame.
     """
 
-    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, *,
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: ContactLaw, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float):
         self.robot = robot
         self.model = robot.model.copy()
