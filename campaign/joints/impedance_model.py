@@ -22,7 +22,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..core.errors import InputError
-from .family import Z95, ResponseModel, json_numbers
+from .estimator import Z95, ResponseModel, json_numbers
 from .impacts import Impacts
 from .response import STEPS_PER_CONTACT, WINDOW_SAMPLES, Response, respond
 from .setting import Setting
