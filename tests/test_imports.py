@@ -62,3 +62,48 @@ def test_an_identification_job_never_imports_xarray(tmp_path):
             "print(len(rows), rows[0]['m_eff'] != '', sorted(m for m in ('xarray', 'pandas') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines()[-1] == "1 True []", out
+
+
+def test_the_workflows_start_up_imports_neither_numpy_nor_the_robot_model():
+    """common.smk imports these on every start, a dry run included: each package face on the
+    way (campaign.core, .model, .pipeline, .studies) exports its names on first use only."""
+    code = ("import sys; import campaign.core.vocabulary, campaign.core.errors, campaign.core.yamlfile, "
+            "campaign.model.conventions, campaign.pipeline.paths, campaign.pipeline.config, "
+            "campaign.pipeline.digests, campaign.studies; "
+            "print(sorted(m for m in ('numpy', 'pinocchio', 'scipy', 'xarray', 'h5py') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+
+
+def test_a_lazy_face_imports_a_module_on_first_use_of_its_name():
+    code = ("import sys, campaign.plan as plan; before = 'campaign.plan.factory' in sys.modules; "
+            "f = plan.build_planner; "
+            "print(before, 'campaign.plan.factory' in sys.modules, 'build_planner' in vars(plan), "
+            "f is sys.modules['campaign.plan.factory'].build_planner, 'build_planner' in dir(plan))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True", "True", "True", "True"]
+    with pytest.raises(AttributeError, match="campaign.plan.*no_such_name"):
+        _ = __import__("campaign.plan").plan.no_such_name
+
+
+_IMPORT_EVERY_FACE = """
+import importlib, pkgutil, campaign
+packages = ["campaign"] + [m.name for m in pkgutil.walk_packages(campaign.__path__, "campaign.") if m.ispkg]
+missing = []
+for package in packages:
+    for name in importlib.import_module(package).__all__:
+        try:
+            exec(f"from {package} import {name}")
+        except ImportError:
+            missing.append(f"{package}.{name}")
+print(len(packages), missing)
+"""
+
+
+def test_every_name_a_package_exports_resolves():
+    """Each package's ``__all__`` imported as a user does (``from campaign.model import
+    load_paper``, or ``from campaign.report.figures import fig4`` for a member module): the
+    layout test checks the names statically, this imports them."""
+    out = subprocess.run([sys.executable, "-c", _IMPORT_EVERY_FACE], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "17 []", out
