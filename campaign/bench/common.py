@@ -142,7 +142,7 @@ def blas_line() -> str:
 
 
 def relative_error(a: float, b: float) -> float:
-    """|a - b| / |b| (absolute when b == 0; nan when either is not finite)."""
+    """``|a - b| / |b|`` (absolute when b == 0; nan when either is not finite)."""
     a, b = float(a), float(b)
     if not (math.isfinite(a) and math.isfinite(b)):
         return float("nan")
