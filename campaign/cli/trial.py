@@ -31,8 +31,8 @@ def register(sub) -> None:
                            "default 1)")
     pose.add_argument("--q", default=None, metavar="Q1,Q2,Q3",
                       help="any arm pose instead, one angle per joint of the robot, in its own angles [deg] (the "
-                           "PUMA 560's are the paper's: q_DH = q + (0, 0, -90) deg); write --q=-10,150,90 when the "
-                           "first angle is negative")
+                           "PUMA 560's are the paper's: q_DH = q + (0, 0, -90) deg); a negative first angle works "
+                           "as it is (--q -10,150,90)")
     p.add_argument("--direction", default=None, metavar="NX,NY,NZ",
                    help="impact direction n in the arm's base frame: a horizontal unit vector (the hammer moves "
                         "horizontally at the bottom of its swing; default the paper's -x). The pendulum is placed to "
