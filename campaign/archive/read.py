@@ -60,7 +60,8 @@ from .fileformat import GROUPS, SCHEMA_MAJOR, STRUCTURAL_ATTRS, content_digest
 # trials of both bases and on a file xarray writes itself.
 
 #: attributes h5netcdf hides from its attribute mappings (h5netcdf.attrs._HIDDEN_ATTRS)
-NC_HIDDEN_ATTRS = frozenset({"REFERENCE_LIST", "CLASS", "DIMENSION_LIST", "NAME", "_Netcdf4Dimid", "_Netcdf4Coordinates",
+NC_HIDDEN_ATTRS = frozenset({"REFERENCE_LIST", "CLASS", "DIMENSION_LIST", "NAME", "_Netcdf4Dimid",
+                             "_Netcdf4Coordinates",
                         "_nc3_strict", "_NCProperties"})
 # read for neither the digest nor xarray (content_sha256 is read: xarray shows it)
 _NOT_READ = STRUCTURAL_ATTRS - {"content_sha256"}

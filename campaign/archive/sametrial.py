@@ -85,7 +85,8 @@ def plan_differences(path: Path, root: Mapping[str, Any], groups: Mapping[str, G
         for g in GROUPS:
             stored = f[g]
             new = groups[g]
-            found += _attr_differences(g, _attrs(stored), {k: v for k, v in new.attrs.items() if k not in STRUCTURAL_ATTRS})
+            found += _attr_differences(g, _attrs(stored),
+                                       {k: v for k, v in new.attrs.items() if k not in STRUCTURAL_ATTRS})
             old_vars = {name: stored[name] for name in stored.keys()}
             new_vars = {v.name: v for v in new.variables}
             for name in sorted(set(old_vars) & set(new_vars)):

@@ -149,7 +149,8 @@ def trial_cost(*, size: str = "full", repeats: int | None = None, baseline_repea
         log(f"[cost] simulated {sum(len(v) for v in sims.values())} trials")
         scene = naive_scene
         naive = [timed_call(lambda: naive_rk4(scene, duration=0.5))[1] for _ in range(baseline_repeats)]
-        naive_full = [timed_call(lambda: naive_trial(scene, duration=0.5))[1] for _ in range(max(1, baseline_repeats // 2))]
+        naive_full = [timed_call(lambda: naive_trial(scene, duration=0.5))[1]
+                      for _ in range(max(1, baseline_repeats // 2))]
         ours = [timed_call(functools.partial(simulate, scene))[1] for _ in range(baseline_repeats)]
         uniform = [timed_call(lambda: simulate(scene, integration={"substeps_contact": 10, "substeps_free": 10}))[1]
                    for _ in range(max(1, baseline_repeats // 2))]

@@ -322,7 +322,8 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
         if "error" in d:
             log(f"[wp] {spec.label}: the default setting failed: {d['error']}")
         else:
-            log(f"[wp] {spec.label}: default {d['wall'] * 1e3:.0f} ms, m* {short_error(d['m_eff'])}, e {short_error(d['e'])}, "
+            log(f"[wp] {spec.label}: default {d['wall'] * 1e3:.0f} ms, m* {short_error(d['m_eff'])}, "
+                f"e {short_error(d['e'])}, "
                 f"v' {short_error(d['velocity'])}, front {'yes' if d['front'] else 'NO'}")
     return {"rows": rows, "scenes": scenes, "skipped": skipped, "repeats": repeats}
 

@@ -3,9 +3,10 @@ policy, atomic files, YAML, lazy imports and timers.
 
 The names below, but for the lazy-import helpers themselves, are imported on first use
 (:func:`campaign.core.lazy.lazy_exports`): the workflow imports this package on every start,
-a dry run included, and pays only for what it uses. The modules: :mod:`~campaign.core.errors`, :mod:`~campaign.core.vocabulary`,
-:mod:`~campaign.core.tolerance`, :mod:`~campaign.core.files`, :mod:`~campaign.core.yamlfile`,
-:mod:`~campaign.core.lazy`, :mod:`~campaign.core.progress`, :mod:`~campaign.core.timing`.
+a dry run included, and pays only for what it uses. The modules:
+:mod:`~campaign.core.errors`, :mod:`~campaign.core.vocabulary`, :mod:`~campaign.core.tolerance`,
+:mod:`~campaign.core.files`, :mod:`~campaign.core.yamlfile`, :mod:`~campaign.core.lazy`,
+:mod:`~campaign.core.progress`, :mod:`~campaign.core.timing`.
 """
 
 from __future__ import annotations

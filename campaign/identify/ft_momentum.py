@@ -227,7 +227,8 @@ def _ft_record(measured: xr.Dataset, c: ContactWindow, tj: np.ndarray, opt: Iden
     return _FTRecord(t=tft, W=W, W_rest=W_rest, sig=sig, pre=pre), ""
 
 
-def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: ContactWindow, opt: IdentifyOptions, where: str) -> _Balance:
+def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: ContactWindow, opt: IdentifyOptions,
+                    where: str) -> _Balance:
     """The F/T grid over the contact with the reading change, the accumulated piezo impulse
     along n (baseline-corrected, clipped at 0) and the held servo torque on it."""
     tf = time_coordinate(measured, "t_force", where)

@@ -397,7 +397,8 @@ def _arm_velocities(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt
                           n_post=enc.n_post, cin=win.cin, reasons=reasons)
 
 
-def _arm_window(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions, where: str) -> _ArmWindow:
+def _arm_window(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions,
+                where: str) -> _ArmWindow:
     """The arm model (joint-space or tip-space), its post-contact window and the joint samples in it."""
     tj = ch.tj
     rate = 1.0 / float(np.median(np.diff(tj)))

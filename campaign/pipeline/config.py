@@ -140,7 +140,8 @@ def trial_pick_problem(base: str, configuration: int, gain: str, speed: float, r
     as :func:`check_workflow_config`; ``held`` are the cells (base, configuration, gain) the
     campaign holds."""
     if (base, configuration, gain) not in held:
-        return f"configuration key {key} needs cell {base}/config{configuration}/{gain}, which bases.{base} does not list"
+        return (f"configuration key {key} needs cell {base}/config{configuration}/{gain}, "
+                f"which bases.{base} does not list")
     sweep = sweeps[base]
     if float(speed) not in [float(s) for s in sweep["speeds"]]:
         return (f"configuration key {key}.speed: {speed:g} m/s is not one of the {base}-base speeds "
