@@ -18,7 +18,7 @@
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/targets.smk"
-include: "workflow/rules/simulate.smk"
+include: "workflow/rules/sweep.smk"
 include: "workflow/rules/identify.smk"
 include: "workflow/rules/fixed_base.smk"
 include: "workflow/rules/flexible_base.smk"

@@ -11,7 +11,7 @@ from ..core.errors import InputError, SimulationError
 from ..core.vocabulary import FIXED
 from ..rig.integrate import Trajectory
 from ..rig.plant import FrictionState
-from ..rig.simulate import build, record
+from ..rig.trial import build, record
 
 
 # ---------------------------------------------------------------------------------------
@@ -39,7 +39,7 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     -------
     (rig, Trajectory)
         The assembled rig (:func:`campaign.rig.build`) and a
-        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.simulate.record``
+        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.trial.record``
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
 

@@ -22,8 +22,8 @@ from ..model.robot import load_robot
 from ..rig import build, simulate
 from ..scene.description import load_rig, make_scene
 from .closed_form import singular_pose
-from .common import _md, _rel
-from .work_precision import _identify
+from .common import md_table, relative_error
+from .work_precision import identify_tree
 
 # ---------------------------------------------------------------------------------------
 # stress suite
@@ -433,7 +433,7 @@ def _identification_violations(scene, ident, m_true: float, info: dict) -> list[
         if math.isfinite(m0) and not ident.m_eff >= MEFF_LOWER * m0:
             viol.append(f"identified m* = {ident.m_eff:.4g} kg below {MEFF_LOWER} x the Ex-IIT "
                         f"m* (lambda = 0) {m0:.4g} kg")
-    info["ident_vs_truth"] = _rel(ident.m_eff, m_true)
+    info["ident_vs_truth"] = relative_error(ident.m_eff, m_true)
     return viol
 
 
@@ -477,7 +477,7 @@ def run_case(case: StressCase, folder: str | os.PathLike, *, write: bool = True)
     except Exception as exc:  # noqa: BLE001 - anything else is a failure of the suite
         return done("failed", f"{type(exc).__name__} during simulation: {exc}")
     try:
-        ident = _identify(tree)
+        ident = identify_tree(tree)
     except Exception as exc:  # noqa: BLE001
         return done("failed", f"identification raised {type(exc).__name__}: {exc}")
     viol, info = check_invariants(scene, tree, ident)
@@ -522,7 +522,7 @@ def stress_summary(results: Sequence[StressResult]) -> dict[str, int]:
 
 def format_stress(results: Sequence[StressResult]) -> str:
     s = stress_summary(results)
-    summary = _md(["cases run", "passed", "(of which identification excluded)", "refused with reason",
+    summary = md_table(["cases run", "passed", "(of which identification excluded)", "refused with reason",
                    "reported blow-up (no file)", "failed"],
                   [[s["run"], s["passed"], s["excluded"], s["refused"], s["blow-up"], s["failed"]]])
     axes: dict[str, dict[str, int]] = {}
@@ -530,7 +530,7 @@ def format_stress(results: Sequence[StressResult]) -> str:
         d = axes.setdefault(r.case.axis, {"run": 0, "passed": 0, "refused": 0, "blow-up": 0, "failed": 0})
         d["run"] += 1
         d[r.status] += 1
-    per_axis = _md(["axis", "run", "passed", "refused", "blow-up", "failed"],
+    per_axis = md_table(["axis", "run", "passed", "refused", "blow-up", "failed"],
                    [[a, d["run"], d["passed"], d["refused"], d["blow-up"], d["failed"]] for a, d in axes.items()])
     rows = []
     for r in results:
@@ -546,5 +546,5 @@ def format_stress(results: Sequence[StressResult]) -> str:
         reason = r.reason.replace("|", "/").replace("\n", " ")
         rows.append([r.case.axis, r.case.label, f"**{r.status}**" if r.status in ("failed", "blow-up") else r.status,
                      f"{r.seconds:.2f}", reason[:220], meas])
-    cases = _md(["axis", "case", "outcome", "time [s]", "reason / note", "measured"], rows)
+    cases = md_table(["axis", "case", "outcome", "time [s]", "reason / note", "measured"], rows)
     return "\n\n".join([summary, per_axis, cases])

@@ -9,15 +9,14 @@ from pathlib import Path
 
 from ..core.files import check_output_dir, check_output_file, write_atomic
 from ..core.yamlfile import config_dir
+from ..model.paper import load_paper
 from ..pipeline.calibration import (
-    _summary,
     calibrate,
     load_calibration,
-    load_paper,
+    observed_summary,
     sweep_records,
     write_back,
 )
-from ..pipeline.calibration import load_calibration as _load
 from ..pipeline.calibration_report import (
     FIGURE9_REDUCTION_BAND,
     TABLE4_TOLERANCE,
@@ -122,13 +121,13 @@ def run(args) -> int:
         check_output_dir(args.report, option="--report", files=REPORT_FILES)
     if not args.no_write and not args.skip_fit:
         check_output_file(args.rig if args.rig is not None else config_dir() / "rig.yaml", option="--rig")
-    _load(args.calibration)
+    load_calibration(args.calibration)
     load_rig(args.rig)
 
     fit = None
     if args.skip_fit:
         cfg = load_calibration(args.calibration)
-        summary = _summary(sweep_records({}, cfg["sweep"], rig=args.rig))
+        summary = observed_summary(sweep_records({}, cfg["sweep"], rig=args.rig))
     else:
         result = calibrate(calibration=args.calibration, rig=args.rig, max_nfev=args.max_evaluations,
                            progress=lambda line: print(line, file=sys.stderr, flush=True))

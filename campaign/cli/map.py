@@ -22,9 +22,8 @@ from ..model.robot import load_robot
 from ..plan.factory import planner_model
 from ..report.figures import plan_maps
 from ..scene.description import rig_values
+from .args import parse_named_lambdas, parse_vector
 from .commands import HELP
-from .meff import _NEGATIVE_VALUE, parse_vector
-from .plan import parse_named_lambdas
 
 __all__ = ["register", "run"]
 
@@ -51,7 +50,6 @@ def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``map`` subcommand."""
     p = subparsers.add_parser("map", help=HELP["map"], description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    p._negative_number_matcher = _NEGATIVE_VALUE
     p.add_argument("kind", choices=("workspace", "directions"), help="which map")
     p.add_argument("--out", required=True, metavar="PNG", help="figure file (PNG); a PDF is written beside it")
     p.add_argument("--base", choices=bases(), default=FLEXIBLE,

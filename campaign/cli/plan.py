@@ -28,10 +28,10 @@ from ..plan.directions import cone_directions, horizontal_directions
 from ..plan.factory import build_planner, planner_model
 from ..plan.prediction import check_object
 from ..scene.description import rig_values
+from .args import parse_named_lambdas, parse_vector
 from .commands import HELP
-from .meff import _NEGATIVE_VALUE, parse_vector
 
-__all__ = ["register", "run", "parse_named_lambdas"]
+__all__ = ["register", "run"]
 
 
 DESCRIPTION = """\
@@ -90,7 +90,6 @@ def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``plan`` subcommand to the ``campaign`` command's subparsers."""
     p = subparsers.add_parser("plan", help=HELP["plan"], description=DESCRIPTION, epilog=EPILOG,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    p._negative_number_matcher = _NEGATIVE_VALUE
     p.add_argument("--point", metavar="X,Y,Z", required=True, help="contact point in the arm's base frame [m]")
     dirs = p.add_mutually_exclusive_group()
     dirs.add_argument("--direction", metavar="X,Y,Z",
@@ -123,23 +122,6 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object with every candidate")
     p.set_defaults(func=run)
     return p
-
-
-def parse_named_lambdas(texts, *, nv: int) -> dict[str, list[float]]:
-    """``--lambda NAME=L1,L2,L3`` options as ``{NAME: [L1, L2, L3]}`` (kg m^2, each >= 0), ``nv``
-    values each (one per joint of the planner's robot)."""
-    out: dict[str, list[float]] = {}
-    for text in texts:
-        name, sep, values = str(text).partition("=")
-        if not sep or not name.strip():
-            raise InputError(f"--lambda {text}: expected NAME=L1,L2,L3")
-        lam = parse_vector(values, option=f"--lambda {name.strip()}", size=nv, units="kg m^2")
-        if any(v < 0 for v in lam):
-            raise InputError(f"--lambda {text}: lambda must be >= 0 kg m^2")
-        if name.strip() in out:
-            raise InputError(f"--lambda {text}: gain class {name.strip()!r} is given twice; give each class once")
-        out[name.strip()] = lam
-    return out
 
 
 def _directions(args):

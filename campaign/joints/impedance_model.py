@@ -24,7 +24,7 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.stats import Z95
 from ..core.vocabulary import FIXED, FLEXIBLE
-from .family import ResponseModel, json_numbers
+from .estimator import ResponseModel, json_numbers
 from .impacts import Impacts
 from .response import STEPS_PER_CONTACT, WINDOW_SAMPLES, Response, respond
 from .setting import Setting

@@ -8,7 +8,7 @@ at the contact's end, for arrays of cases at once:
 
 * **The pulse** is the rig's contact law between two free bodies of reduced mass
   ``mu = m* m_b / (m* + m_b)`` meeting at the hammer's speed: its shape and duration in
-  closed form (:func:`campaign.rig.contact.pulse_shape`, :meth:`~campaign.rig.contact.Contact.duration`),
+  closed form (:func:`campaign.rig.contact.pulse_shape`, :meth:`~campaign.rig.contact.ContactLaw.duration`),
   its impulse ``P = (1 + e) v mu`` (eq 14, the arm at rest). ``m*`` is the response's own, so
   the pulse and the response are iterated (the duration moves as ``mu^0.58``, barely with m*).
 * **The arm**, linearised about the struck pose: ``H q'' + (K_d + beta - K_p T_s / 2) q' +
@@ -283,7 +283,7 @@ def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, direc
         Impact directions n (the force on the arm), base frame.
     speed, mass, restitution : array_like, shape (C, D) or scalar
         The object's speed [m/s], mass ``m_b`` [kg] and the restitution of eq 14.
-    contact : campaign.rig.contact.Contact
+    contact : campaign.rig.contact.ContactLaw
     gravity : float
         [m/s^2]
     servo_period : float

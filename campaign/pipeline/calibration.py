@@ -36,8 +36,8 @@ from ..model.paper import load_paper
 from ..rig.batch import simulate_batch
 from ..scene.description import load_rig, make_scene
 
-__all__ = ["CalibrationResult", "load_calibration", "sweep_records", "residuals", "residual_terms", "force_band",
-           "hinge_log", "calibrate", "write_back"]
+__all__ = ["CalibrationResult", "load_calibration", "sweep_records", "observed_summary", "residuals", "residual_terms",
+           "force_band", "hinge_log", "calibrate", "write_back"]
 
 
 
@@ -130,7 +130,7 @@ def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = FIXE
     return records
 
 
-def _summary(records: list[dict]) -> dict:
+def observed_summary(records: list[dict]) -> dict:
     """The observations the paper reports, from trial records."""
     paper = load_paper()
     classes = paper["gain_classes"]
@@ -263,7 +263,7 @@ def calibrate(*, calibration=None, rig=None, progress=print, max_nfev: int | Non
         key = tuple(np.round(x, 12))
         if key not in cache:
             params = {n: float(math.exp(v)) for n, v in zip(names, x, strict=True)}
-            summary = _summary(sweep_records(params, sweep, rig=rig))
+            summary = observed_summary(sweep_records(params, sweep, rig=rig))
             r = residuals(summary, obs)
             count[0] += 1
             cache[key] = (r, summary)

@@ -51,7 +51,7 @@ PRIORITY = {
 }
 #: the entry modules of each stage (package paths; :func:`campaign.pipeline.digests.code_digest`)
 STAGE_CODE = {
-    "simulate": ("pipeline/simulate.py",), "identify": ("pipeline/stages.py", "identify/table.py"),
+    "simulate": ("pipeline/sweep.py",), "identify": ("pipeline/stages.py", "identify/table.py"),
     "fit": ("pipeline/fit.py",), "tables": ("pipeline/tabulate.py",),
     "calibration_report": ("pipeline/calibration_report.py",), "designed": ("design/designed_campaign.py",),
     "designed_model": ("design/designed_model.py",),

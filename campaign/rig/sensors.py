@@ -125,7 +125,7 @@ class StateSampler:
         return np.maximum(F, 0.0)
 
 
-# -- fast recording: the per-sample Pinocchio evaluations of :func:`.simulate.record` ----------
+# -- fast recording: the per-sample Pinocchio evaluations of :func:`.trial.record` ----------
 # Each sample costs a few Pinocchio calls (< 1 us each); everything around them is hoisted
 # (frame ids, placements, the external-force vector) or done once over all samples in NumPy
 # (0.5 v^T H v from the stack of mass matrices, n^T J v, the pendulum's and the contact's
@@ -219,7 +219,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
 
 def _platform_chart(pose, twist):
     """Free-flyer configurations (n, 7) and body twists (n, 6) of small-angle platform
-    states ``pose``/``twist`` (n, 6 each): :func:`.flexible._platform_free_flyer` with zero
+    states ``pose``/``twist`` (n, 6 each): :func:`.flexible.platform_free_flyer` with zero
     acceleration, the matrix products done once over all rows."""
     pose = np.asarray(pose, dtype=float)
     twist = np.asarray(twist, dtype=float)

@@ -190,7 +190,7 @@ class TrialArrays:
     """A trial as plain arrays: root attributes and the groups ``measured`` and ``truth``.
 
     ``campaign.archive.write_trial`` stores it exactly as it stores the same trial given as
-    an :class:`xarray.DataTree` (``campaign.rig.simulate.to_tree`` builds that tree), without
+    an :class:`xarray.DataTree` (``campaign.rig.trial.to_tree`` builds that tree), without
     building xarray objects or importing xarray: a simulation job then does not pay ~0.7 s
     for importing xarray and pandas (``campaign.rig.simulate_arrays``).
     """

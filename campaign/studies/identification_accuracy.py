@@ -28,7 +28,7 @@ import numpy as np
 from ..core.vocabulary import FIXED, HIGH, LOW, ZERO
 from ..identify import IdentifyOptions, identify_trial
 from ..model.robot import load_robot
-from ..rig.simulate import simulate
+from ..rig.trial import simulate
 from ..scene.description import make_scene
 from .closed_forms import truth_m_impulse
 from .common import Log, quiet, truth_values, write_csv

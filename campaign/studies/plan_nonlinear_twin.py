@@ -26,7 +26,7 @@ from ..model.paper import load_paper
 from ..model.robot.floating import attach_to_floating_base
 from ..plan.directions import horizontal_directions
 from ..plan.factory import build_planner
-from ..rig.contact import Contact, pulse_shape
+from ..rig.contact import ContactLaw, pulse_shape
 from . import plan_rig_check as prc
 from .common import Log, quiet, write_csv
 
@@ -51,7 +51,7 @@ def twin_peak(planner, i: int, g: int, d: int, *, dt: float = 2e-4) -> float:
     K, B = np.asarray(planner.beam.stiffness), np.asarray(planner.beam.damping)
     kp, damping, _ = planner.arm.matrices(planner.gain_classes_, planner.robot.nv)
     kp, damping = kp[g], damping[g]
-    c = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
+    c = ContactLaw(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
     _, shape = pulse_shape(c.damping, float(c.exponent))
     s = np.linspace(0.0, 1.0, shape.size)
     # the pulse carries eq 14's impulse exactly (as the planner's first-order hold does)

@@ -36,9 +36,9 @@ from ..plan.directions import horizontal_directions
 from ..plan.factory import build_planner
 from ..plan.prediction import pose_terms, predict
 from ..rig.beam import Beam
-from ..rig.contact import Contact, pulse_shape
+from ..rig.contact import ContactLaw, pulse_shape
 from ..rig.pendulum import Pendulum
-from ..rig.simulate import simulate_arrays
+from ..rig.trial import simulate_arrays
 from ..scene.description import make_scene
 from .common import PASSIVE, Log, quiet, write_csv
 
@@ -265,7 +265,7 @@ def impulsive_limit(speed: float) -> list[dict]:
             sc = make_scene(base=FLEXIBLE, config=1, gain=ZERO, speed=speed, params=params)
             truth = simulate_arrays(sc)["truth"]
             p = sc.p
-            contact = Contact(k, float(p("contact.exponent")), float(p("contact.restitution")))
+            contact = ContactLaw(k, float(p("contact.exponent")), float(p("contact.restitution")))
             P = predict(pose_terms(robot, configuration_q(1)[None], beam=Beam.from_scene(sc)), [[0.0, 0.0, 0.0]],
                         [[-1.0, 0.0, 0.0]], mass=hammer_mass(params), speed=speed,
                         restitution=float(p("contact.restitution")), contact=contact)
@@ -370,7 +370,7 @@ def facts(directions) -> list[dict]:
     robot = load_robot("puma560")
     m1 = min(effective_mass(robot, q, n) for p in contact_points().values()
              for q in position_branches(robot, p).q for n in directions)
-    c = Contact.from_scene(make_scene())
+    c = ContactLaw.from_scene(make_scene())
     _, f = pulse_shape(c.damping, c.exponent)
     return [{"name": "smallest free m* over the candidates [kg]", "value": m1},
             {"name": "contact force peak, fraction of the contact", "value": int(np.argmax(f)) / (f.size - 1)},

@@ -49,7 +49,7 @@ from ..model.robot.ik import impact_point
 from ..plan.directions import horizontal_directions
 from ..plan.factory import build_planner
 from ..plan.model_prediction import predict_model
-from ..rig.simulate import simulate_arrays
+from ..rig.trial import simulate_arrays
 from ..scene.description import make_scene
 from .common import CELLS, Log, quiet, write_csv
 

@@ -21,7 +21,7 @@ import numpy as np
 from ...archive import open_trial_arrays
 from ...core.vocabulary import figure_cells
 from ...identify import detect_contact
-from ...rig.simulate import structure_modes
+from ...rig.trial import structure_modes
 from ...scene.description import Scene, structure_of
 from . import style
 

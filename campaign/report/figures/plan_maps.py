@@ -24,7 +24,7 @@ from ...model.robot.ik import impact_point
 from ...plan.factory import build_planner
 from ...plan.grid import grid_points
 from ...plan.maps import direction_map, workspace_map
-from ...rig.contact import Contact
+from ...rig.contact import ContactLaw
 from . import style
 
 __all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "paper_points"]
@@ -133,7 +133,7 @@ def draw_directions(d: dict, *, title: str = ""):
 def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=2.0):
     planner = build_planner(base=base, lambdas=lambdas, model=model, speed=speed, rig=rig)
     e = planner.restitution if planner.contact_restitution is None else planner.contact_restitution
-    contact = Contact(planner.contact_stiffness, planner.contact_exponent, e)
+    contact = ContactLaw(planner.contact_stiffness, planner.contact_exponent, e)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
               restitution=planner.restitution, beam=planner.beam, arm=planner.arm, model=model,
               pendulum=planner.pendulum)

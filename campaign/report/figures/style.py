@@ -84,11 +84,7 @@ def _lean_pdf_fonts():
     """
     try:
         from fontTools import subset as ft_subset
-        from matplotlib.backends import _backend_pdf_ps
     except ImportError:  # pragma: no cover - fontTools is a matplotlib dependency
-        yield
-        return
-    if getattr(_backend_pdf_ps, "subset", None) is not ft_subset:
         yield
         return
     base = ft_subset.Options

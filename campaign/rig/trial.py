@@ -24,7 +24,7 @@ from ..scene import schema
 from ..scene.description import Scene
 from ..scene.schema import ChannelArray, GroupArrays, TrialArrays
 from .beam import Beam
-from .contact import Contact, contact_duration_estimate
+from .contact import ContactLaw, contact_duration_estimate
 from .controller import PID, check_stability
 from .flexible import IdealCouplingPlant, VesLoopPlant
 from .integrate import integrate_trial
@@ -100,7 +100,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     if place is not None:
         place_pendulum(robot, q0, n, radius=pend.radius, release_angle=theta0,
                        what=f"pose {list(scene.q_paper_deg)} deg", **place)
-    contact = Contact.from_scene(scene)
+    contact = ContactLaw.from_scene(scene)
     _ = contact.damping  # solving for the damping refuses an unreachable restitution now
     friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
                     gravity=gravity)
@@ -123,9 +123,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     pid, T = _servo(scene, robot, plant, q0)
     sub_c, sub_f = _substeps(scene, contact, pend, m1, freqs, servo_period=T, max_post=max_post,
                              integration=integration)
-    rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
-    rig.m1 = m1
-    return rig
+    return Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
 
 
 def _flexible_plant(scene: Scene, robot, q0, n, pend, contact, friction: dict, *, t_contact: float, min_post: float):

@@ -50,7 +50,7 @@ if PLAN.simulate:
             conda:
                 "../envs/campaign.yaml"
             script:
-                "../scripts/simulate.py"
+                "../scripts/sweep.py"
 
     rule simulate_trial:
         input:
@@ -77,4 +77,4 @@ if PLAN.simulate:
         conda:
             "../envs/campaign.yaml"
         script:
-            "../scripts/simulate.py"
+            "../scripts/sweep.py"

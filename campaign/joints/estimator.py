@@ -1,4 +1,4 @@
-"""The joint-resistance models behind one estimator interface.
+"""The estimator interface of the joint-resistance models (:class:`ResponseModel`) and its eq 11 kinds.
 
 Every model takes a :class:`campaign.joints.setting.Setting` (the rig and robot it works
 on) and keyword-only options; ``fit(impacts)`` estimates its parameters from identified m*
