@@ -9,6 +9,7 @@ above the beam tip.
 
 from __future__ import annotations
 
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..model.exiit import effective_mass
 from ..model.robot.floating import BaseBody, attach_to_floating_base
 from ..scene.description import make_scene
@@ -33,10 +34,10 @@ def flexible_base_body(rig_path=None) -> BaseBody:
     -------
     campaign.model.robot.floating.BaseBody
     """
-    return Beam.from_scene(make_scene(base="flexible", rig=rig_path)).base_body()
+    return Beam.from_scene(make_scene(base=FLEXIBLE, rig=rig_path)).base_body()
 
 
-def mass_on_base(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> float:
+def mass_on_base(robot, q, *, lam, n, base: str = FIXED, base_body=None) -> float:
     """Effective mass [kg] of ``robot`` at DH angles ``q`` [rad] (eq 11, ``inf`` off range).
 
     Parameters
@@ -53,9 +54,9 @@ def mass_on_base(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> fl
     base_body : BaseBody, optional
         Base of the flexible case; default :func:`flexible_base_body`.
     """
-    if base == "fixed":
+    if base == FIXED:
         return effective_mass(robot, q, n, lam)
-    if base == "flexible":
+    if base == FLEXIBLE:
         frobot = attach_to_floating_base(robot, flexible_base_body() if base_body is None else base_body)
         return effective_mass(frobot, q, n, lam)
     raise ValueError(f"unknown base {base!r}; expected 'fixed' or 'flexible'")
