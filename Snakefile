@@ -11,13 +11,14 @@
 # beside them, the studies (workflow/rules/studies.smk: not per campaign; the report shows
 # those the configuration lists under `studies:`).
 #
-# This file only includes the rules (helpers: workflow/rules/common.smk) and names the
+# This file only includes the rules (wiring: workflow/rules/common.smk; the campaign's plan:
+# campaign.pipeline.campaign_plan) and names the
 # default target: Snakemake takes the default target from the root Snakefile only (a rule
 # in an included file, even with `default_target: True`, cannot be it).
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/targets.smk"
-include: "workflow/rules/simulate.smk"
+include: "workflow/rules/sweep.smk"
 include: "workflow/rules/identify.smk"
 include: "workflow/rules/fixed_base.smk"
 include: "workflow/rules/flexible_base.smk"
@@ -30,6 +31,5 @@ include: "workflow/rules/studies.smk"
 
 rule all:
     input:
-        default_targets(),
-        calibration_targets(),
+        all_targets(),
     default_target: True

@@ -70,7 +70,7 @@ def _time(fn, repeats: int) -> tuple[float, float]:
 
 def _write_layouts(tree: xr.DataTree, folder: Path):
     prepared = archive.prepare_trial(tree)
-    plan = archive._plan(tree)
+    plan = archive.fileformat.plan_trial(tree)
     raw = prepared.copy()
     for node in raw.subtree:
         for var in node.variables.values():
@@ -87,11 +87,11 @@ def _write_layouts(tree: xr.DataTree, folder: Path):
         ("xarray tree", True, lambda p: prepared.to_netcdf(p, engine="h5netcdf")),
         ("xarray per group", True, per_group),
         ("xarray tree, raw", False, lambda p: raw.to_netcdf(p, engine="h5netcdf")),
-        ("h5py deflate 1 (chosen)", True, lambda p: archive._write_h5(plan, p, level=1)),
-        ("h5py deflate 4", True, lambda p: archive._write_h5(plan, p, level=4)),
-        ("h5py deflate 9", True, lambda p: archive._write_h5(plan, p, level=9)),
-        ("h5py deflate 1 + fletcher32", True, lambda p: archive._write_h5(plan, p, level=1, fletcher32=True)),
-        ("h5py raw", False, lambda p: archive._write_h5(plan, p, level=0)),
+        ("h5py deflate 1 (chosen)", True, lambda p: archive.write._write_h5(plan, p, level=1)),
+        ("h5py deflate 4", True, lambda p: archive.write._write_h5(plan, p, level=4)),
+        ("h5py deflate 9", True, lambda p: archive.write._write_h5(plan, p, level=9)),
+        ("h5py deflate 1 + fletcher32", True, lambda p: archive.write._write_h5(plan, p, level=1, fletcher32=True)),
+        ("h5py raw", False, lambda p: archive.write._write_h5(plan, p, level=0)),
         ("write_trial", True, lambda p: archive.write_trial(tree, p)),
         ("write_trial, no fsync", True, lambda p: archive.write_trial(tree, p, fsync=False)),
     ]
@@ -112,7 +112,7 @@ def _read_layouts(path: Path):
         ("open_trial, measured", lambda: archive.open_trial(path)),
         ("open_trial, truth", lambda: archive.open_trial(path, group="truth")),
         ("open_trial_tree, both groups", lambda: archive.open_trial_tree(path)),
-        ("check only (h5py + digest), measured", lambda: archive._inspect(path, groups=("measured",))),
+        ("check only (h5py + digest), measured", lambda: archive.read.inspect_trial(path, groups=("measured",))),
     ]
 
 

@@ -50,7 +50,7 @@ from campaign.plan.directions import horizontal_directions  # noqa: E402
 from campaign.plan.factory import build_planner, planner_model  # noqa: E402
 from campaign.plan.model_prediction import predict_model  # noqa: E402
 from campaign.plan.prediction import pose_terms, predict  # noqa: E402
-from campaign.rig.contact import Contact  # noqa: E402
+from campaign.rig.contact import ContactLaw  # noqa: E402
 
 HEADING = "## Impact planner throughput"
 TARGET = 10_000.0  # (pose, direction, gain) predictions per second on one core
@@ -80,7 +80,7 @@ def measure_grid(planner, *, n_poses: int, n_gains: int, n_dirs: int, repeats: i
     names = list(planner.lambdas)[:n_gains]
     dirs = horizontal_directions(n_dirs)
     e = planner.restitution if planner.contact_restitution is None else planner.contact_restitution
-    contact = Contact(planner.contact_stiffness, planner.contact_exponent, e)
+    contact = ContactLaw(planner.contact_stiffness, planner.contact_exponent, e)
 
     if planner.model is not None:
         def fn():
@@ -116,7 +116,7 @@ def measure_map(planner, *, resolution: float, repeats: int) -> dict:
     predictions of every branch x gain class, the paper's n."""
     from campaign.plan.maps import workspace_map
 
-    contact = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
+    contact = ContactLaw(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
               restitution=planner.restitution, direction=[-1.0, 0.0, 0.0], y=-0.15005, resolution=resolution,
               beam=planner.beam, model=planner.model, pendulum=planner.pendulum)

@@ -21,14 +21,12 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse
-import importlib
 import statistics
 import time
 
 from campaign.bench.common import blas_line
+from campaign.rig import trial as sim
 from campaign.scene.description import make_scene
-
-sim = importlib.import_module("campaign.rig.simulate")   # the module (campaign.rig exports the function)
 
 CASES = (
     ("fixed", 2, "high"),

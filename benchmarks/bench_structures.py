@@ -31,7 +31,7 @@ import campaign.rig.integrate as integrate  # noqa: E402
 import campaign.rig.trial_run as trial_run  # noqa: E402
 from campaign.bench.common import blas_line, machine_line  # noqa: E402
 from campaign.rig import linear_phase, simulate_arrays  # noqa: E402
-from campaign.rig.simulate import build, integration_args  # noqa: E402
+from campaign.rig.trial import build, integration_args  # noqa: E402
 from campaign.scene.description import make_scene  # noqa: E402
 
 CELLS = ((1, "low"), (1, "high"), (2, "low"), (2, "high"))

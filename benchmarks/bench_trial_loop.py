@@ -1,6 +1,6 @@
 """CPU per trial inside a simulation job: the lean trial loop against the loop it replaced.
 
-A simulation job (``campaign.pipeline.simulate.run_cells``) simulates its trials with
+A simulation job (``campaign.pipeline.sweep.run_cells``) simulates its trials with
 ``campaign.rig.batch.simulate_batch``: build every rig, integrate and record each trial. This
 script times that call, per trial, for one sweep job of a campaign (``--jobs ci``: the
 reduced campaign's sweep of one gain set, 6 fixed-base or 4 flexible-base trials; ``--jobs
@@ -81,7 +81,7 @@ def child(base: str, gain: str, jobs: str, role: str) -> dict:
     import scipy.optimize  # noqa: F401  (every job locates events: keep its import out of the timing)
 
     from campaign.rig.batch import simulate_batch
-    from campaign.rig.simulate import build, integration_args, record_arrays, simulate_arrays
+    from campaign.rig.trial import build, integration_args, record_arrays, simulate_arrays
 
     scenes = _scenes(base, gain, jobs)
     # warm-up: the whole job once, untimed, so that the job and its split below both time

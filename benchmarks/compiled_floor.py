@@ -38,11 +38,11 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from campaign.bench.common import _md, blas_line, machine_line, write_section
+from campaign.bench.common import blas_line, machine_line, md_table, write_section
 from campaign.model.paper import gain_counts
 from campaign.model.robot import load_robot
 from campaign.rig.integrate import integrate_trial
-from campaign.rig.simulate import build, integration_args, record_arrays
+from campaign.rig.trial import build, integration_args, record_arrays
 from campaign.scene.description import make_scene
 
 HERE = Path(__file__).resolve().parent
@@ -165,9 +165,9 @@ def main(argv=None) -> int:
     body = [
         __doc__.split("\n\n")[1].replace("\n", " "),
         "",
-        _md((f"call (rig's arm model, nv = {robot.model.nv})", "C++ [us]", "Python, one state [us]"), rows),
+        md_table((f"call (rig's arm model, nv = {robot.model.nv})", "C++ [us]", "Python, one state [us]"), rows),
         "",
-        _md((f"fixed-base sweep job, {args.gain} gains, {tc['trials']} trials, one-trial path", "value"), [
+        md_table((f"fixed-base sweep job, {args.gain} gains, {tc['trials']} trials, one-trial path", "value"), [
             ("CPU per trial: build / integrate / record [ms]",
              f"{tc['build']:.1f} / {tc['integrate']:.1f} / {tc['record']:.1f}"),
             ("RK4 steps / right-hand-side evaluations per trial", f"{tc['steps']:.0f} / {tc['rhs']:.0f}"),

@@ -23,6 +23,8 @@ it (:data:`LAYERS`, bottom up; ``tests/test_layout.py`` enforces the order):
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _version
 
+__all__ = ["LAYERS", "__version__"]
+
 #: the packages of the campaign package, bottom up: a module imports only from its own package and those before it
 LAYERS = ("core", "model", "scene", "rig", "archive", "identify", "joints", "plan", "design", "studies", "report",
           "bench", "pipeline", "cli")

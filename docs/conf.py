@@ -49,8 +49,8 @@ root_doc = "index"
 
 # API reference: one page per public module, written below into docs/generated/ (not
 # committed) and filled by autodoc from the docstrings; numpydoc sections through napoleon.
-# The pages are written here rather than by autosummary's generator because that resolves
-# ``campaign.rig.simulate`` to the function the package re-exports, not to the module.
+# The pages are written here rather than by autosummary's generator because that resolves a
+# module that shares its name with a function its package re-exports to the function.
 autosummary_generate = False
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_member_order = "bysource"
@@ -96,11 +96,12 @@ def _note_module(app, what, name, obj, options, lines):
 
 
 def _skip_member(app, what, name, obj, skip, options):
-    """Keep three kinds of members out of the API reference: the lazily imported third-party
-    modules (``xr = LazyModule("xarray")``), a NamedTuple's generated field aliases, and a
-    package's re-export of a function that
-    has the name of the submodule defining it (``campaign.rig.simulate``, function and
-    module, would be one target twice; the function stays on its module's page)."""
+    """Keep four kinds of members out of the API reference: the lazily imported third-party
+    modules (``xr = LazyModule("xarray")``), a NamedTuple's generated field aliases, a
+    package's re-export of a function that has the name of the submodule defining it
+    (function and module would be one target twice; the function stays on its module's
+    page), and a package's re-export of another package's name (it is documented on that
+    package's page)."""
     from campaign.core.lazy import LazyModule
 
     if isinstance(obj, LazyModule):
@@ -108,11 +109,40 @@ def _skip_member(app, what, name, obj, skip, options):
     # a NamedTuple's fields: their "Attributes" section already documents them
     if what == "class" and (getattr(obj, "__doc__", None) or "").startswith("Alias for field number"):
         return True
-    if what == "module" and getattr(obj, "__module__", None) == f"{_current_module[0]}.{name}":
+    here = _current_module[0]
+    defined_in = getattr(obj, "__module__", None)
+    if what == "module" and defined_in == f"{here}.{name}":
+        return True
+    if (what == "module" and isinstance(defined_in, str) and defined_in.startswith("campaign.")
+            and defined_in != here and not defined_in.startswith(f"{here}.")):
         return True
     return skip
+
+
+def _python_domain():
+    """The Python domain with one rule more: a bare name (a numpydoc ``Raises`` entry such as
+    ``InputError``) that names both a package's public name and the module entry it comes
+    from (``campaign.core.InputError``, ``campaign.core.errors.InputError``) refers to the
+    module's, where the object is defined."""
+    from sphinx.domains.python import PythonDomain
+
+    class CampaignPythonDomain(PythonDomain):
+        def find_obj(self, env, modname, classname, name, type, searchmode=0):
+            matches = super().find_obj(env, modname, classname, name, type, searchmode)
+            if len(matches) > 1:
+                full = [m[0] for m in matches]
+
+                def re_export(target: str) -> bool:
+                    package, _, tail = target.rpartition(".")
+                    return any(o != target and o.startswith(f"{package}.") and o.endswith(f".{tail}") for o in full)
+
+                matches = [m for m in matches if not re_export(m[0])] or matches
+            return matches
+
+    return CampaignPythonDomain
 
 
 def setup(app):
     app.connect("autodoc-process-docstring", _note_module)
     app.connect("autodoc-skip-member", _skip_member)
+    app.add_domain(_python_domain(), override=True)

@@ -36,8 +36,8 @@ from campaign.archive import (
     verify,
     write_trial,
 )
-from campaign.archive.decode import _plain
-from campaign.archive.read import _inspect_isolated_many
+from campaign.archive.decode import plain_value
+from campaign.archive.read import inspect_isolated_many
 from campaign.cli.main import main as cli_main
 from campaign.core.errors import InputError, TrialFileError
 from campaign.scene.schema import CLOCKS, MEASURED, SCHEMA_VERSION, TRUTH, variables
@@ -172,7 +172,7 @@ def test_fast_reader_decodes_exactly_like_xarray(decoded_alike_files, kind):
     the result is what xarray's h5netcdf engine returns for the same file."""
     path = decoded_alike_files[kind]
     with xr.open_dataset(path, engine="h5netcdf") as root:
-        global_attrs = {k: _plain(v) for k, v in root.attrs.items() if k != "content_sha256"}
+        global_attrs = {k: plain_value(v) for k, v in root.attrs.items() if k != "content_sha256"}
     for group in archive.GROUPS:
         with xr.open_dataset(path, engine="h5netcdf", group=group) as expected:
             expected.load()
@@ -342,7 +342,7 @@ def test_plain_arrays_are_stored_as_the_same_file_as_their_tree(tmp_path, base):
     """The campaign's simulation jobs write the rig's plain arrays (no xarray); the file must
     be the one the DataTree of the same trial gives, byte for byte."""
     from campaign.rig import simulate_arrays
-    from campaign.rig.simulate import to_tree
+    from campaign.rig.trial import to_tree
     from campaign.scene.description import make_scene
 
     trial = simulate_arrays(make_scene(base=base, config=1, gain="low", speed=1.5))
@@ -607,7 +607,7 @@ def test_verify_reports_unlisted_and_leftover_temp_files(campaign):
 def test_verify_survives_a_file_that_crashes_the_hdf5_library(campaign, monkeypatch):
     """Some corruptions make HDF5 segfault instead of raising: verify checks each file in a child."""
     target = _first_trial(campaign)
-    real = archive.read._inspect
+    real = archive.read.inspect_trial
 
     def crashing(path, **kwargs):
         if Path(path) == target:
@@ -615,7 +615,7 @@ def test_verify_survives_a_file_that_crashes_the_hdf5_library(campaign, monkeypa
             os.kill(os.getpid(), signal.SIGSEGV)
         return real(path, **kwargs)
 
-    monkeypatch.setattr(archive.read, "_inspect", crashing)
+    monkeypatch.setattr(archive.read, "inspect_trial", crashing)
     problems = verify(campaign)
     assert [str(p) for p in problems] == [
         "fixed/config1/zero/v1.500/r00.nc: reading it crashed the HDF5 library (signal 11): the file is corrupt"]
@@ -630,7 +630,7 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
     assert len(files) >= 3
     crash, broken = files[0], files[-1]
     _drop_channel(broken)
-    real = archive.read._inspect
+    real = archive.read.inspect_trial
     checkers = tmp_path / "checker-pids"
 
     def crashing(path, **kwargs):
@@ -641,8 +641,8 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
             os.kill(os.getpid(), signal.SIGSEGV)
         return real(path, **kwargs)
 
-    monkeypatch.setattr(archive.read, "_inspect", crashing)
-    found = _inspect_isolated_many(files)
+    monkeypatch.setattr(archive.read, "inspect_trial", crashing)
+    found = inspect_isolated_many(files)
     assert len(found) == len(files)
     assert "crashed the HDF5 library (signal 11)" in found[0][0]
     assert any("f_piezo" in p for p in found[-1])
@@ -650,10 +650,10 @@ def test_isolated_check_names_the_crashing_file_and_checks_the_ones_after_it(cam
     pids = checkers.read_text().split()
     assert len(pids) == len(files) and str(os.getpid()) not in pids   # every check ran in a child:
     assert len(set(pids)) == 2           # one for the crash, one for the files after it ...
-    monkeypatch.setattr(archive.read, "_inspect", real)
+    monkeypatch.setattr(archive.read, "inspect_trial", real)
     calls = []
     monkeypatch.setattr(os, "fork", lambda real_fork=os.fork: calls.append(1) or real_fork())
-    _inspect_isolated_many(files[1:-1])
+    inspect_isolated_many(files[1:-1])
     assert calls == [1]                  # ... and intact files cost one child in all
 
 

@@ -30,7 +30,7 @@ from campaign.identify.options import check_identify_options
 from campaign.identify.table import identify_trials
 from campaign.pipeline.config import check_schema, parse_typed_strings
 from campaign.pipeline.fit import fit_lambda
-from campaign.pipeline.simulate import run_cells
+from campaign.pipeline.sweep import run_cells
 from campaign.scene.checks import check_speeds, pendulum_reach
 
 import snakemake_forks

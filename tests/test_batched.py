@@ -16,7 +16,7 @@ from campaign.core.errors import InputError, SimulationError
 from campaign.model.paper import gain_counts
 from campaign.rig import simulate_arrays
 from campaign.rig.batch import simulate_batch
-from campaign.rig.simulate import build
+from campaign.rig.trial import build
 from campaign.scene.description import make_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -135,7 +135,7 @@ def test_a_failing_trial_of_a_job_is_named_and_the_others_are_written(tmp_path, 
 
     from campaign import archive
     from campaign.core.vocabulary import trial_relpath
-    from campaign.pipeline.simulate import run_cells
+    from campaign.pipeline.sweep import run_cells
 
     batch_module = importlib.import_module("campaign.rig.batch")
 

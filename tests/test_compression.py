@@ -15,13 +15,13 @@ from campaign.model.robot.ik import impact_point
 from campaign.plan.compression import compression_mass
 from campaign.plan.post_contact import ArmAfterImpact
 from campaign.plan.prediction import pose_terms, predict
-from campaign.rig.contact import Contact, peak_force_factor, pulse_shape
+from campaign.rig.contact import ContactLaw, peak_force_factor, pulse_shape
 
 Q = np.radians([[-121.9, -27.4, 0.0], [30.0, 60.0, -60.0]])
 N_DIRS = np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.6, -0.8, 0.0]])
 KP = np.array([[0.0, 0.0, 0.0], [477.0, 653.0, 397.0]])
 DAMP = np.array([[17.5, 28.7, 12.1], [21.3, 33.9, 15.2]])
-CONTACT = Contact(537.0, 0.737, 0.58)
+CONTACT = ContactLaw(537.0, 0.737, 0.58)
 
 
 @pytest.fixture(scope="module")
@@ -38,7 +38,7 @@ def test_pulse_carries_the_momentum_and_peaks_at_the_peak_force_factor():
 
 
 def test_duration_of_a_linear_undamped_contact_is_half_its_period():
-    c = Contact(2.0e4, 1.0, 1.0)
+    c = ContactLaw(2.0e4, 1.0, 1.0)
     m = np.array([0.3, 2.0, 7.5])
     np.testing.assert_allclose(c.duration(m, 1.7), np.pi * np.sqrt(m / 2.0e4), rtol=1e-8)
 
@@ -123,7 +123,7 @@ def test_closer_to_the_rig_than_lambdas_peak_force(puma):
     from the compression is within 3 %, lambda's over-predicts by more."""
     from campaign.model.paper import load_paper, paper_offset_deg
     from campaign.plan.factory import build_planner
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
     from campaign.scene.description import make_scene
 
     params = {"pendulum.head_mass": 5.0}

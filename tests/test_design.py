@@ -87,7 +87,7 @@ def test_a_paper_scene_keeps_its_json_and_a_custom_scene_round_trips_with_its_di
 
 # -- placement --------------------------------------------------------------------------
 def test_the_papers_configurations_can_be_struck_along_minus_x(robot):
-    from campaign.rig.simulate import build
+    from campaign.rig.trial import build
 
     for k in load_paper()["configurations"]:
         build(make_scene(config=k, gain="high", speed=2.5))   # raises if refused
@@ -99,7 +99,7 @@ def test_the_papers_configurations_can_be_struck_along_minus_x(robot):
     ([0.0, 172.0, 40.0], [-0.2, 0.98, 0.0], None),             # across the stretched forearm: struck
 ])
 def test_placement_refuses_what_the_pendulum_cannot_strike(robot, q, n, match):
-    from campaign.rig.simulate import build
+    from campaign.rig.trial import build
 
     scene = make_scene(config=0, q_paper_deg=q, direction=check_direction(np.array(n) / np.linalg.norm(n)),
                        speed=2.5)
@@ -223,6 +223,14 @@ def test_design_information_is_the_sum_of_finite_difference_sensitivities(robot)
     assert np.allclose(res["information"], F, rtol=1e-4)
     sd = np.sqrt(np.diag(np.linalg.inv(F)))
     assert np.allclose(res["relative_ci"], np.expm1(1.959963984540054 * sd), rtol=1e-3)
+
+
+def test_z95_is_the_normal_quantile_of_a_95_percent_interval():
+    from scipy.stats import norm
+
+    from campaign.core.stats import Z95
+
+    assert Z95 == float(norm.ppf(0.975))
 
 
 def test_design_beats_the_paper_design_on_a_small_grid(robot, tmp_path):

@@ -169,7 +169,7 @@ def test_a_flexible_trial_writes_and_reads_back_through_the_archive(config2_high
 
 
 def test_stroke_check_names_the_axis_limit_and_passes_within_it():
-    from campaign.rig.simulate import check_stroke
+    from campaign.rig.trial import check_stroke
 
     pose = np.zeros((5, 6))
     pose[2, 1] = -0.12

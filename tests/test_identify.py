@@ -228,7 +228,7 @@ def test_synthetic_generator_is_consistent_with_eq_11(puma):
 def high_gain_trials():
     """Rig trials at High gains with the paper's 50 Hz encoders: the case the encoder
     model cannot resolve (the servo reverses the tip between two samples)."""
-    from campaign.rig.simulate import simulate
+    from campaign.rig.trial import simulate
     from campaign.scene.description import make_scene
     out = []
     for config in (1, 2, 3):
@@ -266,7 +266,7 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
     import pinocchio as pin
     import xarray as xr
 
-    from campaign.identify import Contact, IdentifyOptions
+    from campaign.identify import ContactWindow, IdentifyOptions
     from campaign.identify.ft_momentum import ft_tip_velocity
 
     model = puma.model.copy()
@@ -311,7 +311,7 @@ def test_ft_momentum_integral_on_a_synthetic_motion(puma):
         {"ft_force": (("t_ft", "axis"), W[:, :3]), "ft_torque": (("t_ft", "axis"), W[:, 3:]),
          "f_piezo": (("t_force",), force(tf))},
         coords={"t_ft": tft, "t_force": tf, "t_joint": tj})
-    c = Contact(t_s, t_e, 60.0, 60.0 * 2 * T / np.pi, 0.0, 0.0, 0.5, 1, ((t_s, t_e),), False, True)
+    c = ContactWindow(t_s, t_e, 60.0, 60.0 * 2 * T / np.pi, 0.0, 0.0, 0.5, 1, ((t_s, t_e),), False, True)
     v_a, v_post, why = ft_tip_velocity(ds, puma, n, c, tj, motion(tj)[0], IdentifyOptions(), "synthetic")
     assert why == ""
     pin.computeJointJacobians(model, data, motion(np.array([t_e]))[0][0])
@@ -338,7 +338,7 @@ def test_ft_falls_back_to_the_encoders_with_a_reason(puma, high_gain_trials):
 
 
 def _rig_trial_1khz(config, gain, speed, repeat):
-    from campaign.rig.simulate import simulate
+    from campaign.rig.trial import simulate
     from campaign.scene.description import make_scene
     tree = simulate(make_scene(base="fixed", config=config, gain=gain, speed=speed, repeat=repeat,
                                params={"sensors.joint_encoder_rate": 1000.0}))

@@ -43,7 +43,7 @@ def test_impulse_needs_the_pendulum_ode_fit():
 def rig_trials_50hz():
     """Two fixed-base rig trials at the paper's 50 Hz joint encoders (the F/T method by
     default; the tip-space ``lti`` model with ``arm_velocity="encoders"``)."""
-    from campaign.rig.simulate import simulate
+    from campaign.rig.trial import simulate
     from campaign.scene.description import make_scene
     out = []
     for config, gain, speed in ((1, "zero", 2.0), (3, "low", 1.5)):

@@ -20,7 +20,7 @@ def slow_high_gain_1khz():
     """Configuration 2, High gains, 1.0 m/s at 1 kHz, both repeats: the smallest tip motion
     of the sweep (the tip gains ~15 mm/s, 1 % is 0.15 mm/s), where the tip-space model
     missed 1 % (+1.53 / -1.02 %)."""
-    from campaign.rig.simulate import simulate
+    from campaign.rig.trial import simulate
     from campaign.scene.description import make_scene
     out = []
     for repeat in (0, 1):

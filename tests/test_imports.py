@@ -9,7 +9,7 @@ import pytest
 from campaign.core.lazy import LazyModule
 
 
-@pytest.mark.parametrize("module", ["campaign.archive", "campaign.rig", "campaign.rig.beam", "campaign.pipeline.simulate"])
+@pytest.mark.parametrize("module", ["campaign.archive", "campaign.rig", "campaign.rig.beam", "campaign.pipeline.sweep"])
 def test_module_does_not_import_xarray_or_pandas(module):
     code = f"import sys, {module}; print(sorted(m for m in ('xarray', 'pandas') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
@@ -42,7 +42,7 @@ def test_lazy_module_raises_for_a_missing_attribute_and_module():
 def test_a_simulation_job_never_imports_xarray(tmp_path):
     """run_cells (the simulate rules) records and writes plain arrays: xarray and
     pandas cost ~0.7 s per job, more than the job's fixed-base trials take to simulate."""
-    code = ("import sys; from campaign.pipeline.simulate import run_cells; "
+    code = ("import sys; from campaign.pipeline.sweep import run_cells; "
             f"out = run_cells([('fixed', 1, 'zero')], archive_dir={str(tmp_path)!r}, speeds=[1.5], "
             "repeats=1, campaign_seed=1); "
             "print(len(out), sorted(m for m in ('xarray', 'pandas') if m in sys.modules))")
@@ -53,7 +53,7 @@ def test_a_simulation_job_never_imports_xarray(tmp_path):
 
 def test_an_identification_job_never_imports_xarray(tmp_path):
     """identify_trials (the identify rules) reads trials as plain arrays."""
-    from campaign.pipeline.simulate import run_cells
+    from campaign.pipeline.sweep import run_cells
 
     [trial] = run_cells([("fixed", 1, "low")], archive_dir=tmp_path, speeds=[1.5], repeats=1,
                                campaign_seed=1)
@@ -62,3 +62,48 @@ def test_an_identification_job_never_imports_xarray(tmp_path):
             "print(len(rows), rows[0]['m_eff'] != '', sorted(m for m in ('xarray', 'pandas') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip().splitlines()[-1] == "1 True []", out
+
+
+def test_the_workflows_start_up_imports_neither_numpy_nor_the_robot_model():
+    """common.smk imports these on every start, a dry run included: each package face on the
+    way (campaign.core, .model, .pipeline, .studies) exports its names on first use only."""
+    code = ("import sys; import campaign.core.vocabulary, campaign.core.errors, campaign.core.yamlfile, "
+            "campaign.model.conventions, campaign.pipeline.paths, campaign.pipeline.config, "
+            "campaign.pipeline.digests, campaign.studies; "
+            "print(sorted(m for m in ('numpy', 'pinocchio', 'scipy', 'xarray', 'h5py') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+
+
+def test_a_lazy_face_imports_a_module_on_first_use_of_its_name():
+    code = ("import sys, campaign.plan as plan; before = 'campaign.plan.factory' in sys.modules; "
+            "f = plan.build_planner; "
+            "print(before, 'campaign.plan.factory' in sys.modules, 'build_planner' in vars(plan), "
+            "f is sys.modules['campaign.plan.factory'].build_planner, 'build_planner' in dir(plan))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["False", "True", "True", "True", "True"]
+    with pytest.raises(AttributeError, match="campaign.plan.*no_such_name"):
+        _ = __import__("campaign.plan").plan.no_such_name
+
+
+_IMPORT_EVERY_FACE = """
+import importlib, pkgutil, campaign
+packages = ["campaign"] + [m.name for m in pkgutil.walk_packages(campaign.__path__, "campaign.") if m.ispkg]
+missing = []
+for package in packages:
+    for name in importlib.import_module(package).__all__:
+        try:
+            exec(f"from {package} import {name}")
+        except ImportError:
+            missing.append(f"{package}.{name}")
+print(len(packages), missing)
+"""
+
+
+def test_every_name_a_package_exports_resolves():
+    """Each package's ``__all__`` imported as a user does (``from campaign.model import
+    load_paper``, or ``from campaign.report.figures import fig4`` for a member module): the
+    layout test checks the names statically, this imports them."""
+    out = subprocess.run([sys.executable, "-c", _IMPORT_EVERY_FACE], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "17 []", out

@@ -16,7 +16,7 @@ import pytest
 
 from campaign.archive import JOBS, finalize_campaign, open_trial_tree, read_job_manifests, verify, write_trial
 from campaign.core.errors import TrialFileError
-from campaign.pipeline.simulate import run_cells
+from campaign.pipeline.sweep import run_cells
 from campaign.rig.sensors import measured_quanta
 from campaign.scene.description import Scene
 

@@ -1,5 +1,7 @@
 """The package's layout: imports flow one way through the declared layers, no circle, small
-modules and functions, and no private name re-exported by a package.
+modules and functions, no private name re-exported by a package or taken from another module,
+every package naming its public interface in ``__all__``, and no base, gain or structure
+name spelled outside the vocabulary.
 
 Read with the standard library's ``ast`` (nothing is imported). Every import counts, also
 one inside a function: a lazy import defers the cost, not the dependency. Each rule is a
@@ -16,10 +18,15 @@ from pathlib import Path
 import pytest
 
 from campaign import LAYERS
-from campaign.pipeline.digests import PACKAGE, closure, graph, modules
+from campaign.core.vocabulary import NAMES
+from campaign.pipeline.digests import PACKAGE, closure, graph, lazy_face, modules
 
 MAX_MODULE_LINES = 600
 MAX_FUNCTION_LINES = 100
+#: the module that spells the vocabulary's names, relative to the package
+VOCABULARY = "core/vocabulary.py"
+#: a line that uses one of those words for something else says so
+NOT_A_NAME = "# not a vocabulary name"
 
 
 # ---------------------------------------------------------------------------------------
@@ -122,6 +129,133 @@ def private_reexports(root: Path) -> list[str]:
     return found
 
 
+def _docstrings(tree: ast.AST) -> set[int]:
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
+                found.add(id(first.value))
+    return found
+
+
+def vocabulary_literals(root: Path, names, *, owner: str = VOCABULARY) -> list[str]:
+    """String constants equal to one of ``names`` in any module but ``owner``: docstrings and
+    lines marked :data:`NOT_A_NAME` aside, code names a base, gain set or structure through
+    the vocabulary's constants."""
+    found = []
+    for name, path in modules(root=root).items():
+        if path.relative_to(root.resolve()).as_posix() == owner:
+            continue
+        text = path.read_text()
+        lines = text.splitlines()
+        tree = ast.parse(text)
+        skip = _docstrings(tree)
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in names
+                    and id(node) not in skip and NOT_A_NAME not in lines[node.lineno - 1]):
+                found.append(f"{name} line {node.lineno}: {node.value!r}")
+    return sorted(found)
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def private_imports(root: Path) -> list[str]:
+    """Private names (one leading underscore) a module takes from another module of the
+    package: ``from .x import _name``, or ``x._name`` of a module ``x`` bound by an import.
+    A module's own private names are its own business."""
+    known = modules(root=root)
+    found = []
+    for name, path in sorted(known.items()):
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        tree = ast.parse(path.read_text())
+        bound: dict[str, str] = {}       # a local name -> the package module it is bound to
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")
+                    stem = ".".join(base[:len(base) - (node.level - 1)] + ([node.module] if node.module else []))
+                else:
+                    stem = node.module or ""
+                for alias in node.names:
+                    if f"{stem}.{alias.name}" in known:
+                        bound[alias.asname or alias.name] = f"{stem}.{alias.name}"
+                    elif stem in known and stem != name and _private(alias.name):
+                        found.append(f"{name} imports {alias.name} from {stem}")
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    local, module = (alias.asname, alias.name) if alias.asname else (alias.name.split(".")[0],) * 2
+                    if module in known:
+                        bound[local] = module
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.Attribute) and _private(node.attr) and isinstance(node.value, ast.Name)
+                    and bound.get(node.value.id, name) != name):
+                found.append(f"{name} reads {node.attr} of {bound[node.value.id]}")
+    return found
+
+
+def _top_level_names(tree: ast.Module) -> set[str]:
+    """Names a module binds at its top level (also inside a top-level ``if`` or ``try``)."""
+    out: set[str] = set()
+    todo = list(tree.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            out.add(node.name)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            out.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            for target in targets:
+                out.update(n.id for n in ast.walk(target) if isinstance(n, ast.Name))
+        elif isinstance(node, (ast.If, ast.Try)):
+            todo += node.body + node.orelse + getattr(node, "finalbody", []) + \
+                [s for h in getattr(node, "handlers", []) for s in h.body]
+    return out
+
+
+def face_problems(root: Path) -> list[str]:
+    """Each package's ``__init__`` names its public interface in a literal ``__all__``, and
+    every name in it exists: bound by the ``__init__``, a member module or sub-package, or
+    exported on first use (``lazy_exports``) from a member module that defines it at its
+    top level; a lazily exported name is listed in ``__all__``."""
+    known = modules(root=root)
+    found = []
+    for name, path in sorted(known.items()):
+        if path.name != "__init__.py":
+            continue
+        tree = ast.parse(path.read_text())
+        listed = None
+        for node in tree.body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "__all__" for t in node.targets):
+                try:
+                    listed = list(ast.literal_eval(node.value))
+                except ValueError:
+                    found.append(f"{name}: __all__ is not a literal list of names")
+                    listed = []
+        if listed is None:
+            found.append(f"{name} has no __all__")
+            continue
+        own = _top_level_names(tree)
+        lazy = lazy_face(tree)
+        exported = {n for names in lazy.values() for n in names}
+        for member, names in lazy.items():
+            module = f"{name}.{member}"
+            if module not in known:
+                found.append(f"{name} exports {', '.join(names)} from {module}, which does not exist")
+                continue
+            defined = _top_level_names(ast.parse(known[module].read_text()))
+            found += [f"{name} exports {n} from {module}, which does not define it" for n in names
+                      if n not in defined]
+        found += [f"{name}.__all__ names {n}, which does not exist" for n in listed
+                  if n not in own and n not in exported and f"{name}.{n}" not in known]
+        found += [f"{name} exports {n} on first use without listing it in __all__" for n in sorted(exported)
+                  if n not in listed]
+    return found
+
+
 # ---------------------------------------------------------------------------------------
 # the campaign package
 # ---------------------------------------------------------------------------------------
@@ -151,6 +285,18 @@ def test_no_package_re_exports_a_private_name():
     assert private_reexports(PACKAGE) == []
 
 
+def test_no_base_gain_or_structure_name_is_spelled_outside_the_vocabulary():
+    assert vocabulary_literals(PACKAGE, NAMES) == []
+
+
+def test_no_module_takes_a_private_name_from_another():
+    assert private_imports(PACKAGE) == []
+
+
+def test_every_package_names_its_public_interface_and_every_name_exists():
+    assert face_problems(PACKAGE) == []
+
+
 def test_the_graph_sees_relative_imports_at_every_level_and_imports_inside_functions():
     g = graph()
     assert {"campaign.identify", "campaign.identify.trial", "campaign.archive", "campaign.rig.integrate"} <= set(g)
@@ -163,15 +309,29 @@ def test_the_graph_sees_relative_imports_at_every_level_and_imports_inside_funct
 def test_closure_follows_imports_and_package_inits():
     """A stage's digest covers what its entry module runs: the simulation job checks the stroke
     with the planner's predictions, which use eq 7-14's module."""
-    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "pipeline" / "simulate.py"])}
-    assert {"pipeline/simulate.py", "pipeline/__init__.py", "__init__.py", "rig/simulate.py", "rig/__init__.py",
+    files = {p.relative_to(PACKAGE).as_posix() for p in closure([PACKAGE / "pipeline" / "sweep.py"])}
+    assert {"pipeline/sweep.py", "pipeline/__init__.py", "__init__.py", "rig/trial.py", "rig/__init__.py",
             "plan/stroke.py", "plan/prediction.py", "model/exiit.py", "core/errors.py"} <= files
     assert "report/figures/fig5.py" not in files
 
 
-def test_closure_of_a_module_that_imports_nothing_of_the_package_is_itself():
+def test_closure_of_a_module_that_imports_nothing_of_the_package_is_itself_and_its_package_inits():
+    """core's face imports only the lazy-export helper; the names it exports on first use are
+    not run on import, so they are not part of the closure."""
     assert closure([PACKAGE / "core" / "errors.py"]) == [PACKAGE / "__init__.py", PACKAGE / "core" / "__init__.py",
-                                                        PACKAGE / "core" / "errors.py"]
+                                                        PACKAGE / "core" / "errors.py", PACKAGE / "core" / "lazy.py"]
+
+
+def test_a_name_from_a_lazy_face_depends_on_the_module_that_defines_it(tmp_path):
+    root = _package(tmp_path, {
+        "low/__init__.py": "from .lazy import lazy_exports\n__all__ = ['f', 'g']\n"
+                           "__getattr__, __dir__ = lazy_exports(__name__, {'a': ('f',), 'b': ('g',)})\n",
+        "low/lazy.py": "def lazy_exports(p, e):\n    return None, None\n",
+        "low/a.py": "def f():\n    pass\n", "low/b.py": "def g():\n    pass\n",
+        "high/c.py": "from ..low import f\n"})
+    g = graph(root=root)
+    assert g["pkg.high.c"] == {"pkg.low", "pkg.low.a"}
+    assert g["pkg.low"] == {"pkg.low.lazy"}
 
 
 # ---------------------------------------------------------------------------------------
@@ -223,11 +383,50 @@ def test_a_private_re_export_is_found(tmp_path):
                                        "pkg.low imports extra without exporting it in __all__"]
 
 
+def test_a_vocabulary_literal_is_found(tmp_path):
+    root = _package(tmp_path, {
+        "low/names.py": 'FIXED = "fixed"\n',
+        "low/a.py": 'def f(base="fixed"):\n    """Only the fixed base."""\n    return {"high": 1, "fixed base": 2}\n',
+        "high/b.py": 'from ..low.names import FIXED\nWORD = "zero"  # not a vocabulary name\nX = [FIXED, f"{FIXED}"]\n'})
+    assert vocabulary_literals(root, {"fixed", "zero", "high"}, owner="low/names.py") == [
+        "pkg.low.a line 1: 'fixed'", "pkg.low.a line 3: 'high'"]
+    assert vocabulary_literals(root, {"fixed"}, owner="low/a.py") == ["pkg.low.names line 1: 'fixed'"]
+
+
+def test_a_private_import_from_another_module_is_found(tmp_path):
+    root = _package(tmp_path, {"low/a.py": "_hidden = _other = shown = 1\n",
+                               "low/b.py": "from .a import _hidden, shown\nfrom . import a\nx = a._other\n",
+                               "low/c.py": "from .. import low\nfrom ..low import a as mod\n_mine = 1\n"
+                                           "y = _mine + mod.shown + low._secret\n"})
+    assert private_imports(root) == ["pkg.low.b imports _hidden from pkg.low.a", "pkg.low.b reads _other of pkg.low.a",
+                                     "pkg.low.c reads _secret of pkg.low"]
+
+
+def test_a_package_without_a_face_or_with_a_missing_name_is_found(tmp_path):
+    root = _package(tmp_path, {
+        "low/__init__.py": "x = 1\n",
+        "high/__init__.py": "from ..core import lazy_exports\nfrom .sub import g\n\ndef f():\n    pass\n\n"
+                            "__all__ = ['f', 'g', 'sub', 'lazy_x', 'ghost']\n"
+                            "__getattr__, __dir__ = lazy_exports(__name__, {'m': ('lazy_x', 'lazy_missing'), "
+                            "'gone': ('y',)})\n",
+        "high/sub.py": "g = 1\n", "high/m.py": "lazy_x = 1\n"})
+    assert sorted(face_problems(root)) == sorted([
+        "pkg has no __all__", "pkg.low has no __all__",
+        "pkg.high exports lazy_missing from pkg.high.m, which does not define it",
+        "pkg.high exports y from pkg.high.gone, which does not exist",
+        "pkg.high.__all__ names ghost, which does not exist",
+        "pkg.high exports lazy_missing on first use without listing it in __all__",
+        "pkg.high exports y on first use without listing it in __all__",
+    ])
+
+
 @pytest.mark.parametrize("module", ["campaign.core.vocabulary", "campaign.core.yamlfile", "campaign.pipeline.paths",
-                                    "campaign.pipeline.config", "campaign.pipeline.digests"])
+                                    "campaign.pipeline.config", "campaign.pipeline.digests",
+                                    "campaign.pipeline.campaign_plan", "campaign.pipeline.plan_parts"])
 def test_what_the_workflow_imports_at_start_up_stays_light(module):
-    """The Snakefile's helpers import these on every start (a dry run included): at their top
-    they import only the standard library, PyYAML and each other."""
+    """The workflow's wiring imports these on every start (a dry run included): at their top
+    they import only the standard library, PyYAML and each other (with the robots' conventions
+    and the studies' file names, which import nothing heavier)."""
     tree = ast.parse(modules()[module].read_text())
     heavy = []
     for node in tree.body:
@@ -238,6 +437,8 @@ def test_what_the_workflow_imports_at_start_up_stays_light(module):
                 heavy.append(node.module)
         elif isinstance(node, ast.ImportFrom) and node.level:
             target = (node.module or "").split(".")[0]
-            if target not in ("", "errors", "vocabulary", "yamlfile", "core"):
+            light = ("", "errors", "vocabulary", "yamlfile", "core", "config", "digests", "paths", "plan_parts",
+                     "model.conventions")
+            if target not in light and any(f"{node.module}.{a.name}" not in light for a in node.names):
                 heavy.append("." * node.level + (node.module or ""))
     assert heavy == []

@@ -25,7 +25,7 @@ from campaign.model.paper import gain_counts
 from campaign.rig.flexible import VesLoopPlant
 from campaign.rig.integrate import integrate_trial
 from campaign.rig.kernels import ArrayKernel, FixedKernel, VesKernel, kernel_for
-from campaign.rig.simulate import build, integration_args, record_arrays
+from campaign.rig.trial import build, integration_args, record_arrays
 from campaign.scene.description import make_scene
 
 _STIFF = {"flexible.structure": "stiff_mast"}

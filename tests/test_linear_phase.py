@@ -14,7 +14,7 @@ from campaign.rig import build, simulate_arrays
 from campaign.rig.controller import PID
 from campaign.rig.integrate import integrate_trial
 from campaign.rig.linear_phase import FrozenArm, neglected_wrench
-from campaign.rig.simulate import integration_args
+from campaign.rig.trial import integration_args
 from campaign.scene.description import make_scene
 
 

@@ -19,11 +19,11 @@ from campaign.plan.directions import cone_directions, horizontal_directions
 from campaign.plan.planner import ImpactPlanner
 from campaign.plan.prediction import peak_amplitude_factor, pose_terms, predict
 from campaign.rig.beam import Beam
-from campaign.rig.contact import Contact, peak_force_factor
+from campaign.rig.contact import ContactLaw, peak_force_factor
 
 LAMBDAS = [[0.0, 0.0, 0.0], [19.82, 4.62, 0.80], [53.18, 8.66, 2.83]]
 M_B, V_B, E = 0.7, 2.0, 0.55
-CONTACT = Contact(537.3, 0.737, E)
+CONTACT = ContactLaw(537.3, 0.737, E)
 
 
 @pytest.fixture(scope="module")
@@ -134,7 +134,7 @@ def test_undamped_peak_force_is_the_energy_closed_form(p):
 
 @pytest.mark.parametrize("m_eff", [3.0, 12.0, np.inf])
 def test_peak_force_matches_a_two_body_integration_of_the_contact_law(m_eff):
-    c = Contact(537.3, 0.737, 0.58)
+    c = ContactLaw(537.3, 0.737, 0.58)
     m_a = 1e12 if np.isinf(m_eff) else m_eff
 
     def rhs(_, y):      # y = (x_b, v_b, x_a, v_a); penetration x_b - x_a
@@ -256,7 +256,7 @@ def test_structure_peak_matches_the_rig_in_the_impulsive_limit(puma):
     stiffer than the calibrated one (~5 ms against the structure's ~230 ms period), the arm and
     structure integrated as one system: the regime eq 8 assumes. The rig's peak base
     displacement must match the prediction."""
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
     from campaign.scene.description import make_scene
 
     params = {"gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0, "ves.mode": "ideal"}
@@ -267,7 +267,7 @@ def test_structure_peak_matches_the_rig_in_the_impulsive_limit(puma):
     measured = np.max(np.linalg.norm(truth["base_position"].values, axis=1))
     p = sc.p
     m_b = float(p("pendulum.head_mass")) + float(p("pendulum.rod_mass")) / 3.0
-    contact = Contact.from_scene(sc)
+    contact = ContactLaw.from_scene(sc)
     P = predict(pose_terms(puma, configuration_q(1)[None], beam=Beam.from_scene(sc)), [[0.0, 0.0, 0.0]],
                 [[-1.0, 0.0, 0.0]], mass=m_b, speed=2.0, restitution=float(p("contact.restitution")), contact=contact)
     assert P.structure_peak[0, 0, 0] == pytest.approx(measured, rel=0.06)

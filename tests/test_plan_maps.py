@@ -12,10 +12,10 @@ from campaign.model.robot.ik import impact_point, position_branches
 from campaign.plan.maps import direction_map, workspace_map
 from campaign.report.figures import plan_maps
 from campaign.rig.beam import Beam
-from campaign.rig.contact import Contact
+from campaign.rig.contact import ContactLaw
 
 LAMBDAS = {"zero_low": [19.82, 4.62, 0.80], "high": [53.18, 8.66, 2.83]}
-KW = dict(lambdas=LAMBDAS, contact=Contact(537.3, 0.737, 0.58), mass=0.7, speed=2.0, restitution=0.58)
+KW = dict(lambdas=LAMBDAS, contact=ContactLaw(537.3, 0.737, 0.58), mass=0.7, speed=2.0, restitution=0.58)
 
 
 @pytest.fixture(scope="module")

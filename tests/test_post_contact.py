@@ -21,7 +21,7 @@ from campaign.plan.post_contact import (
 )
 from campaign.plan.prediction import pose_terms, predict
 from campaign.rig.beam import Beam
-from campaign.rig.contact import Contact, pulse_shape
+from campaign.rig.contact import ContactLaw, pulse_shape
 from campaign.scene.description import make_scene, rig_values
 
 Q = np.radians([-121.9, -27.4, 0.0])      # the rig check's side point, branch 2
@@ -40,7 +40,7 @@ def beam_of(**params):
 
 def run_predict(puma, beam, arm, *, lam=LAMBDA):
     terms = pose_terms(puma, Q[None], beam=beam)
-    contact = Contact(537.0, 0.74, 0.58)
+    contact = ContactLaw(537.0, 0.74, 0.58)
     P = predict(terms, [lam], N_DIRS, mass=2.0, speed=2.0, restitution=0.58, contact=contact, arm=arm,
                 gain_names=["g"])
     return terms, P
@@ -118,7 +118,7 @@ def test_pulse_matches_an_independent_integration_under_the_contact_force(puma, 
     beam = Beam.from_scene(make_scene(base="flexible", params={"flexible.structure": "stiff_mast"}))
     viscous = np.array([17.5, 28.7, 12.1])
     arm = ArmAfterImpact(gains={"g": (kp, kd)}, viscous=viscous, gravity=g, samples=256)
-    contact = Contact(537.0, 0.74, 0.58)
+    contact = ContactLaw(537.0, 0.74, 0.58)
     terms = pose_terms(puma, Q[None], beam=beam)
     P = predict(terms, [LAMBDA], N_DIRS, mass=2.0, speed=2.0, restitution=0.58, contact=contact, arm=arm,
                 gain_names=["g"])
@@ -140,7 +140,7 @@ def test_a_short_pulse_recovers_the_impulse_at_once(puma):
     X = np.linalg.solve(terms.H, np.swapaxes(terms.J, 1, 2))[:, None]
     kp, damping, _ = arm.matrices(["g"], 3)
     p = (N_DIRS / np.linalg.norm(N_DIRS, axis=1)[:, None] * 3.0)[None, None]
-    _, shape = pulse_shape(Contact(537.0, 0.74, 0.58).damping, 0.74)
+    _, shape = pulse_shape(ContactLaw(537.0, 0.74, 0.58).damping, 0.74)
     R, _ = unit_responses(terms, X, kp, damping, gravity=9.81, samples=128)
     at_once = peak_displacement(R, p)
     errors = []
@@ -179,7 +179,7 @@ def test_joints_stopped_at_once_give_the_structure_released_with_the_locked_arms
 def test_without_the_arm_model_the_peak_is_eq8s_release(puma):
     beam = beam_of()
     terms = pose_terms(puma, Q[None], beam=beam)
-    P = predict(terms, [LAMBDA], N_DIRS, mass=2.0, speed=2.0, restitution=0.58, contact=Contact(537.0, 0.74, 0.58))
+    P = predict(terms, [LAMBDA], N_DIRS, mass=2.0, speed=2.0, restitution=0.58, contact=ContactLaw(537.0, 0.74, 0.58))
     np.testing.assert_array_equal(P.structure_peak, P.structure_peak_release)
 
 
@@ -225,7 +225,7 @@ def test_post_contact_term_is_closer_to_the_rig_than_eq8s_release(puma):
     lambda, which carries the joints' friction) is within 6 % and closer than eq 8's release."""
     from campaign.model.paper import paper_offset_deg
     from campaign.plan.factory import build_planner
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
 
     n = np.array([0.0, 1.0, 0.0])
     planner = build_planner(base="flexible", lambdas={"zero": LAMBDA}, speed=2.0, objective="displacement",
@@ -258,7 +258,7 @@ def test_a_pulse_of_no_duration_is_refused_naming_it(puma):
     terms = pose_terms(puma, Q[None], beam=beam)
     X = np.linalg.solve(terms.H, np.swapaxes(terms.J, 1, 2))[:, None]
     p = np.ones((1, 1, 1, 3))
-    _, shape = pulse_shape(Contact(537.0, 0.74, 0.58).damping, 0.74)
+    _, shape = pulse_shape(ContactLaw(537.0, 0.74, 0.58).damping, 0.74)
     with pytest.raises(InputError, match="contact duration must be > 0 s, got -0.1"):
         pulse_peak_displacement(terms, X, np.zeros((1, 3)), np.ones((1, 3)), p, np.full((1, 1, 1), -0.1),
                                 shape=shape, gravity=9.81, samples=64)

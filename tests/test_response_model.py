@@ -22,15 +22,15 @@ from campaign.model.exiit import effective_mass
 from campaign.model.paper import paper_q
 from campaign.model.robot.floating import attach_to_floating_base
 from campaign.rig.beam import Beam
-from campaign.rig.contact import Contact
+from campaign.rig.contact import ContactLaw
 
 POSES_DEG = [(0, 150, 90), (30, 200, 60), (-45, 180, 0), (10, 120, 150)]
 DIRS = [(-1, 0, 0), (-0.5, -0.8660254, 0), (0.8660254, 0.5, 0), (0, -1, 0)]
 #: a stiff contact: a pulse of about 0.3 ms, the impulsive limit for the arm (the pose moves by
 #: ~1e-5 rad during it)
-STIFF = Contact(1.0e8, 1.0, 0.6)
+STIFF = ContactLaw(1.0e8, 1.0, 0.6)
 #: the rig's own contact law (a 60-80 ms pulse)
-SOFT = Contact(537.302, 0.737176, 0.576812)
+SOFT = ContactLaw(537.302, 0.737176, 0.576812)
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +58,7 @@ def test_a_very_short_pulse_is_the_impulsive_limit_whatever_the_joints_resistanc
     # the servo, the damping and friction act over a 26 us pulse only (over 0.3 ms the joints'
     # viscous damping alone, 18-29 N m s/rad on 1-3 kg m^2, would take 0.2-0.5 %)
     Q, n = poses
-    r = _passive(arm_terms(puma, Q), n, Contact(1.0e10, 1.0, 0.6), kp=[500.0, 650.0, 400.0], kd=[4.0, 5.0, 3.0], damping=[18.0, 29.0, 12.0],
+    r = _passive(arm_terms(puma, Q), n, ContactLaw(1.0e10, 1.0, 0.6), kp=[500.0, 650.0, 400.0], kd=[4.0, 5.0, 3.0], damping=[18.0, 29.0, 12.0],
                  coulomb_pos=[1.5, 0.8, 0.4], coulomb_neg=[1.7, 0.5, 0.3], gravity=9.81)
     eq7 = [effective_mass(puma, Q[i], n[i], None) for i in range(len(Q))]
     assert np.allclose(r.m_eff[:, 0], eq7, rtol=5e-4)
@@ -154,7 +154,7 @@ def test_the_model_fits_back_the_joints_it_was_made_with(puma, poses):
 
 def test_the_shipped_model_is_for_this_rig_and_predicts_two_rig_trials(puma):
     from campaign.identify import identify_trial
-    from campaign.rig.simulate import simulate_arrays
+    from campaign.rig.trial import simulate_arrays
     from campaign.scene.description import make_scene
 
     model = load_model(shipped_model_path())            # checks the rig's, paper's and robot's digests

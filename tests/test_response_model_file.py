@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from campaign.joints.family import CoulombModel, Eq11Model, LambdaModel
+from campaign.joints.estimator import CoulombModel, Eq11Model, LambdaModel
 from campaign.joints.impacts import Impacts
 from campaign.joints.modelfile import ModelFileError, load_model, model_document, save_model, shipped_model_path
 from campaign.joints.setting import Setting
@@ -127,7 +127,7 @@ def test_the_cli_refuses_a_bad_model_file_with_exit_status_2(shipped_doc, tmp_pa
 def test_a_model_kind_must_define_fit_predict_and_parameters():
     """The family's base class is abstract: a kind that leaves out one of the interface's
     methods cannot be made, and the error names it."""
-    from campaign.joints.family import ResponseModel
+    from campaign.joints.estimator import ResponseModel
 
     class Incomplete(ResponseModel):
         kind = "incomplete"

@@ -247,10 +247,9 @@ def _plain_fixed(plant, x, xd, F):
 def test_recorded_ft_wrench_energy_and_tip_speed_equal_plain_per_sample_pinocchio(monkeypatch):
     # end to end through simulate(): the recording's channels at samples before, in and after
     # the contact are recomputed from the sampled states with plain Pinocchio calls
-    import importlib
 
+    from campaign.rig import trial as sim
     from campaign.rig.sensors import StateSampler, sample_grid
-    sim = importlib.import_module("campaign.rig.simulate")   # the module (campaign.rig exports the function)
     seen = {}
     real_record = sim.record_arrays
 
@@ -394,9 +393,8 @@ def test_cached_rig_robot_and_paper_files_pick_up_an_edit(tmp_path, monkeypatch)
 def _perturbed_state(base: str, *, seed: int):
     """(rig, x, tau, rng): configuration 2, High gains, the arm 0.05 rad (rms) off its pose,
     the plant's clock inside the VES emulator's first tick, a random servo torque."""
-    import importlib
 
-    sim = importlib.import_module("campaign.rig.simulate")
+    from campaign.rig import trial as sim
     rig = sim.build(make_scene(base=base, config=2, gain="high", speed=2.0))
     plant = rig.plant
     rng = np.random.default_rng(seed)

@@ -52,7 +52,7 @@ def test_refused_before_any_work_beyond_the_margin(default_trial):
 
 def test_sweep_refuses_before_any_trial_is_simulated(default_trial, tmp_path, monkeypatch):
     pred, _ = default_trial
-    from campaign.pipeline import simulate as jobs
+    from campaign.pipeline import sweep as jobs
 
     def no_simulation(*args, **kwargs):
         raise AssertionError("simulated a sweep the prediction refuses")

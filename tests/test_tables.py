@@ -132,6 +132,42 @@ def test_tables_from_the_fits_json_equal_those_from_the_fitted_estimators(record
     assert table4(records, loaded, paper=PAPER).to_csv() == table4(records, fits, paper=PAPER).to_csv()
 
 
+def test_is_usable_keeps_trials_with_a_finite_positive_m_eff_that_are_not_excluded():
+    from campaign.identify.results import is_usable
+
+    assert is_usable({"excluded": False, "m_eff": 12.5})
+    for bad in ({"excluded": True, "m_eff": 12.5}, {"excluded": False, "m_eff": NAN}, {"excluded": False, "m_eff": None},
+                {"excluded": False, "m_eff": 0.0}, {"excluded": False, "m_eff": -1.0},
+                {"excluded": False, "m_eff": float("inf")}):
+        assert not is_usable(bad), bad
+
+
+def test_the_fit_job_and_the_tables_fit_the_same_trials(records, fits, tmp_path):
+    """The workflow's fit job (an identification CSV) and Tables 3-4 (records) leave out the
+    same trials: the excluded outlier and a trial without a computable m*."""
+    from campaign.identify.table import IDENTIFY_COLUMNS
+    from campaign.pipeline.fit import fit_lambda
+
+    def cell(v):
+        if isinstance(v, bool):
+            return int(v)
+        if isinstance(v, (list, tuple)):
+            return " ".join(repr(float(x)) for x in v)
+        return "" if v is None else v
+
+    rows = [r.to_dict() for r in [*records, _rec(2, "zero", NAN)]]
+    table = tmp_path / "ident.csv"
+    with table.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(IDENTIFY_COLUMNS)
+        w.writerows([cell(r.get(k)) for k in IDENTIFY_COLUMNS] for r in rows)
+    for cls, members in PAPER["gain_classes"].items():
+        job = fit_lambda([table], tmp_path / f"{cls}.json", gain_class=cls, gains=members,
+                         options={"n_bootstrap": 5})
+        assert job["n_trials"] == fits[cls].n_trials_ == 12 * len(members)
+        assert job["n_excluded"] == (2 if cls == "zero_low" else 0)
+
+
 def test_write_tables(records, tmp_path):
     paths = write_tables(records, tmp_path, paper=PAPER, n_bootstrap=20)
     for name in ("table2", "table3", "table4"):

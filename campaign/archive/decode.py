@@ -15,14 +15,14 @@ from ..core.errors import InputError, TrialFileError
 from ..core.lazy import LazyModule
 from ..scene.schema import ChannelArray, GroupArrays
 from .fileformat import GROUPS
-from .read import _NC_HIDDEN, _checked_read, _StoredGroup, _StoredVar
+from .read import NC_HIDDEN_ATTRS, StoredGroup, StoredVar, checked_read
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
 xr: Any = LazyModule("xarray")
 
 
-def _plain(value: Any) -> Any:
+def plain_value(value: Any) -> Any:
     """numpy scalars from h5py attributes -> Python numbers (what the trial was written with)."""
     if isinstance(value, np.generic):
         return value.item()
@@ -68,7 +68,7 @@ def _xr_attr(key: str, value: Any, string_types: Mapping[str, np.dtype]) -> Any:
 
 
 def _xr_attrs(attrs: Mapping[str, Any], string_types: Mapping[str, np.dtype]) -> dict[str, Any]:
-    return {k: _xr_attr(k, v, string_types) for k, v in attrs.items() if k not in _NC_HIDDEN}
+    return {k: _xr_attr(k, v, string_types) for k, v in attrs.items() if k not in NC_HIDDEN_ATTRS}
 
 
 @functools.lru_cache(maxsize=None)
@@ -118,7 +118,7 @@ def _store_classes() -> tuple[type, type]:
     return _Loaded, _GroupStore
 
 
-def _decoded(var: _StoredVar) -> np.ndarray:
+def _decoded(var: StoredVar) -> np.ndarray:
     """A variable's data as read, variable-length strings decoded as h5netcdf's
     ``decode_vlen_strings`` does (h5py's ``asstr()`` with the dataset's character set)."""
     info = h5py.check_string_dtype(var.dtype)
@@ -129,7 +129,7 @@ def _decoded(var: _StoredVar) -> np.ndarray:
                     dtype=object).reshape(raw.shape)
 
 
-def _dataset(group: _StoredGroup, source: str) -> xr.Dataset:
+def _dataset(group: StoredGroup, source: str) -> xr.Dataset:
     """One group as ``xr.open_dataset(path, engine="h5netcdf", group=...).load()`` returns it.
 
     The group's dataset encoding is ``unlimited_dims`` only (as in ``open_datatree``'s nodes);
@@ -185,7 +185,7 @@ def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Datase
     if group not in GROUPS:
         raise InputError(f"unknown trial group {group!r}; expected one of {list(GROUPS)}")
     path = Path(path)
-    read = _checked_read(path, (group,))
+    read = checked_read(path, (group,))
     source = _source(path)
     try:
         ds = _dataset(read.groups[group], source)
@@ -194,7 +194,7 @@ def open_trial(path: str | os.PathLike, *, group: str = "measured") -> xr.Datase
     ds.encoding["source"] = source
     # the global attributes as xarray decodes the root group, numbers as Python numbers
     root = _xr_attrs(read.root, read.root_string_types)
-    ds.attrs = {**{k: _plain(v) for k, v in root.items() if k != "content_sha256"}, **ds.attrs}
+    ds.attrs = {**{k: plain_value(v) for k, v in root.items() if k != "content_sha256"}, **ds.attrs}
     return ds
 
 
@@ -218,7 +218,7 @@ def open_trial_arrays(path: str | os.PathLike, *, group: str = "measured") -> Gr
     if group not in GROUPS:
         raise InputError(f"unknown trial group {group!r}; expected one of {list(GROUPS)}")
     path = Path(path)
-    read = _checked_read(path, (group,), encodings=False)
+    read = checked_read(path, (group,), encodings=False)
     stored = read.groups[group]
     data_vars, coords = {}, {}
     for var in stored.variables:
@@ -230,7 +230,7 @@ def open_trial_arrays(path: str | os.PathLike, *, group: str = "measured") -> Gr
         item = ChannelArray(tuple(var.dims), data, _xr_attrs(var.attrs, var.string_types))
         (coords if var.dims == (var.name,) else data_vars)[var.name] = item
     root = _xr_attrs(read.root, read.root_string_types)
-    attrs = {**{k: _plain(v) for k, v in root.items() if k != "content_sha256"},
+    attrs = {**{k: plain_value(v) for k, v in root.items() if k != "content_sha256"},
              **_xr_attrs(stored.attrs, stored.string_types)}
     return GroupArrays(data_vars, coords, attrs)
 
@@ -243,10 +243,10 @@ def open_trial_tree(path: str | os.PathLike) -> xr.DataTree:
     written to ``p``. Raises :class:`TrialFileError` like :func:`open_trial`.
     """
     path = Path(path)
-    read = _checked_read(path, GROUPS)
+    read = checked_read(path, GROUPS)
     source = _source(path)
     try:
-        nodes = {"/": _dataset(_StoredGroup(read.root, read.root_string_types, [], set()), source)}
+        nodes = {"/": _dataset(StoredGroup(read.root, read.root_string_types, [], set()), source)}
         nodes.update({f"/{g}": _dataset(read.groups[g], source) for g in GROUPS})
         tree = xr.DataTree.from_dict(nodes)
     except Exception as exc:  # noqa: BLE001 - a file whose content xarray cannot decode

@@ -61,13 +61,13 @@ REFERENCES = ("Yoshida, K., Mavroidis, C. and Dubowsky, S., \"Impact Dynamics of
 # Chosen with benchmarks/bench_archive.py: deflate level 1 + shuffle compresses float channels
 # as well as level 4 or 9 (the noise bits dominate) at the lowest cost; one chunk holds up to
 # 256 KiB, so a trial's channels are one chunk each and long recordings still split along time.
-_DEFLATE_LEVEL = 1
+DEFLATE_LEVEL = 1
 _CHUNK_BYTES = 1 << 18
 
-_SCHEMA_MAJOR = int(SCHEMA_VERSION.split(".")[0])
+SCHEMA_MAJOR = int(SCHEMA_VERSION.split(".")[0])
 _ROOT_REQUIRED = ("scene_json", "scene_sha256", "seed", "base", "config", "gain", "speed", "repeat", "robot")
 # attributes HDF5/netCDF-4 bookkeeping owns: not content, excluded from content_sha256
-_STRUCTURAL = frozenset({"CLASS", "NAME", "REFERENCE_LIST", "DIMENSION_LIST", "_Netcdf4Dimid",
+STRUCTURAL_ATTRS = frozenset({"CLASS", "NAME", "REFERENCE_LIST", "DIMENSION_LIST", "_Netcdf4Dimid",
                          "_Netcdf4Coordinates", "_NCProperties", "content_sha256"})
 _GROUP_COMMENT = {
     "measured": "channels a real VES-II records (noisy, quantised, each on its own clock) and the instrument "
@@ -75,9 +75,9 @@ _GROUP_COMMENT = {
     "truth": "simulator truth (exact states, contact force and interval); kept apart from the measured "
              "channels, identification never reads it",
 }
-_LABEL_LONG_NAMES = {"joint": "active joint name", "axis": "Cartesian axis, base frame",
+LABEL_LONG_NAMES = {"joint": "active joint name", "axis": "Cartesian axis, base frame",
                      "axis2": "Cartesian axis, base frame (second index of a tensor)"}
-_TEMP_RE = re.compile(r"^\..+\.tmp$")
+TEMP_FILE_RE = re.compile(r"^\..+\.tmp$")
 
 
 # ---------------------------------------------------------------------------------------
@@ -153,7 +153,7 @@ def provenance() -> dict[str, str]:
 # ---------------------------------------------------------------------------------------
 # content digest (shared by the writer and every reader)
 # ---------------------------------------------------------------------------------------
-def _canon(value: Any) -> bytes:
+def canonical_bytes(value: Any) -> bytes:
     """Canonical bytes of an attribute value or array, equal for what is written and read back.
 
     h5py returns variable-length strings as ``str`` (attributes) or ``bytes`` (datasets) and
@@ -171,24 +171,24 @@ def _canon(value: Any) -> bytes:
     return b"n" + a.dtype.str.encode() + repr(a.shape).encode() + a.tobytes()
 
 
-def _digest(attrs: Mapping[str, Any], variables_: Mapping[str, tuple[Any, Mapping[str, Any]]]) -> str:
+def content_digest(attrs: Mapping[str, Any], variables_: Mapping[str, tuple[Any, Mapping[str, Any]]]) -> str:
     """sha256 of one group's content: its attributes and each variable's data and attributes."""
     h = hashlib.sha256()
 
     def feed_attrs(a: Mapping[str, Any]) -> None:
-        for key in sorted(k for k in a if k not in _STRUCTURAL):
+        for key in sorted(k for k in a if k not in STRUCTURAL_ATTRS):
             value = a[key]
             # netCDF attributes are 1-d: a number may come back as a scalar or a 1-element array
             if not isinstance(value, (str, bytes)):
                 value = np.ravel(value)
-            for part in (key.encode(), _canon(value)):
+            for part in (key.encode(), canonical_bytes(value)):
                 h.update(len(part).to_bytes(8, "little"))
                 h.update(part)
 
     feed_attrs(attrs)
     for name in sorted(variables_):
         data, vattrs = variables_[name]
-        for part in (b"\x00var", name.encode(), _canon(data)):
+        for part in (b"\x00var", name.encode(), canonical_bytes(data)):
             h.update(len(part).to_bytes(8, "little"))
             h.update(part)
         feed_attrs(vattrs)
@@ -200,7 +200,7 @@ def _digest(attrs: Mapping[str, Any], variables_: Mapping[str, tuple[Any, Mappin
 # ---------------------------------------------------------------------------------------
 def _check_attr(where: str, key: str, value: Any) -> None:
     """Attributes must be str, numbers or numeric/str arrays: what every netCDF reader keeps."""
-    if key in _STRUCTURAL or key.startswith("_"):
+    if key in STRUCTURAL_ATTRS or key.startswith("_"):
         raise InputError(f"attribute {key!r} of {where}: names starting with '_' and HDF5 dimension-scale "
                          "names are reserved for the file format")
     ok = False
@@ -218,7 +218,7 @@ def _check_attr(where: str, key: str, value: Any) -> None:
 
 
 @dataclasses.dataclass
-class _Var:
+class VariablePlan:
     """One variable as it will be stored (plain numpy + dicts: cheaper than xarray objects)."""
 
     name: str
@@ -229,9 +229,9 @@ class _Var:
 
 
 @dataclasses.dataclass
-class _Group:
+class GroupPlan:
     attrs: dict[str, Any]
-    variables: list[_Var]  # dimension coordinates first, then the schema's variables in schema order
+    variables: list[VariablePlan]  # dimension coordinates first, then the schema's variables in schema order
 
 
 #: ACDD coverage_content_type of a group's time series; constants of the rig (no clock)
@@ -239,7 +239,7 @@ class _Group:
 _COVERAGE = {"measured": "physicalMeasurement", "truth": "modelResult"}
 
 
-def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Group:
+def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> GroupPlan:
     """Check one group against the schema; fill units/long_name the rig left out."""
     expected = {v.name: v for v in variables(group, base)}
     names = set(ds.data_vars)
@@ -268,7 +268,7 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
         for key, value in attrs.items():
             _check_attr(f"/{group}/{name}", key, value)
         data = np.asarray(var.values, order="C")
-        out.append(_Var(name, var.dims, data, attrs, _encoding(var.dims, data)))
+        out.append(VariablePlan(name, var.dims, data, attrs, _encoding(var.dims, data)))
     coords = []
     for dim in ds.dims:
         if dim in CLOCKS:
@@ -299,13 +299,13 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
             if COORDS[dim] is not None and tuple(values.tolist()) != tuple(COORDS[dim]):
                 raise InputError(f"/{group} coordinate {dim} is {values.tolist()}, schema says {list(COORDS[dim])}")
             values = values.astype(str)
-            attrs.setdefault("long_name", _LABEL_LONG_NAMES[dim])
+            attrs.setdefault("long_name", LABEL_LONG_NAMES[dim])
         else:
             raise InputError(f"/{group} has dimension {dim!r}, which is neither a schema clock nor a label dimension")
         attrs.setdefault("coverage_content_type", "coordinate")
         for key, value in attrs.items():
             _check_attr(f"/{group}/{dim}", key, value)
-        coords.append(_Var(dim, (dim,), values, attrs, _encoding((dim,), values)))
+        coords.append(VariablePlan(dim, (dim,), values, attrs, _encoding((dim,), values)))
     extra = sorted(set(ds.coords) - set(ds.dims))
     if extra:
         raise InputError(f"/{group} has non-dimension coordinates {extra}; the schema has none")
@@ -314,8 +314,8 @@ def _validate_group(group: str, ds: xr.Dataset | GroupArrays, base: str) -> _Gro
         _check_attr(f"/{group}", key, value)
     attrs = {"comment": _GROUP_COMMENT[group], **given, "schema_version": SCHEMA_VERSION}
     variables_ = coords + out
-    attrs["content_sha256"] = _digest(attrs, {v.name: (v.data, v.attrs) for v in variables_})
-    return _Group(attrs, variables_)
+    attrs["content_sha256"] = content_digest(attrs, {v.name: (v.data, v.attrs) for v in variables_})
+    return GroupPlan(attrs, variables_)
 
 
 def _scene_of(attrs: Mapping[str, Any]) -> Scene:
@@ -342,7 +342,7 @@ def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
     if data.ndim and dims[0] in CLOCKS:
         row_bytes = data.dtype.itemsize * int(np.prod(data.shape[1:], dtype=np.int64))
         rows = int(min(data.shape[0], max(1, _CHUNK_BYTES // max(row_bytes, 1))))
-        return {"dtype": data.dtype, "zlib": True, "complevel": _DEFLATE_LEVEL, "shuffle": True,
+        return {"dtype": data.dtype, "zlib": True, "complevel": DEFLATE_LEVEL, "shuffle": True,
                 "fletcher32": False, "chunksizes": (rows,) + tuple(data.shape[1:]), "_FillValue": None}
     if data.dtype.kind in "UO":
         return {}
@@ -358,7 +358,7 @@ def _now() -> str:
     return when.strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
-def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _Group]]:
+def plan_trial(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, GroupPlan]]:
     """Validate a trial and return exactly what will be stored: (root attributes, groups)."""
     if isinstance(tree, TrialArrays):
         children, root_vars, given = set(tree.groups), (), tree.attrs
@@ -410,7 +410,7 @@ def _plan(tree: xr.DataTree | TrialArrays) -> tuple[dict[str, Any], dict[str, _G
         **provenance(),
         "seed": int(scene.seed),
     }
-    root["content_sha256"] = _digest(root, {})
+    root["content_sha256"] = content_digest(root, {})
     return root, groups
 
 
@@ -437,7 +437,7 @@ def prepare_trial(tree: xr.DataTree) -> xr.DataTree:
         A group, variable, dimension, coordinate or attribute that breaks the schema or the
         attribute rules (str, numbers or arrays only), named in the message.
     """
-    root, groups = _plan(tree)
+    root, groups = plan_trial(tree)
     nodes: dict[str, xr.Dataset] = {"/": xr.Dataset(attrs=root)}
     for name, group in groups.items():
         made = {}

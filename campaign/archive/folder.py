@@ -19,10 +19,8 @@ from ..core.progress import progress
 from ..core.vocabulary import bases, gain_sets
 from ..model.paper import impact_direction
 from ..scene.schema import MEASURED, SCHEMA_VERSION, TRUTH
-from .decode import _plain, open_trial
+from .decode import open_trial, plain_value
 from .fileformat import (
-    _STRUCTURAL,
-    _TEMP_RE,
     CELL_KEYS,
     FILTER_KEYS,
     GROUPS,
@@ -31,10 +29,12 @@ from .fileformat import (
     JOBS,
     MANIFEST,
     README,
+    STRUCTURAL_ATTRS,
+    TEMP_FILE_RE,
     TRIAL_SUFFIX,
 )
 from .machine import NOT_RECORDED, platform_summary
-from .read import _inspect
+from .read import inspect_trial
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
@@ -101,23 +101,23 @@ class TrialRecord:
         return {k: getattr(self, k) for k in INDEX_COLUMNS}
 
 
-def _campaign(campaign_dir: str | os.PathLike) -> Path:
+def campaign_folder(campaign_dir: str | os.PathLike) -> Path:
     path = Path(campaign_dir)
     if not path.is_dir():
         raise InputError(f"{path} is not a campaign folder: no such directory")
-    if not (path / MANIFEST).is_file() and not any(_trial_files(path)):
+    if not (path / MANIFEST).is_file() and not any(layout_trial_files(path)):
         raise InputError(f"{path} is not a campaign folder: it has no {MANIFEST} and no trial files "
                          f"(<base>/config<N>/<gain>/v<speed>/r<NN>{TRIAL_SUFFIX})")
     return path
 
 
-def _trial_files(campaign: Path) -> Iterator[Path]:
+def layout_trial_files(campaign: Path) -> Iterator[Path]:
     """Trial files at the Scene.cell layout (``<base>/<pose>/<gain>/v<speed>/<file>.nc``), sorted."""
     for base in bases():
         yield from sorted((campaign / base).glob(f"*/*/*/*{TRIAL_SUFFIX}"))
 
 
-def _archive_file(rel: str) -> bool:
+def is_campaign_file(rel: str) -> bool:
     """A file of a campaign folder's own: its index, README or manifest, or a job manifest
     of the workflow (:mod:`campaign.archive.jobs`)."""
     parts = rel.split("/")
@@ -130,13 +130,13 @@ def outside_layout(campaign_dir: str | os.PathLike) -> list[str]:
     a temporary file of an interrupted write: a copy in a folder of its own, notes, anything
     a reader would not count. Relative paths, sorted."""
     campaign = Path(campaign_dir)
-    trials = {_rel(campaign, f) for f in _trial_files(campaign)}
+    trials = {relative_name(campaign, f) for f in layout_trial_files(campaign)}
     out = []
     for file in sorted(campaign.rglob("*")):
         if file.is_dir():
             continue
-        rel = _rel(campaign, file)
-        if rel not in trials and not _archive_file(rel) and not _TEMP_RE.match(file.name):
+        rel = relative_name(campaign, file)
+        if rel not in trials and not is_campaign_file(rel) and not TEMP_FILE_RE.match(file.name):
             out.append(rel)
     return out
 
@@ -167,32 +167,32 @@ def trial_files(campaign_dir: str | os.PathLike) -> list[Path]:
                 return [root / row["path"] for row in csv.DictReader(fh)]
         except (KeyError, csv.Error, UnicodeDecodeError) as exc:
             raise TrialFileError(f"{index}: unreadable ({exc})") from None
-    at_layout = list(_trial_files(root))
+    at_layout = list(layout_trial_files(root))
     if at_layout:
         return at_layout
     return sorted(p for p in root.rglob(f"*{TRIAL_SUFFIX}") if p.is_file())
 
 
-def _rel(campaign: Path, file: Path) -> str:
+def relative_name(campaign: Path, file: Path) -> str:
     return file.relative_to(campaign).as_posix()
 
 
-def _record(campaign: Path, file: Path) -> TrialRecord:
+def read_record(campaign: Path, file: Path) -> TrialRecord:
     """A trial's record from its root attributes (h5py: a few ms, no data read)."""
     try:
         with h5py.File(file, "r") as f:
-            attrs = {k: _plain(f.attrs[k]) for k in f.attrs.keys() if k not in _STRUCTURAL}
+            attrs = {k: plain_value(f.attrs[k]) for k in f.attrs.keys() if k not in STRUCTURAL_ATTRS}
     except Exception as exc:  # noqa: BLE001 - see _CORRUPT
         raise TrialFileError(f"{file}: not a readable HDF5 file (truncated or corrupt): {exc}") from exc
-    return _record_from_attrs(campaign, file, attrs)
+    return record_from_attrs(campaign, file, attrs)
 
 
-def _record_from_attrs(campaign: Path, file: Path, attrs: Mapping[str, Any]) -> TrialRecord:
+def record_from_attrs(campaign: Path, file: Path, attrs: Mapping[str, Any]) -> TrialRecord:
     """A trial's record from root attributes (as stored, or as the writer is about to store them)."""
     try:
         scene = json.loads(attrs["scene_json"])
         return TrialRecord(
-            path=_rel(campaign, file), file=file, base=str(attrs["base"]), config=int(attrs["config"]),
+            path=relative_name(campaign, file), file=file, base=str(attrs["base"]), config=int(attrs["config"]),
             gain=str(attrs["gain"]), speed=float(attrs["speed"]), repeat=int(attrs["repeat"]),
             seed=int(attrs["seed"]), scene=str(scene["name"]), scene_sha256=str(attrs["scene_sha256"]),
             robot=str(attrs["robot"]), schema_version=str(attrs["schema_version"]),
@@ -245,10 +245,10 @@ def list_trials(campaign_dir: str | os.PathLike, **filters: Any) -> list[TrialRe
     if unknown:
         raise InputError(f"unknown filter key(s) {', '.join(map(repr, unknown))}; known keys: {', '.join(FILTER_KEYS)}")
     wanted = {k: _filter_values(k, v) for k, v in filters.items()}
-    campaign = _campaign(campaign_dir)
+    campaign = campaign_folder(campaign_dir)
     out = []
     for file in progress(trial_files(campaign), desc="read"):
-        rec = _record(campaign, file)
+        rec = read_record(campaign, file)
         if all((f"{rec.speed:.3f}" if k == "speed" else getattr(rec, k)) in vals for k, vals in wanted.items()):
             out.append(rec)
     return out
@@ -322,7 +322,7 @@ def open_campaign(campaign_dir: str | os.PathLike, *, variables: Sequence[str] =
         row: dict[str, Any] = {k: getattr(rec, k) for k in CELL_KEYS}
         row["path"] = rec.path
         if resolved:
-            _, problems, values = _inspect(rec.file, groups=tuple(want), want=want)
+            _, problems, values = inspect_trial(rec.file, groups=tuple(want), want=want)
             if problems:
                 raise TrialFileError(f"{rec.file}: {problems[0]}")
             for g, var in resolved:

@@ -21,7 +21,6 @@ copy, ``campaign sweep``'s) is finalized and verified from its files.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
 from collections.abc import Iterable, Mapping, Sequence
@@ -33,12 +32,12 @@ from ..core.files import sha256_file
 from ..core.tolerance import Difference, worst
 from ..core.vocabulary import repeat_file, speed_folder
 from ..scene.schema import CLOCKS, TrialArrays
-from .fileformat import _STRUCTURAL, GROUPS, JOBS, _plan
+from .fileformat import GROUPS, JOBS, STRUCTURAL_ATTRS, plan_trial
 from .filing import group_digests
-from .folder import _record_from_attrs, _rel, _trial_files, outside_layout
-from .read import _inspect_isolated_many
-from .sametrial import _what_it_holds, plan_differences
-from .write import _replace_atomically, _write_plan
+from .folder import layout_trial_files, outside_layout, record_from_attrs, relative_name
+from .read import inspect_isolated_many
+from .sametrial import plan_differences, what_it_holds
+from .write import replace_campaign_file, write_planned
 
 __all__ = ["JOBS", "JOB_MANIFEST_FORMAT", "TrialEntry", "write_trial_entry", "intact_trials",
            "write_job_manifest", "read_job_manifests", "job_trial_paths", "entry_problems", "outside_problems"]
@@ -98,7 +97,7 @@ def intact_trials(paths: Sequence[str | os.PathLike]) -> list[bool]:
     (schema, channels, content digests), read in a child process (a corrupt file may crash
     the HDF5 library). A missing file is False."""
     present = [Path(p) for p in paths if Path(p).is_file()]
-    found = dict(zip(present, _inspect_isolated_many(present), strict=True))
+    found = dict(zip(present, inspect_isolated_many(present), strict=True))
     return [Path(p) in found and not found[Path(p)] for p in paths]
 
 
@@ -107,7 +106,7 @@ def _stored_content(path: Path) -> tuple[dict[str, Any], tuple[str, ...]]:
     import h5py  # the writer has loaded it already; here only for the attributes
 
     with h5py.File(path, "r") as f:
-        root = {k: f.attrs[k] for k in f.attrs.keys() if k not in _STRUCTURAL}
+        root = {k: f.attrs[k] for k in f.attrs.keys() if k not in STRUCTURAL_ATTRS}
         content = tuple(str(f[g].attrs["content_sha256"]) for g in GROUPS)
     return root, content
 
@@ -140,12 +139,12 @@ def write_trial_entry(tree: Any | TrialArrays, path: str | os.PathLike, *, campa
     TrialEntry
     """
     path = Path(path)
-    root, groups = _plan(tree)
+    root, groups = plan_trial(tree)
     content = tuple(str(groups[g].attrs["content_sha256"]) for g in GROUPS)
     kept, compared, old_root = False, [], root
     if keep_same:
         old_root, old_content = _stored_content(path)
-        if old_content == content and _what_it_holds(old_root) == _what_it_holds(root):
+        if old_content == content and what_it_holds(old_root) == what_it_holds(root):
             kept = True
         else:   # another machine's roundoff, or another trial: channel by channel
             compared = plan_differences(path, root, groups)
@@ -153,8 +152,8 @@ def write_trial_entry(tree: Any | TrialArrays, path: str | os.PathLike, *, campa
         if kept:
             content = old_content
     if not kept:
-        _write_plan((root, groups), path, fsync=fsync)
-    rec = _record_from_attrs(Path(campaign_dir), path, old_root if kept else root)
+        write_planned((root, groups), path, fsync=fsync)
+    rec = record_from_attrs(Path(campaign_dir), path, old_root if kept else root)
     params = json.loads(rec.scene_json).get("params", {})
     rates = {c.rate_key: float(params[c.rate_key]) for c in CLOCKS.values() if c.rate_key in params}
     return TrialEntry(path=rec.path, sha256=sha256_file(path), size=path.stat().st_size, content=content,
@@ -170,7 +169,7 @@ def write_job_manifest(path: str | os.PathLike, entries: Iterable[TrialEntry], *
         with open(tmp, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
 
-    return _replace_atomically(Path(path), write)
+    return replace_campaign_file(Path(path), write)
 
 
 def read_job_manifests(paths: Iterable[str | os.PathLike]) -> list[TrialEntry]:
@@ -260,8 +259,8 @@ def entry_problems(campaign: Path, entries: Sequence[TrialEntry], *,
         if hashes[e.path] != e.sha256:
             problems.append((e.path, "changed since its simulation job wrote it (its sha256 differs from the one "
                                      "in the job manifest): rerun that job, or check it with campaign archive verify"))
-    for file in _trial_files(campaign):
-        rel = _rel(campaign, file)
+    for file in layout_trial_files(campaign):
+        rel = relative_name(campaign, file)
         if rel not in by_path:
             twin = by_content.get(group_digests(file))
             problems.append((rel, "no simulation job of this campaign wrote it (a copy, or a trial of an earlier "

@@ -13,26 +13,26 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 from ..core.errors import InputError, TrialFileError
+from ..core.files import sha256_file
 from ..core.progress import progress
 from ..core.vocabulary import bases
 from ..scene.schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
 from .fileformat import (
-    _LABEL_LONG_NAMES,
-    _TEMP_RE,
     INDEX,
     INDEX_COLUMNS,
     JOBS,
+    LABEL_LONG_NAMES,
     MANIFEST,
     README,
+    TEMP_FILE_RE,
     TRIAL_SUFFIX,
 )
 from .filing import filing_problems, group_digests
-from .folder import TrialRecord, _archive_file, _campaign, _record, _rel, _trial_files
-from ..core.files import sha256_file
+from .folder import TrialRecord, campaign_folder, is_campaign_file, layout_trial_files, read_record, relative_name
 from .jobs import TrialEntry, entry_problems, outside_problems, read_job_manifests
 from .machine import NOT_RECORDED
-from .read import _inspect_isolated_many
-from .write import _replace_atomically
+from .read import inspect_isolated_many
+from .write import replace_campaign_file
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,15 +79,15 @@ class Verification:
 def _all_files(campaign: Path) -> list[Path]:
     """Every file the manifest lists: all but the manifest itself and the workflow's job manifests."""
     return sorted(p for p in campaign.rglob("*")
-                  if p.is_file() and p.name != MANIFEST and not (_archive_file(_rel(campaign, p))
-                                                                 and _rel(campaign, p).startswith(f"{JOBS}/")))
+                  if p.is_file() and p.name != MANIFEST and not (is_campaign_file(relative_name(campaign, p))
+                                                                 and relative_name(campaign, p).startswith(f"{JOBS}/")))
 
 
 def _write_text(path: Path, text: str) -> Path:
     def write(tmp: Path) -> None:
         with open(tmp, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
-    return _replace_atomically(path, write)
+    return replace_campaign_file(path, write)
 
 
 def write_manifest(campaign_dir: str | os.PathLike, *, known: dict[str, str] | None = None) -> Path:
@@ -105,11 +105,11 @@ def write_manifest(campaign_dir: str | os.PathLike, *, known: dict[str, str] | N
         Not a campaign folder, or it holds a temporary file of an interrupted write (named)
         or a file name ``sha256sum`` cannot list plainly (newline or backslash).
     """
-    campaign = _campaign(campaign_dir)
+    campaign = campaign_folder(campaign_dir)
     lines = []
     for file in progress(_all_files(campaign), desc="sha256", unit="file"):
-        rel = _rel(campaign, file)
-        if _TEMP_RE.match(file.name):
+        rel = relative_name(campaign, file)
+        if TEMP_FILE_RE.match(file.name):
             raise InputError(f"{campaign / rel} is a temporary file of an interrupted write: delete it "
                              "(or rerun that trial) before finalizing")
         if "\n" in rel or "\\" in rel:
@@ -123,7 +123,7 @@ def write_index(campaign_dir: str | os.PathLike, *, records: Sequence[TrialRecor
 
     ``records`` are the records of the folder's trial files at the cell layout, when the
     caller has them already."""
-    campaign = _campaign(campaign_dir)
+    campaign = campaign_folder(campaign_dir)
     return _write_index_rows(campaign, [rec.row() for rec in (_layout_records(campaign) if records is None
                                                                 else records)])
 
@@ -139,7 +139,7 @@ def _write_index_rows(campaign: Path, rows: Iterable[dict[str, Any]]) -> Path:
 
 def _layout_records(campaign: Path) -> list[TrialRecord]:
     """The records of the trial files at the cell layout (what finalize indexes), in path order."""
-    return [_record(campaign, f) for f in progress(list(_trial_files(campaign)), desc="read")]
+    return [read_record(campaign, f) for f in progress(list(layout_trial_files(campaign)), desc="read")]
 
 
 def _md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
@@ -177,7 +177,7 @@ def _readme_text(name: str, counts: dict[str, int], rates: dict[str, set]) -> st
         return [(f"`{v.name}`", "(" + ", ".join(v.dims) + ")" if v.dims else "scalar", f"`{v.units}`",
                  v.long_name, ", ".join(v.bases)) for v in table]
 
-    label_rows = [(f"`{d}`", _LABEL_LONG_NAMES[d], ", ".join(COORDS[d]) if COORDS[d] else "the robot's active joints")
+    label_rows = [(f"`{d}`", LABEL_LONG_NAMES[d], ", ".join(COORDS[d]) if COORDS[d] else "the robot's active joints")
                   for d in COORDS]
     header = ("variable", "dims", "units", "long_name", "bases")
     parts = [
@@ -244,7 +244,7 @@ def write_readme(campaign_dir: str | os.PathLike, *, records: Sequence[TrialReco
     Generated from :mod:`campaign.scene.schema` and the trials' scenes, without a date, so the same
     campaign always gets the same README. ``records`` as in :func:`write_index`.
     """
-    campaign = _campaign(campaign_dir)
+    campaign = campaign_folder(campaign_dir)
     counts, rates = _readme_facts(_layout_records(campaign) if records is None else records)
     return _write_text(campaign / README, _readme_text(campaign.resolve().name, counts, rates))
 
@@ -280,9 +280,9 @@ def finalize_campaign(campaign_dir: str | os.PathLike, *,
     InputError
         Not a campaign folder, or a leftover temporary file of an interrupted write.
     """
-    campaign = _campaign(campaign_dir)
+    campaign = campaign_folder(campaign_dir)
     for file in _all_files(campaign):
-        if _TEMP_RE.match(file.name):
+        if TEMP_FILE_RE.match(file.name):
             raise InputError(f"{file} is a temporary file of an interrupted write: delete it "
                              "(or rerun that trial) before finalizing")
     if job_manifests is None:
@@ -303,8 +303,8 @@ def finalize_campaign(campaign_dir: str | os.PathLike, *,
 def _checked_from_files(campaign: Path):
     """Every trial file of the folder read and checked: (index rows, README facts, no known hashes)."""
     bad = []
-    files = list(_trial_files(campaign))
-    for file, found in zip(files, _inspect_isolated_many(files), strict=True):
+    files = list(layout_trial_files(campaign))
+    for file, found in zip(files, inspect_isolated_many(files), strict=True):
         bad += [f"{file}: {p}" for p in found]
     if bad:
         raise TrialFileError("cannot finalize, broken trial files: " + "; ".join(bad))
@@ -348,7 +348,7 @@ def verify_report(campaign_dir: str | os.PathLike) -> Verification:
     InputError
         Not a campaign folder.
     """
-    campaign = _campaign(campaign_dir)
+    campaign = campaign_folder(campaign_dir)
     problems: list[Problem] = []
     listed: dict[str, str] = {}
     manifest = campaign / MANIFEST
@@ -371,19 +371,19 @@ def verify_report(campaign_dir: str | os.PathLike) -> Verification:
                 problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
             elif sha256_file(file) != digest:
                 problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
-    on_disk = {_rel(campaign, f) for f in _all_files(campaign)}
+    on_disk = {relative_name(campaign, f) for f in _all_files(campaign)}
     for rel in sorted(on_disk - set(listed)):
-        if _TEMP_RE.match(Path(rel).name):
+        if TEMP_FILE_RE.match(Path(rel).name):
             problems.append(Problem(rel, "temporary file of an interrupted write (delete it)"))
         elif manifest.is_file():
             problems.append(Problem(rel, f"not in {MANIFEST}"))
-    trials = [_rel(campaign, f) for f in _trial_files(campaign)]
-    for rel, found in zip(trials, _inspect_isolated_many([campaign / rel for rel in trials])):
+    trials = [relative_name(campaign, f) for f in layout_trial_files(campaign)]
+    for rel, found in zip(trials, inspect_isolated_many([campaign / rel for rel in trials])):
         problems += [Problem(rel, p) for p in found]
     records = []
     for rel in trials:
         try:
-            records.append(_record(campaign, campaign / rel))
+            records.append(read_record(campaign, campaign / rel))
         except TrialFileError:
             pass  # reported by the inspection above
     readable = [_filing_record(r) for r in records]

@@ -17,7 +17,7 @@ from ..core.errors import TrialFileError
 from ..core.progress import progress
 from ..core.vocabulary import bases
 from ..scene.schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
-from .fileformat import _SCHEMA_MAJOR, _STRUCTURAL, GROUPS, _digest
+from .fileformat import GROUPS, SCHEMA_MAJOR, STRUCTURAL_ATTRS, content_digest
 
 # ---------------------------------------------------------------------------------------
 # reading
@@ -42,7 +42,7 @@ from .fileformat import _SCHEMA_MAJOR, _STRUCTURAL, GROUPS, _digest
 #   names of the scales its DIMENSION_LIST references (the last scale per axis), as h5netcdf
 #   does (:func:`_dims_of`); a scale whose NAME says "not a netCDF variable" is a dimension only;
 # - attributes (:func:`_xr_attr`): the netCDF-4/HDF5 bookkeeping attributes h5netcdf hides
-#   (:data:`_NC_HIDDEN`) left out, 1-element arrays returned as their element, string arrays as
+#   (:data:`NC_HIDDEN_ATTRS`) left out, 1-element arrays returned as their element, string arrays as
 #   lists, fixed-length strings decoded (h5netcdf), then bytes decoded to str except
 #   ``_FillValue``/``missing_value`` (xarray);
 # - variable-length string data decoded to str (h5netcdf's decode_vlen_strings, which xarray
@@ -60,10 +60,11 @@ from .fileformat import _SCHEMA_MAJOR, _STRUCTURAL, GROUPS, _digest
 # trials of both bases and on a file xarray writes itself.
 
 #: attributes h5netcdf hides from its attribute mappings (h5netcdf.attrs._HIDDEN_ATTRS)
-_NC_HIDDEN = frozenset({"REFERENCE_LIST", "CLASS", "DIMENSION_LIST", "NAME", "_Netcdf4Dimid", "_Netcdf4Coordinates",
+NC_HIDDEN_ATTRS = frozenset({"REFERENCE_LIST", "CLASS", "DIMENSION_LIST", "NAME", "_Netcdf4Dimid",
+                             "_Netcdf4Coordinates",
                         "_nc3_strict", "_NCProperties"})
 # read for neither the digest nor xarray (content_sha256 is read: xarray shows it)
-_NOT_READ = _STRUCTURAL - {"content_sha256"}
+_NOT_READ = STRUCTURAL_ATTRS - {"content_sha256"}
 _NC_DIM_ONLY = b"This is a netCDF dimension but not a netCDF variable"
 # HDF5 filters h5netcdf reports as compression flags (h5netcdf.core.Variable.filters)
 _H5_FILTER_TO_COMPRESSION = {"1": "zlib", "2": "szip", "307": "bzip2", "32004": "blosc", "32015": "zstd",
@@ -71,7 +72,7 @@ _H5_FILTER_TO_COMPRESSION = {"1": "zlib", "2": "szip", "307": "bzip2", "32004": 
 
 
 @dataclasses.dataclass
-class _StoredVar:
+class StoredVar:
     """One HDF5 dataset of a group as the check read it: what the digest covers and what the
     Dataset is built from (no second read)."""
 
@@ -87,10 +88,10 @@ class _StoredVar:
 
 
 @dataclasses.dataclass
-class _StoredGroup:
+class StoredGroup:
     attrs: dict[str, Any]
     string_types: dict[str, np.dtype]
-    variables: list[_StoredVar]
+    variables: list[StoredVar]
     unlimited: set[str]
 
 
@@ -99,7 +100,7 @@ class _Read:
     root: dict[str, Any]      # root attributes, h5py values (content_sha256 included)
     problems: list[str]
     values: dict[str, Any]    # "group/name" -> data, for the variables asked for
-    groups: dict[str, _StoredGroup]
+    groups: dict[str, StoredGroup]
     root_string_types: dict[str, np.dtype] = dataclasses.field(default_factory=dict)
 
 
@@ -178,7 +179,7 @@ def _storage_encoding(dset: h5py.Dataset, dims: tuple[str, ...]) -> dict[str, An
 
 
 def _read_group(f: h5py.File, group: str, base: str, problems: list[str], want: Sequence[str]
-                ) -> tuple[_StoredGroup, dict[str, Any]]:
+                ) -> tuple[StoredGroup, dict[str, Any]]:
     """Read and check one group: every channel present, dims, readable data; digest checked by the caller."""
     grp = f[group]
     names = list(grp.keys())
@@ -188,7 +189,7 @@ def _read_group(f: h5py.File, group: str, base: str, problems: list[str], want: 
             problems.append(f"channel {group}/{spec.name} is missing")
     schema_dims = {spec.name: spec.dims for spec in variables(group, base)}
     scales: dict[Any, tuple[str, int]] = {}
-    stored: list[_StoredVar] = []
+    stored: list[StoredVar] = []
     unlimited: set[str] = set()
     values: dict[str, Any] = {}
     for name in names:
@@ -230,11 +231,11 @@ def _read_group(f: h5py.File, group: str, base: str, problems: list[str], want: 
             for key in ("units", "long_name"):
                 if key not in vattrs:
                     problems.append(f"{group}/{name} has no {key} attribute")
-        stored.append(_StoredVar(name, data, vattrs, dims, dset, is_variable, dtype, _string_types(dset, vattrs)))
+        stored.append(StoredVar(name, data, vattrs, dims, dset, is_variable, dtype, _string_types(dset, vattrs)))
         if name in want:
             values[f"{group}/{name}"] = data
     gattrs = _read_attrs(grp)
-    return _StoredGroup(gattrs, _string_types(grp, gattrs), stored, unlimited), values
+    return StoredGroup(gattrs, _string_types(grp, gattrs), stored, unlimited), values
 
 
 def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None,
@@ -264,11 +265,11 @@ def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str
                 problems.append(f"no valid schema_version attribute ({root.get('schema_version')!r}): "
                                 "not a campaign trial file")
                 return out
-            if version[0] > _SCHEMA_MAJOR:
+            if version[0] > SCHEMA_MAJOR:
                 problems.append(f"schema version {version[0]}.{version[1]} is newer than this campaign reads "
                                 f"({SCHEMA_VERSION}); upgrade the campaign package")
                 return out
-            if version[0] < _SCHEMA_MAJOR:
+            if version[0] < SCHEMA_MAJOR:
                 problems.append(f"schema version {version[0]}.{version[1]} is older than this campaign reads "
                                 f"({SCHEMA_VERSION}) and there is no converter")
                 return out
@@ -279,7 +280,7 @@ def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str
             stored = root.get("content_sha256")
             if stored is None:
                 problems.append("root group has no content_sha256")
-            elif stored != _digest(root, {}):
+            elif stored != content_digest(root, {}):
                 problems.append("root attributes do not match their content_sha256 (altered or corrupt)")
             if set(groups) == set(GROUPS):  # the whole file: nothing beside the groups
                 extra = sorted(set(f.keys()) - set(GROUPS))
@@ -296,7 +297,7 @@ def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str
                 stored = read.attrs.get("content_sha256")
                 if stored is None:
                     problems.append(f"group /{group} has no content_sha256")
-                elif stored != _digest(read.attrs, contents):
+                elif stored != content_digest(read.attrs, contents):
                     problems.append(f"group /{group} does not match its content_sha256 (altered or corrupt)")
                 if encodings and not problems:
                     for var in read.variables:
@@ -310,7 +311,7 @@ def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str
     return out
 
 
-def _inspect(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None
+def inspect_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, Sequence[str]] | None = None
              ) -> tuple[dict[str, Any], list[str], dict[str, Any]]:
     """Check a trial file with h5py (:func:`_read_trial`).
 
@@ -322,13 +323,13 @@ def _inspect(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str, S
 
 
 def _inspect_isolated(path: Path) -> list[str]:
-    """:func:`_inspect` of one file in a forked child process; returns its problems
-    (:func:`_inspect_isolated_many`)."""
-    return _inspect_isolated_many([path])[0]
+    """:func:`inspect_trial` of one file in a forked child process; returns its problems
+    (:func:`inspect_isolated_many`)."""
+    return inspect_isolated_many([path])[0]
 
 
-def _inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
-    """:func:`_inspect` of each file, in forked child processes; returns each file's problems.
+def inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
+    """:func:`inspect_trial` of each file, in forked child processes; returns each file's problems.
 
     The HDF5 library trusts a file's internal pointers: some corruptions (a flipped byte in the
     heap of variable-length strings) make it crash the process instead of raising. Commands
@@ -340,7 +341,7 @@ def _inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
     """
     paths = [Path(p) for p in paths]
     if not hasattr(os, "fork"):  # pragma: no cover - Windows: no isolation
-        return [_inspect(p)[1] for p in paths]
+        return [inspect_trial(p)[1] for p in paths]
     results: list[list[str]] = []
     while len(results) < len(paths):
         todo = paths[len(results):]
@@ -352,7 +353,7 @@ def _inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
                 os.close(read_fd)
                 with os.fdopen(write_fd, "wb", buffering=0) as out:
                     for path in todo:
-                        out.write(json.dumps(_inspect(path)[1]).encode() + b"\n")
+                        out.write(json.dumps(inspect_trial(path)[1]).encode() + b"\n")
                 code = 0
             finally:
                 os._exit(code)
@@ -375,7 +376,7 @@ def _inspect_isolated_many(paths: Sequence[Path]) -> list[list[str]]:
     return results
 
 
-def _checked_read(path: Path, groups: Sequence[str], *, encodings: bool = True) -> _Read:
+def checked_read(path: Path, groups: Sequence[str], *, encodings: bool = True) -> _Read:
     """:func:`_read_trial` (with encodings unless told); raises TrialFileError naming the file
     on any problem."""
     read = _read_trial(path, groups=groups, encodings=encodings)

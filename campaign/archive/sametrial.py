@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core.tolerance import CROSS_MACHINE_RTOL, Difference, compare, differences
 from ..scene.schema import TrialArrays
-from .fileformat import _STRUCTURAL, GROUPS, _canon, _digest, _Group, _plan, provenance
+from .fileformat import GROUPS, STRUCTURAL_ATTRS, GroupPlan, canonical_bytes, content_digest, plan_trial, provenance
 
 __all__ = ["trial_differences"]
 
@@ -33,21 +33,21 @@ __all__ = ["trial_differences"]
 _WHEN_WRITTEN = frozenset({"date_created", "history", "content_sha256"})
 
 
-def _what_it_holds(root: Mapping[str, Any]) -> str:
+def what_it_holds(root: Mapping[str, Any]) -> str:
     """Digest of a trial's root attributes without those that say when and with what it was written."""
     skip = _WHEN_WRITTEN | set(provenance())
-    return _digest({k: v for k, v in root.items() if k not in skip}, {})
+    return content_digest({k: v for k, v in root.items() if k not in skip}, {})
 
 
 def _attrs(obj: Any) -> dict[str, Any]:
     """An HDF5 object's attributes without the file format's bookkeeping."""
-    return {k: obj.attrs[k] for k in obj.attrs.keys() if k not in _STRUCTURAL and not k.startswith("_")}
+    return {k: obj.attrs[k] for k in obj.attrs.keys() if k not in STRUCTURAL_ATTRS and not k.startswith("_")}
 
 
 def _same_attrs(a: Mapping[str, Any], b: Mapping[str, Any]) -> bool:
     """Attributes equal as the content digest sees them (a number stored as a 1-element array is that number)."""
     def canon(attrs):
-        return {k: _canon(v if isinstance(v, (str, bytes)) else np.ravel(v)) for k, v in attrs.items()}
+        return {k: canonical_bytes(v if isinstance(v, (str, bytes)) else np.ravel(v)) for k, v in attrs.items()}
     return canon(a) == canon(b)
 
 
@@ -66,15 +66,15 @@ def _attr_differences(group: str, stored: Mapping[str, Any], new: Mapping[str, A
     return out
 
 
-def plan_differences(path: Path, root: Mapping[str, Any], groups: Mapping[str, _Group]) -> list[Difference]:
-    """:func:`trial_differences` of a trial already planned for writing (``fileformat._plan``)."""
-    from ..rig.sensors import measured_quanta   # the rig, only where two trials are compared
+def plan_differences(path: Path, root: Mapping[str, Any], groups: Mapping[str, GroupPlan]) -> list[Difference]:
+    """:func:`trial_differences` of a trial already planned for writing (``fileformat.plan_trial``)."""
+    from ..rig.sensors import measured_quanta  # the rig, only where two trials are compared
     from ..scene.description import Scene
 
     found: list[Difference] = []
     with h5py.File(path, "r") as f:
         old_root = _attrs(f)
-        if _what_it_holds(old_root) != _what_it_holds(root):
+        if what_it_holds(old_root) != what_it_holds(root):
             skip = _WHEN_WRITTEN | set(provenance())
             keys = sorted(k for k in set(old_root) | set(root) if k not in skip
                           and (k not in old_root or k not in root or not _same_attrs({k: old_root[k]}, {k: root[k]})))
@@ -85,7 +85,8 @@ def plan_differences(path: Path, root: Mapping[str, Any], groups: Mapping[str, _
         for g in GROUPS:
             stored = f[g]
             new = groups[g]
-            found += _attr_differences(g, _attrs(stored), {k: v for k, v in new.attrs.items() if k not in _STRUCTURAL})
+            found += _attr_differences(g, _attrs(stored),
+                                       {k: v for k, v in new.attrs.items() if k not in STRUCTURAL_ATTRS})
             old_vars = {name: stored[name] for name in stored.keys()}
             new_vars = {v.name: v for v in new.variables}
             for name in sorted(set(old_vars) & set(new_vars)):
@@ -115,5 +116,5 @@ def trial_differences(path: str | os.PathLike, trial: Any | TrialArrays) -> list
         the same trial (:func:`campaign.core.tolerance.worst` names the worst); a single
         ``root attributes`` difference when they describe different scenes or trials.
     """
-    root, groups = _plan(trial)
+    root, groups = plan_trial(trial)
     return plan_differences(Path(path), root, groups)

@@ -11,18 +11,19 @@ import h5py
 import numpy as np
 from h5py import h5a, h5d, h5ds, h5p, h5s, h5t
 
+from ..core.vocabulary import FIXED, FLEXIBLE
 from .. import __version__
 from ..core.errors import InputError
 from ..core.files import replace_atomically, write_file
 from ..core.lazy import LazyModule
 from ..scene.description import Scene
 from ..scene.schema import TrialArrays
-from .fileformat import _DEFLATE_LEVEL, GROUPS, TRIAL_SUFFIX, _Group, _plan
+from .fileformat import DEFLATE_LEVEL, GROUPS, TRIAL_SUFFIX, GroupPlan, plan_trial
 
 #: a little less than a default scene's trial file takes [bytes], per base: the free space a
 #: command asks for per trial before it simulates (denser channels, as the ideal scene's on
 #: the flexible base, take more; a disk that fills part-way fails the write cleanly)
-TRIAL_BYTES = {"fixed": 150_000, "flexible": 750_000}
+TRIAL_BYTES = {FIXED: 150_000, FLEXIBLE: 750_000}
 
 #: xarray, imported on first use (:mod:`campaign.core.lazy`): jobs that only check or index
 #: trial files (``finalize_archive``, ``verify``) never need it
@@ -87,10 +88,10 @@ def _create_dataset(gid: Any, name: str, data: np.ndarray, *, chunks: tuple[int,
     return dsid
 
 
-def _write_group(gid: Any, group: _Group, next_dimid: Iterator[int], *, level: int, fletcher32: bool) -> None:
+def _write_group(gid: Any, group: GroupPlan, next_dimid: Iterator[int], *, level: int, fletcher32: bool) -> None:
     """Write one planned group in the netCDF-4 layout h5netcdf produces (dimension scales first).
 
-    The arrays written are the ones :func:`_plan` digested, so the stored ``content_sha256``
+    The arrays written are the ones :func:`plan_trial` digested, so the stored ``content_sha256``
     holds for the file.
     """
     scales = {}
@@ -113,7 +114,7 @@ def _write_group(gid: Any, group: _Group, next_dimid: Iterator[int], *, level: i
         _put_attr(gid, key, value)
 
 
-def _fill_h5(f: h5py.File, plan: tuple[dict[str, Any], dict[str, _Group]], *, level: int = _DEFLATE_LEVEL,
+def _fill_h5(f: h5py.File, plan: tuple[dict[str, Any], dict[str, GroupPlan]], *, level: int = DEFLATE_LEVEL,
              fletcher32: bool = False) -> None:
     """Write a planned trial into the open, empty HDF5 file ``f``."""
     root, groups = plan
@@ -127,7 +128,7 @@ def _fill_h5(f: h5py.File, plan: tuple[dict[str, Any], dict[str, _Group]], *, le
                      fletcher32=fletcher32)
 
 
-def _write_h5(plan: tuple[dict[str, Any], dict[str, _Group]], path: Path, *, level: int = _DEFLATE_LEVEL,
+def _write_h5(plan: tuple[dict[str, Any], dict[str, GroupPlan]], path: Path, *, level: int = DEFLATE_LEVEL,
               fletcher32: bool = False) -> None:
     """Write a planned trial to ``path`` with HDF5 (no atomicity here; see :func:`write_trial`)."""
     # track_order: netCDF-4 files keep creation order, and readers list variables in it
@@ -145,7 +146,7 @@ def _anonymous_file() -> int:
         return os.dup(fh.fileno())
 
 
-def _hdf5_image(plan: tuple[dict[str, Any], dict[str, _Group]], tmp: Path) -> bytes:
+def _hdf5_image(plan: tuple[dict[str, Any], dict[str, GroupPlan]], tmp: Path) -> bytes:
     """The bytes of a planned trial's file, as HDF5 writes them to ``tmp``.
 
     HDF5 creates ``tmp`` (a few bytes), then its file descriptor is pointed at an anonymous
@@ -170,7 +171,7 @@ def _hdf5_image(plan: tuple[dict[str, Any], dict[str, _Group]], tmp: Path) -> by
         os.close(scratch)
 
 
-def _replace_atomically(path: Path, write: Callable[[Path], None]) -> Path:
+def replace_campaign_file(path: Path, write: Callable[[Path], None]) -> Path:
     """:func:`campaign.core.files.replace_atomically` for a campaign folder's files: one writer
     per file, so temporary files a killed writer of ``path`` left are removed first."""
     return replace_atomically(path, write, clear_stale=True)
@@ -211,14 +212,14 @@ def write_trial(tree: xr.DataTree | TrialArrays, path: str | os.PathLike, *, fsy
     same ``path`` left behind. Rewriting a trial of a finalized campaign makes its manifest
     stale until ``finalize_campaign`` runs again (``verify`` reports the mismatch).
     """
-    return _write_plan(_plan(tree), Path(path), fsync=fsync)
+    return write_planned(plan_trial(tree), Path(path), fsync=fsync)
 
 
-def _write_plan(plan: tuple[dict[str, Any], dict[str, _Group]], path: Path, *, fsync: bool) -> Path:
-    """A validated trial (:func:`.fileformat._plan`) written atomically to ``path``: its HDF5
+def write_planned(plan: tuple[dict[str, Any], dict[str, GroupPlan]], path: Path, *, fsync: bool) -> Path:
+    """A validated trial (:func:`.fileformat.plan_trial`) written atomically to ``path``: its HDF5
     image is built in memory, then written in one call (:func:`campaign.core.files.write_file`
     names the file and the free space when the disk is full)."""
-    return _replace_atomically(path, lambda tmp: write_file(tmp, _hdf5_image(plan, tmp), fsync=fsync))
+    return replace_campaign_file(path, lambda tmp: write_file(tmp, _hdf5_image(plan, tmp), fsync=fsync))
 
 
 def trial_path(campaign_dir: str | os.PathLike, scene: Scene) -> Path:

@@ -10,11 +10,12 @@ from typing import Any
 
 import numpy as np
 
+from ..core.vocabulary import HIGH
 from ..model import exiit
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.floating import BaseBody, attach_to_floating_base
-from .common import _md
+from .common import md_table
 
 
 # ---------------------------------------------------------------------------------------
@@ -69,7 +70,7 @@ def closed_form_stress(*, log: Callable[[str], None] | None = print) -> dict[str
 
     robot = load_robot()
     paper = load_paper()
-    lam_hi = np.asarray(paper["table3"]["high"], float)
+    lam_hi = np.asarray(paper["table3"][HIGH], float)
     frobot = attach_to_floating_base(robot, BaseBody(mass=150.0, inertia=np.diag([50.0, 50.0, 5.0])))
     rows, problems = [], []
 
@@ -174,7 +175,7 @@ def _run_fit_stress(fitmod, robot, paper, *, log=None) -> dict[str, Any]:
     every value is finite and inside its bounds, the condition number is reported, and any
     component more than 2x off the truth (or whose CI misses it) is flagged not identifiable."""
 
-    lam_true = np.asarray(paper["table3"]["high"], float)
+    lam_true = np.asarray(paper["table3"][HIGH], float)
     qs = singular_pose(robot)
     c = {k: np.array(v, float) for k, v in paper["configurations"].items()}
     designs = [
@@ -241,12 +242,12 @@ def format_closed_form(c: dict[str, Any]) -> str:
         rows.append([r["family"], f"{r['q3']:g}", r["lam"], m(r["m_scalar"]), m(r["m_batch"]), m(r["m_flex"]),
                      f"{r['cond_H']:.3g}", "inf" if math.isinf(r["cond_G"]) else f"{r['cond_G']:.3g}",
                      "inf" if math.isinf(r["kappa_m"]) else f"{r['kappa_m']:.3g}"])
-    t1 = _md(["family", "paper q3 [deg]", "lambda", "m* eq 11 [kg]", "batch [kg]", "flexible eq 8 [kg]",
+    t1 = md_table(["family", "paper q3 [deg]", "lambda", "m* eq 11 [kg]", "batch [kg]", "flexible eq 8 [kg]",
               "cond(H+lambda)", "cond(G*_33)", "kappa(m*) = ||G||/(n'Gn)"], rows)
     rnd = c["random"]
     s = c["sensitivity"]
     S = s["S"]
-    t2 = _md(["configuration", "d ln m*/d ln lambda_1", "d ln m*/d ln lambda_2", "d ln m*/d ln lambda_3"],
+    t2 = md_table(["configuration", "d ln m*/d ln lambda_1", "d ln m*/d ln lambda_2", "d ln m*/d ln lambda_3"],
              [[i + 1, *(f"{x:.3g}" for x in S[i])] for i in range(S.shape[0])])
     fit = c["fit"]
     lines = [
@@ -272,7 +273,7 @@ def format_closed_form(c: dict[str, Any]) -> str:
             frows.append([r["design"], "inf" if math.isinf(r["cond"]) else f"{r['cond']:.3g}", lam, ci,
                           "".join("y" if x else "n" for x in r["identifiable"]), r["warnings"],
                           "ok" if r["ok"] else "; ".join(r["problems"])])
-        lines += ["", _md(["design", "condition number", "lambda [kg m^2]", "95 % CI", "identifiable (1,2,3)",
+        lines += ["", md_table(["design", "condition number", "lambda [kg m^2]", "95 % CI", "identifiable (1,2,3)",
                            "warnings", "verdict"], frows),
                   "", f"True lambda: {', '.join(f'{x:g}' for x in fit['lam_true'])} kg m^2."]
     return "\n".join(lines)

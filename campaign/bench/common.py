@@ -141,15 +141,15 @@ def blas_line() -> str:
     return "BLAS threads: " + ", ".join(f"{v}={os.environ.get(v, 'unset')}" for v in BLAS_THREADS) + "."
 
 
-def _rel(a: float, b: float) -> float:
-    """|a - b| / |b| (absolute when b == 0; nan when either is not finite)."""
+def relative_error(a: float, b: float) -> float:
+    """``|a - b| / |b|`` (absolute when b == 0; nan when either is not finite)."""
     a, b = float(a), float(b)
     if not (math.isfinite(a) and math.isfinite(b)):
         return float("nan")
     return abs(a - b) / abs(b) if b != 0 else abs(a - b)
 
 
-def _timed(fn: Callable[[], Any]) -> tuple[Any, float, float]:
+def timed_call(fn: Callable[[], Any]) -> tuple[Any, float, float]:
     """(result, wall s, CPU s) of one call, garbage collection kept out of the timing."""
     gc.collect()
     enabled = gc.isenabled()
@@ -179,13 +179,14 @@ def write_section(readme: str | os.PathLike, heading: str, body: str) -> Path:
     return write_atomic(readme, text)
 
 
-def _md(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+def md_table(header: Sequence[str], rows: Iterable[Sequence[Any]]) -> str:
+    """A markdown table of ``rows`` under ``header``."""
     out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
     return "\n".join(out)
 
 
-def _e(x: float) -> str:
+def short_error(x: float) -> str:
     """Error in short scientific notation ('0' for exact agreement, 'nan' when undefined)."""
     if x is None or not math.isfinite(x):
         return "nan"

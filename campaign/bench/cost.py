@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .. import archive
-from ..core.vocabulary import bases, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO, bases, gain_sets
 from ..rig import simulate
 from ..scene.description import make_scene
 from ..studies.closed_forms import truth_m_impulse  # noqa: F401  (campaign.bench names it too)
@@ -25,12 +25,12 @@ from .common import (
     TARGET_FLEXIBLE,
     TARGET_WRITE,
     XARRAY_WRITE_AT_TARGETS,
-    _md,
-    _timed,
     check_size,
+    md_table,
+    timed_call,
 )
 from .naive import naive_rk4, naive_trial
-from .work_precision import _identify, rig_available
+from .work_precision import identify_tree, rig_available
 
 
 # ---------------------------------------------------------------------------------------
@@ -41,13 +41,13 @@ def cost_scenes(*, size: str = "full") -> list[tuple[str, dict]]:
     configurations 1-2 at one speed, ``smoke`` one fixed-base trial
     (:data:`~campaign.bench.common.SIZES`)."""
     if check_size(size) == "smoke":
-        return [("fixed", dict(base="fixed", config=1, gain="zero", speed=1.5))]
+        return [(FIXED, dict(base=FIXED, config=1, gain=ZERO, speed=1.5))]
     speeds = (1.0, 2.5) if size == "full" else (1.75,)
     configs = (1, 2, 3) if size == "full" else (1, 2)
     out = []
     for base in bases():
-        gains = gain_sets() if base == "fixed" else ("low", "high")
-        cfgs = configs if base == "fixed" else tuple(c for c in configs if c in (1, 2))
+        gains = gain_sets() if base == FIXED else (LOW, HIGH)
+        cfgs = configs if base == FIXED else tuple(c for c in configs if c in (1, 2))
         for c in cfgs:
             for g in gains:
                 for v in speeds:
@@ -114,7 +114,7 @@ def trial_cost(*, size: str = "full", repeats: int | None = None, baseline_repea
     skipped = []
     # the xarray write reference is timed after every scene, so each trial's time can
     # be scaled by the machine's speed of the same minute: it drifts by 1.5x within a run
-    naive_scene = make_scene(base="fixed", config=1, gain="zero", speed=1.5)
+    naive_scene = make_scene(base=FIXED, config=1, gain=ZERO, speed=1.5)
     if size != "smoke":
         naive_rk4(naive_scene)   # warm-up
     write_probe(repeats=1)   # warm-up (h5py, h5netcdf imports)
@@ -131,7 +131,7 @@ def trial_cost(*, size: str = "full", repeats: int | None = None, baseline_repea
             tree = simulate(scene)   # warm-up
             walls = []
             for _ in range(repeats):
-                tree, w, c = _timed(functools.partial(simulate, scene))
+                tree, w, c = timed_call(functools.partial(simulate, scene))
                 walls.append(w)
                 sims.setdefault(group, []).append(w)
                 per.setdefault((group, kw["gain"]), []).append(w)
@@ -139,19 +139,20 @@ def trial_cost(*, size: str = "full", repeats: int | None = None, baseline_repea
             probes.append(probe)
             factor = probe["xarray"] / XARRAY_WRITE_AT_TARGETS   # this machine now vs the targets' one
             scaled.setdefault(group, []).extend(w / factor for w in walls)
-            _, w_id, _ = _timed(functools.partial(_identify, tree))
+            _, w_id, _ = timed_call(functools.partial(identify_tree, tree))
             idents.append(w_id)
             path = Path(tmp) / f"{group}-{kw['config']}-{kw['gain']}-{kw['speed']}.nc"
             for _ in range(repeats):
-                _, w, _ = _timed(functools.partial(archive.write_trial, tree, path))
+                _, w, _ = timed_call(functools.partial(archive.write_trial, tree, path))
                 writes.setdefault(group, []).append(w)
                 writes_scaled.setdefault(group, []).append(w / factor)
         log(f"[cost] simulated {sum(len(v) for v in sims.values())} trials")
         scene = naive_scene
-        naive = [_timed(lambda: naive_rk4(scene, duration=0.5))[1] for _ in range(baseline_repeats)]
-        naive_full = [_timed(lambda: naive_trial(scene, duration=0.5))[1] for _ in range(max(1, baseline_repeats // 2))]
-        ours = [_timed(functools.partial(simulate, scene))[1] for _ in range(baseline_repeats)]
-        uniform = [_timed(lambda: simulate(scene, integration={"substeps_contact": 10, "substeps_free": 10}))[1]
+        naive = [timed_call(lambda: naive_rk4(scene, duration=0.5))[1] for _ in range(baseline_repeats)]
+        naive_full = [timed_call(lambda: naive_trial(scene, duration=0.5))[1]
+                      for _ in range(max(1, baseline_repeats // 2))]
+        ours = [timed_call(functools.partial(simulate, scene))[1] for _ in range(baseline_repeats)]
+        uniform = [timed_call(lambda: simulate(scene, integration={"substeps_contact": 10, "substeps_free": 10}))[1]
                    for _ in range(max(1, baseline_repeats // 2))]
     log("[cost] baseline done")
     med = {k: statistics.median(v) for k, v in sims.items()}
@@ -189,7 +190,7 @@ def _verdict(measured: float, scaled: float, target: float) -> str:
 
 def format_cost(c: dict[str, Any]) -> str:
     rows = []
-    for group, target in (("fixed", TARGET_FIXED), ("flexible", TARGET_FLEXIBLE)):
+    for group, target in ((FIXED, TARGET_FIXED), (FLEXIBLE, TARGET_FLEXIBLE)):
         if group not in c["sim"]:
             why = next((w for g, w in c["skipped"] if g == group), "not run")
             rows.append([group, "-", "-", "-", f"{target * 1e3:.0f}", "not available: " + why[:70]])
@@ -201,14 +202,14 @@ def format_cost(c: dict[str, Any]) -> str:
         verdict = _verdict(c["sim"][group], scaled, target)
         rows.append([group, c["sim_n"][group], f"**{c['sim'][group] * 1e3:.0f}**", f"{lo * 1e3:.0f}-{hi * 1e3:.0f}",
                      f"{scaled * 1e3:.0f}", f"{target * 1e3:.0f}", f"{verdict}; by gain: {gains}"])
-    table1 = _md(["base", "trials timed", "median simulation [ms]", "min-max [ms]",
+    table1 = md_table(["base", "trials timed", "median simulation [ms]", "min-max [ms]",
                   "scaled by the write reference [ms]", "target [ms]", "verdict"], rows)
     wrows = [[g, f"**{v * 1e3:.1f}**", f"{c['write_scaled'][g] * 1e3:.1f}", f"{TARGET_WRITE * 1e3:.0f}",
               _verdict(v, c["write_scaled"][g], TARGET_WRITE)] for g, v in c["write"].items()]
-    table2 = _md(["base", "median write_trial [ms]", "scaled by the write reference [ms]",
+    table2 = md_table(["base", "median write_trial [ms]", "scaled by the write reference [ms]",
                   "target [ms]", "verdict"], wrows)
     b = c["baseline"]
-    table3 = _md(["same run, configuration 1, Zero gains, 1.5 m/s", "median wall [ms]"], [
+    table3 = md_table(["same run, configuration 1, Zero gains, 1.5 m/s", "median wall [ms]"], [
         ["naive fixed-step RK4 at 0.1 ms, Python-side Pinocchio, 0.5 s of trial (integration only)",
          f"**{b['naive_integration'] * 1e3:.0f}**"],
         ["the same naive run + the rig's sensors and channels", f"{b['naive_trial'] * 1e3:.0f}"],

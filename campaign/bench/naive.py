@@ -8,9 +8,10 @@ import math
 import numpy as np
 
 from ..core.errors import InputError, SimulationError
+from ..core.vocabulary import FIXED
 from ..rig.integrate import Trajectory
 from ..rig.plant import FrictionState
-from ..rig.simulate import build, record
+from ..rig.trial import build, record
 
 
 # ---------------------------------------------------------------------------------------
@@ -38,11 +39,11 @@ def naive_rk4(scene, *, step: float = 1e-4, duration: float | None = None):
     -------
     (rig, Trajectory)
         The assembled rig (:func:`campaign.rig.build`) and a
-        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.simulate.record``
+        :class:`campaign.rig.integrate.Trajectory` that ``campaign.rig.trial.record``
         turns into the trial's channels (integration starts at ``t_contact = 0``).
     """
 
-    if scene.base != "fixed":
+    if scene.base != FIXED:
         raise InputError("the naive RK4 baseline is defined for fixed-base scenes only")
     rig = build(scene)
     min_post = float(getattr(rig, "min_post", scene.p("trial.min_post_contact")))

@@ -15,14 +15,15 @@ import numpy as np
 
 from .. import archive
 from ..core.errors import InputError, SimulationError
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, STIFF_MAST, ZERO
 from ..model import exiit
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..rig import build, simulate
 from ..scene.description import load_rig, make_scene
 from .closed_form import singular_pose
-from .common import _md, _rel
-from .work_precision import _identify
+from .common import md_table, relative_error
+from .work_precision import identify_tree
 
 # ---------------------------------------------------------------------------------------
 # stress suite
@@ -97,7 +98,7 @@ def stress_cases(*, reduced: bool = False, flexible: bool = True) -> list[Stress
         full += _beam_cases(ei0)
         # the beam corners (EI multiples, the loop's rate, bandwidth and latency limits) are
         # set around the stiff mast's ~4.4 Hz first mode: each runs on that named structure
-        full = [dataclasses.replace(c, kwargs=dict(c.kwargs, params={"flexible.structure": "stiff_mast",
+        full = [dataclasses.replace(c, kwargs=dict(c.kwargs, params={"flexible.structure": STIFF_MAST,
                                                                         **c.kwargs.get("params", {})}))
                 if c.axis == "beam" else c for c in full]
     if not reduced:
@@ -117,7 +118,7 @@ _REDUCED_LABELS = frozenset({
 })
 
 
-def _pose(q, gain="zero", speed=1.5) -> dict:
+def _pose(q, gain=ZERO, speed=1.5) -> dict:
     """``make_scene`` keywords of an arbitrary pose ``q`` [deg, paper angles]."""
     return dict(config=0, q_paper_deg=tuple(float(x) for x in q), gain=gain, speed=speed)
 
@@ -128,13 +129,13 @@ def _pose_cases() -> list[StressCase]:
     qs = tuple(round(x, 9) for x in singular_pose())
     return [
         *[C("pose", f"paper configuration {c}, {g}", dict(config=c, gain=g, speed=1.5))
-          for c in (1, 2, 3) for g in ("zero", "high")],
+          for c in (1, 2, 3) for g in (ZERO, HIGH)],
         *[C("pose", f"stretched (0, 172, {q3}), {g}", pose((0.0, 172.0, q3), g))
-          for q3 in (10.0, 2.0, 0.5, 0.1, 0.0) for g in ("zero", "high")],
-        C("pose", "stretched (0, 172, 0.5), High, 2.5 m/s", pose((0.0, 172.0, 0.5), "high", 2.5)),
+          for q3 in (10.0, 2.0, 0.5, 0.1, 0.0) for g in (ZERO, HIGH)],
+        C("pose", "stretched (0, 172, 0.5), High, 2.5 m/s", pose((0.0, 172.0, 0.5), HIGH, 2.5)),
         C("pose", "stretched (0, 180, 0) horizontal, zero", pose((0.0, 180.0, 0.0))),
         C("pose", "exact singularity (q1*, q2*, q3*): n leaves the range, zero", pose(qs)),
-        C("pose", "exact singularity (q1*, q2*, q3*), High", pose(qs, "high")),
+        C("pose", "exact singularity (q1*, q2*, q3*), High", pose(qs, HIGH)),
         C("pose", "singularity + 0.1 deg on q3, zero", pose((qs[0], qs[1], qs[2] + 0.1))),
         C("pose", "q1 at +160 deg limit", pose((160.0, 150.0, 90.0))),
         C("pose", "q1 at -160 deg limit", pose((-160.0, 150.0, 90.0))),
@@ -148,11 +149,11 @@ def _pose_cases() -> list[StressCase]:
 def _gain_cases() -> list[StressCase]:
     """Low, 0.1x to 1000x High, P or D alone."""
     C = StressCase
-    h = dict(config=1, gain="high", speed=1.5)
+    h = dict(config=1, gain=HIGH, speed=1.5)
     return [
-        C("gains", "Low", dict(config=1, gain="low", speed=1.5)),
+        C("gains", "Low", dict(config=1, gain=LOW, speed=1.5)),
         *[C("gains", f"{k:g}x High", dict(h, gains_counts=_x(PAPER_HIGH, k))) for k in (0.1, 3, 10, 100, 1000)],
-        C("gains", "1000x High, configuration 2", dict(config=2, gain="high", speed=1.5,
+        C("gains", "1000x High, configuration 2", dict(config=2, gain=HIGH, speed=1.5,
                                                         gains_counts=_x(PAPER_HIGH, 1000))),
         C("gains", "P only 10x High", dict(h, gains_counts=(PAPER_HIGH[0] * 10, 0.0, 0.0))),
         C("gains", "D only 100x High", dict(h, gains_counts=(0.0, PAPER_HIGH[1] * 100, 0.0))),
@@ -162,12 +163,12 @@ def _gain_cases() -> list[StressCase]:
 def _contact_cases(k0: float) -> list[StressCase]:
     """Contact stiffness 0.01x to 1000x the rig's ``k0``, a linear contact, restitution's ends."""
     C = StressCase
-    z = dict(config=1, gain="zero", speed=1.5)
+    z = dict(config=1, gain=ZERO, speed=1.5)
     return [
         *[C("contact", f"stiffness {m:g}x, {g}", dict(config=1, gain=g, speed=1.5,
                                                        params={"contact.stiffness": k0 * m}))
-          for m in (0.01, 0.1, 10, 100, 1000) for g in ("zero", "high")],
-        C("contact", "stiffness 1000x, linear, 2.5 m/s", dict(config=1, gain="zero", speed=2.5, params={
+          for m in (0.01, 0.1, 10, 100, 1000) for g in (ZERO, HIGH)],
+        C("contact", "stiffness 1000x, linear, 2.5 m/s", dict(config=1, gain=ZERO, speed=2.5, params={
             "contact.stiffness": k0 * 1000, "contact.exponent": 1.0})),
         C("contact", "restitution 0.05", dict(z, params={"contact.restitution": 0.05})),
         C("contact", "restitution 1.0 (elastic)", dict(z, params={"contact.restitution": 1.0})),
@@ -177,27 +178,27 @@ def _contact_cases(k0: float) -> list[StressCase]:
 def _speed_cases() -> list[StressCase]:
     """Hammer speeds 0.01 to 10 m/s."""
     return [StressCase("speed", f"{v:g} m/s, {g}", dict(config=1, gain=g, speed=v))
-            for v in (0.01, 0.1, 0.5, 2.5, 3.0, 5.0, 10.0) for g in ("zero", "high")]
+            for v in (0.01, 0.1, 0.5, 2.5, 3.0, 5.0, 10.0) for g in (ZERO, HIGH)]
 
 
 def _hammer_cases() -> list[StressCase]:
     """Hammer masses 0.01x to 100x the pose's m*."""
     C = StressCase
     return [
-        *[C("hammer", f"m_b = {m:g}x m*, configuration {c}", dict(config=c, gain="zero", speed=1.5),
+        *[C("hammer", f"m_b = {m:g}x m*, configuration {c}", dict(config=c, gain=ZERO, speed=1.5),
             hammer_x_meff=m) for m in (0.01, 0.1, 1.0, 10.0, 100.0) for c in (1, 2)],
-        C("hammer", "m_b = 100x m*, 2.5 m/s, High", dict(config=1, gain="high", speed=2.5), hammer_x_meff=100.0),
+        C("hammer", "m_b = 100x m*, 2.5 m/s, High", dict(config=1, gain=HIGH, speed=2.5), hammer_x_meff=100.0),
     ]
 
 
 def _servo_cases() -> list[StressCase]:
     """Servo rates 100 Hz to 10 kHz."""
     C = StressCase
-    z = dict(config=1, gain="zero", speed=1.5)
-    h = dict(config=1, gain="high", speed=1.5)
+    z = dict(config=1, gain=ZERO, speed=1.5)
+    h = dict(config=1, gain=HIGH, speed=1.5)
     return [
         *[C("servo", f"{r:g} Hz, {g}", dict(config=1, gain=g, speed=1.5, params={"controller.servo_rate": r}))
-          for r in (100.0, 300.0, 3000.0, 10000.0) for g in ("low", "high")],
+          for r in (100.0, 300.0, 3000.0, 10000.0) for g in (LOW, HIGH)],
         C("servo", "100 Hz, zero", dict(z, params={"controller.servo_rate": 100.0})),
         C("servo", "10 kHz, 10x High", dict(h, gains_counts=_x(PAPER_HIGH, 10),
                                             params={"controller.servo_rate": 10000.0})),
@@ -208,13 +209,13 @@ def _crossing_cases(k0: float) -> list[StressCase]:
     """Crossings of the corners: soft or stiff contacts with slow or heavy hammers, the ideal
     scene, no gravity, no friction."""
     C = StressCase
-    z = dict(config=1, gain="zero", speed=1.5)
+    z = dict(config=1, gain=ZERO, speed=1.5)
     return [
-        C("cross", "stiffness 0.01x at 0.01 m/s", dict(config=1, gain="zero", speed=0.01,
+        C("cross", "stiffness 0.01x at 0.01 m/s", dict(config=1, gain=ZERO, speed=0.01,
                                                         params={"contact.stiffness": k0 * 0.01})),
-        C("cross", "stiffness 1000x, High, 2.5 m/s", dict(config=1, gain="high", speed=2.5,
+        C("cross", "stiffness 1000x, High, 2.5 m/s", dict(config=1, gain=HIGH, speed=2.5,
                                                            params={"contact.stiffness": k0 * 1000})),
-        C("cross", "m_b = 0.01x m* at 0.01 m/s", dict(config=1, gain="zero", speed=0.01), hammer_x_meff=0.01),
+        C("cross", "m_b = 0.01x m* at 0.01 m/s", dict(config=1, gain=ZERO, speed=0.01), hammer_x_meff=0.01),
         C("cross", "stretched (0, 172, 0.1), 1000x stiffness", _pose((0.0, 172.0, 0.1)) | {
             "params": {"contact.stiffness": k0 * 1000}}),
         C("cross", "ideal scene, stiffness 1000x", dict(config=1, scene="ideal", speed=1.5, params={
@@ -233,7 +234,7 @@ def _integration_cases(k0: float) -> list[StressCase]:
         *[C("integration", f"ideal contact, substeps_contact={s}", dict(config=1, scene="ideal", speed=1.5),
             integration={"substeps_contact": s}) for s in (1, 2, 4, 8)],
         C("integration", "default contact, substeps_free=1, substeps_contact=1, 2.5 m/s, 100x stiffness",
-          dict(config=1, gain="zero", speed=2.5, params={"contact.stiffness": k0 * 100}),
+          dict(config=1, gain=ZERO, speed=2.5, params={"contact.stiffness": k0 * 100}),
           integration={"substeps_contact": 1}),
     ]
 
@@ -243,7 +244,7 @@ def _beam_cases(ei0: float) -> list[StressCase]:
     1e4x the rig's ``ei0``, 2 m to 200 m), no damping, the VES loop's rate, bandwidth and
     latency, a stretched pose."""
     C = StressCase
-    fl = dict(base="flexible", config=2, gain="high", speed=1.5)
+    fl = dict(base=FLEXIBLE, config=2, gain=HIGH, speed=1.5)
     return [
         C("beam", "flexible loop, configuration 2, High", dict(fl)),
         C("beam", "flexible ideal coupling, configuration 2, High", dict(fl, params={"ves.mode": "ideal"})),
@@ -259,9 +260,9 @@ def _beam_cases(ei0: float) -> list[StressCase]:
         C("beam", "VES latency 1 s", dict(fl, params={"ves.latency": 1.0})),
         C("beam", "VES latency 0", dict(fl, params={"ves.latency": 0.0})),
         C("beam", "flexible ideal scene, zero gravity (passive)", dict(
-            base="flexible", config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
+            base=FLEXIBLE, config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
         C("beam", "flexible, stretched (0, 172, 0.5), High", dict(
-            base="flexible", config=0, q_paper_deg=(0.0, 172.0, 0.5), gain="high", speed=1.5)),
+            base=FLEXIBLE, config=0, q_paper_deg=(0.0, 172.0, 0.5), gain=HIGH, speed=1.5)),
     ]
 
 
@@ -270,7 +271,7 @@ def _passive(scene, tree) -> bool:
     on a flexible base, the ideal coupling without gravity (the VES loop is an active device)."""
     if any(scene.gains_counts):
         return False
-    if scene.base == "flexible":
+    if scene.base == FLEXIBLE:
         return scene.p("ves.mode") == "ideal" and float(scene.p("gravity")) == 0.0
     return True
 
@@ -424,7 +425,7 @@ def _identification_violations(scene, ident, m_true: float, info: dict) -> list[
         return viol
     if not (0.0 <= ident.e <= E_UPPER):
         viol.append(f"identified e = {ident.e:.4g} outside [0, {E_UPPER}]")
-    if scene.base == "fixed":
+    if scene.base == FIXED:
         m0 = _m0({"q_paper_deg": scene.q_paper_deg})
         info["m0"] = m0
         # (at a pose where n leaves the range, m0 = inf: any finite m* > 0 is a lower value
@@ -432,7 +433,7 @@ def _identification_violations(scene, ident, m_true: float, info: dict) -> list[
         if math.isfinite(m0) and not ident.m_eff >= MEFF_LOWER * m0:
             viol.append(f"identified m* = {ident.m_eff:.4g} kg below {MEFF_LOWER} x the Ex-IIT "
                         f"m* (lambda = 0) {m0:.4g} kg")
-    info["ident_vs_truth"] = _rel(ident.m_eff, m_true)
+    info["ident_vs_truth"] = relative_error(ident.m_eff, m_true)
     return viol
 
 
@@ -476,7 +477,7 @@ def run_case(case: StressCase, folder: str | os.PathLike, *, write: bool = True)
     except Exception as exc:  # noqa: BLE001 - anything else is a failure of the suite
         return done("failed", f"{type(exc).__name__} during simulation: {exc}")
     try:
-        ident = _identify(tree)
+        ident = identify_tree(tree)
     except Exception as exc:  # noqa: BLE001
         return done("failed", f"identification raised {type(exc).__name__}: {exc}")
     viol, info = check_invariants(scene, tree, ident)
@@ -521,7 +522,7 @@ def stress_summary(results: Sequence[StressResult]) -> dict[str, int]:
 
 def format_stress(results: Sequence[StressResult]) -> str:
     s = stress_summary(results)
-    summary = _md(["cases run", "passed", "(of which identification excluded)", "refused with reason",
+    summary = md_table(["cases run", "passed", "(of which identification excluded)", "refused with reason",
                    "reported blow-up (no file)", "failed"],
                   [[s["run"], s["passed"], s["excluded"], s["refused"], s["blow-up"], s["failed"]]])
     axes: dict[str, dict[str, int]] = {}
@@ -529,7 +530,7 @@ def format_stress(results: Sequence[StressResult]) -> str:
         d = axes.setdefault(r.case.axis, {"run": 0, "passed": 0, "refused": 0, "blow-up": 0, "failed": 0})
         d["run"] += 1
         d[r.status] += 1
-    per_axis = _md(["axis", "run", "passed", "refused", "blow-up", "failed"],
+    per_axis = md_table(["axis", "run", "passed", "refused", "blow-up", "failed"],
                    [[a, d["run"], d["passed"], d["refused"], d["blow-up"], d["failed"]] for a, d in axes.items()])
     rows = []
     for r in results:
@@ -545,5 +546,5 @@ def format_stress(results: Sequence[StressResult]) -> str:
         reason = r.reason.replace("|", "/").replace("\n", " ")
         rows.append([r.case.axis, r.case.label, f"**{r.status}**" if r.status in ("failed", "blow-up") else r.status,
                      f"{r.seconds:.2f}", reason[:220], meas])
-    cases = _md(["axis", "case", "outcome", "time [s]", "reason / note", "measured"], rows)
+    cases = md_table(["axis", "case", "outcome", "time [s]", "reason / note", "measured"], rows)
     return "\n\n".join([summary, per_axis, cases])

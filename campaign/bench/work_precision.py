@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO
 from ..identify import identify_trial
 from ..rig import build, simulate
 from ..scene.description import make_scene
@@ -25,11 +26,11 @@ from .common import (
     TARGET_FIXED,
     TARGET_FLEXIBLE,
     TARGET_REL_ERR,
-    _e,
-    _md,
-    _rel,
-    _timed,
     check_size,
+    md_table,
+    relative_error,
+    short_error,
+    timed_call,
 )
 from .naive import naive_trial
 
@@ -72,28 +73,28 @@ def wp_scenes(*, size: str = "full", flexible: bool = True) -> list[WPScene]:
     default, Zero and High gains, fixed base and (when the rig accepts it) flexible base.
     ``size`` (:data:`~campaign.bench.common.SIZES`): ``quick`` keeps two scenes per base,
     ``smoke`` only the fixed-base default scene of configuration 2 at High gains."""
-    high = WPScene("fixed default c2 high", dict(base="fixed", config=2, gain="high", speed=1.5))
+    high = WPScene("fixed default c2 high", dict(base=FIXED, config=2, gain=HIGH, speed=1.5))
     if check_size(size) == "smoke":
         return [high]
-    out = [WPScene("fixed ideal c2", dict(base="fixed", config=2, scene="ideal", speed=1.5)), high]
+    out = [WPScene("fixed ideal c2", dict(base=FIXED, config=2, scene="ideal", speed=1.5)), high]
     if size == "full":
         out += [
-            WPScene("fixed ideal c3", dict(base="fixed", config=3, scene="ideal", speed=1.5)),
-            WPScene("fixed default c2 zero", dict(base="fixed", config=2, gain="zero", speed=1.5)),
-            WPScene("fixed default c3 zero", dict(base="fixed", config=3, gain="zero", speed=1.5)),
-            WPScene("fixed default c3 high", dict(base="fixed", config=3, gain="high", speed=1.5)),
+            WPScene("fixed ideal c3", dict(base=FIXED, config=3, scene="ideal", speed=1.5)),
+            WPScene("fixed default c2 zero", dict(base=FIXED, config=2, gain=ZERO, speed=1.5)),
+            WPScene("fixed default c3 zero", dict(base=FIXED, config=3, gain=ZERO, speed=1.5)),
+            WPScene("fixed default c3 high", dict(base=FIXED, config=3, gain=HIGH, speed=1.5)),
         ]
     if flexible:
         out += [
-            WPScene("flexible loop c2 high", dict(base="flexible", config=2, gain="high", speed=1.5)),
+            WPScene("flexible loop c2 high", dict(base=FLEXIBLE, config=2, gain=HIGH, speed=1.5)),
             WPScene("flexible ideal-coupling c2 high",
-                    dict(base="flexible", config=2, gain="high", speed=1.5, params={"ves.mode": "ideal"})),
+                    dict(base=FLEXIBLE, config=2, gain=HIGH, speed=1.5, params={"ves.mode": "ideal"})),
         ]
         if size == "full":
             out += [
-                WPScene("flexible loop c3 low", dict(base="flexible", config=3, gain="low", speed=1.5)),
+                WPScene("flexible loop c3 low", dict(base=FLEXIBLE, config=3, gain=LOW, speed=1.5)),
                 WPScene("flexible ideal scene c2",
-                        dict(base="flexible", config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
+                        dict(base=FLEXIBLE, config=2, scene="ideal", speed=1.5, params={"ves.mode": "ideal"})),
             ]
     return out
 
@@ -171,10 +172,10 @@ def trial_errors(tree, ref, ident, ident_ref) -> dict[str, Any]:
     """Errors of a trial against the reference trial of the same scene."""
     tr, rr = tree["truth"], ref["truth"]
     out = {
-        "m_eff": _rel(ident.m_eff, ident_ref.m_eff),
-        "e": _rel(ident.e, ident_ref.e),
-        "v_a_post": _rel(float(tr.v_a_post), float(rr.v_a_post)),
-        "v_b_post": _rel(float(tr.v_b_post), float(rr.v_b_post)),
+        "m_eff": relative_error(ident.m_eff, ident_ref.m_eff),
+        "e": relative_error(ident.e, ident_ref.e),
+        "v_a_post": relative_error(float(tr.v_a_post), float(rr.v_a_post)),
+        "v_b_post": relative_error(float(tr.v_b_post), float(rr.v_b_post)),
     }
     out["measured"], out["measured_worst"] = _channel_error(tree["measured"].to_dataset(), ref["measured"].to_dataset())
     out["truth"], out["truth_worst"] = _channel_error(tr.to_dataset(), rr.to_dataset())
@@ -184,7 +185,8 @@ def trial_errors(tree, ref, ident, ident_ref) -> dict[str, Any]:
     return out
 
 
-def _identify(tree):
+def identify_tree(tree):
+    """:func:`campaign.identify.identify_trial` of a simulated trial (its measured group and root attributes)."""
     return identify_trial(tree["measured"].to_dataset(), meta=dict(tree.attrs))
 
 
@@ -262,13 +264,13 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
             continue
         rig = build(scene)
         dc, df = int(rig.substeps_contact), int(rig.substeps_free)
-        flex = scene.base != "fixed"
+        flex = scene.base != FIXED
         settings = wp_settings(dc, df, size=size, naive=not flex, frees=(1, 2, 4, 8) if flex else (1, 2, 4))
         n_rep = max(2, repeats - 2) if flex else repeats
         log(f"[wp] {spec.label}: default {dc}/{df}; reference {REF_FACTOR * dc}/{REF_FACTOR * df}; "
             f"{len(settings)} settings x {repeats} repeats")
         try:
-            ref, ref_wall, _ = _timed(functools.partial(simulate, scene, integration={
+            ref, ref_wall, _ = timed_call(functools.partial(simulate, scene, integration={
                 "substeps_contact": REF_FACTOR * dc, "substeps_free": REF_FACTOR * df}))
             half = simulate(scene, integration={"substeps_contact": REF_FACTOR // 2 * dc,
                                                 "substeps_free": REF_FACTOR // 2 * df})
@@ -276,8 +278,8 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
             skipped.append((spec.label, f"reference failed: {type(exc).__name__}: {exc}"))
             log(f"[wp] {spec.label}: skipped, the reference failed ({type(exc).__name__}: {exc})")
             continue
-        ident_ref = _identify(ref)
-        ref_check = trial_errors(half, ref, _identify(half), ident_ref)
+        ident_ref = identify_tree(ref)
+        ref_check = trial_errors(half, ref, identify_tree(half), ident_ref)
         scenes.append(dict(label=spec.label, default=(dc, df), ref=(REF_FACTOR * dc, REF_FACTOR * df),
                            ref_wall=ref_wall, ref_half_error=ref_check, m_eff=ident_ref.m_eff, e=ident_ref.e,
                            excluded=ident_ref.excluded, reason=ident_ref.reason))
@@ -295,7 +297,7 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
             for s in settings:
                 if s.label in failures or (s.naive and len(walls[s.label]) >= max(1, repeats // 2)):
                     continue        # the naive run is ~0.5 s: half the repeats suffice
-                _, w, c = _timed(functools.partial(s.run, scene))
+                _, w, c = timed_call(functools.partial(s.run, scene))
                 walls[s.label].append(w)
                 cpus[s.label].append(c)
         for s in settings:
@@ -306,7 +308,7 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
                 rows.append(row)
                 continue
             tree = trees[s.label]
-            errs = trial_errors(tree, ref, _identify(tree), ident_ref)
+            errs = trial_errors(tree, ref, identify_tree(tree), ident_ref)
             row.update(errs)
             row.update(wall=statistics.median(walls[s.label]), wall_min=min(walls[s.label]),
                        wall_max=max(walls[s.label]), cpu=statistics.median(cpus[s.label]),
@@ -321,8 +323,9 @@ def work_precision(*, size: str = "full", repeats: int | None = None, flexible: 
         if "error" in d:
             log(f"[wp] {spec.label}: the default setting failed: {d['error']}")
         else:
-            log(f"[wp] {spec.label}: default {d['wall'] * 1e3:.0f} ms, m* {_e(d['m_eff'])}, e {_e(d['e'])}, "
-                f"v' {_e(d['velocity'])}, front {'yes' if d['front'] else 'NO'}")
+            log(f"[wp] {spec.label}: default {d['wall'] * 1e3:.0f} ms, m* {short_error(d['m_eff'])}, "
+                f"e {short_error(d['e'])}, "
+                f"v' {short_error(d['velocity'])}, front {'yes' if d['front'] else 'NO'}")
     return {"rows": rows, "scenes": scenes, "skipped": skipped, "repeats": repeats}
 
 
@@ -332,7 +335,7 @@ def wp_verdict(result: dict) -> list[str]:
     for sc in result["scenes"]:
         mine = [r for r in result["rows"] if r["scene"] == sc["label"]]
         d = next(r for r in mine if r["default"])
-        target = TARGET_FLEXIBLE if sc["label"].startswith("flexible") else TARGET_FIXED
+        target = TARGET_FLEXIBLE if sc["label"].startswith(FLEXIBLE) else TARGET_FIXED
         if "error" in d:
             ok = [r for r in mine if "error" not in r and r["ident"] <= TARGET_REL_ERR]
             best = min(ok, key=lambda r: r["wall"]) if ok else None
@@ -346,19 +349,19 @@ def wp_verdict(result: dict) -> list[str]:
         dominators = [r for r in mine if r is not d and math.isfinite(r.get("combined", math.nan))
                       and ((r["wall"] < d["wall"] * (1 - tol) and r["combined"] <= d["combined"])
                            or (r["wall"] <= d["wall"] and r["combined"] < d["combined"]))]
-        dom = ", ".join(f"{r['setting']} ({r['wall'] * 1e3:.0f} ms, {_e(r['combined'])})" for r in dominators)
+        dom = ", ".join(f"{r['setting']} ({r['wall'] * 1e3:.0f} ms, {short_error(r['combined'])})" for r in dominators)
         front_ok = sorted((r for r in mine if r.get("front") and "error" not in r and r is not d
                            and r["ident"] <= TARGET_REL_ERR), key=lambda r: r["wall"])
         alt = ""
         if not d["front"] and front_ok:
             b = front_ok[0]
             alt = (f" Fastest front setting within 1e-3: {b['setting']} ({b['wall'] * 1e3:.0f} ms, "
-                   f"{b['rhs']} RHS evaluations vs {d['rhs']}; m* {_e(b['m_eff'])}, e {_e(b['e'])}, "
-                   f"v' {_e(b['velocity'])}).")
+                   f"{b['rhs']} RHS evaluations vs {d['rhs']}; m* {short_error(b['m_eff'])}, e {short_error(b['e'])}, "
+                   f"v' {short_error(b['velocity'])}).")
         lines.append(
             f"- {sc['label']}: default {d['setting']} {d['wall'] * 1e3:.0f} ms/trial "
-            f"(target {target * 1e3:.0f} ms: {'met' if fast else 'missed'}); error m* {_e(d['m_eff'])}, "
-            f"e {_e(d['e'])} (<= 1e-3: {'yes' if acc else 'NO'}), v' {_e(d['velocity'])}; "
+            f"(target {target * 1e3:.0f} ms: {'met' if fast else 'missed'}); error m* {short_error(d['m_eff'])}, "
+            f"e {short_error(d['e'])} (<= 1e-3: {'yes' if acc else 'NO'}), v' {short_error(d['velocity'])}; "
             f"Pareto front (median wall time, ties within the timing noise {tol:.0%}): "
             f"{'yes' if d['front'] else 'NO, dominated by ' + dom}; "
             f"by CPU time: {'yes' if d['front_cpu'] else 'no'}; by RHS evaluations: "
@@ -380,11 +383,11 @@ def format_wp_table(result: dict) -> str:
         rows.append([
             r["scene"], name, r["substeps"], r["steps"], r["rhs"], f"{r['wall'] * 1e3:.0f}",
             f"{r['wall_min'] * 1e3:.0f}-{r['wall_max'] * 1e3:.0f}", f"{r['cpu'] * 1e3:.0f}",
-            _e(r["m_eff"]), _e(r["e"]), _e(r["v_a_post"]), _e(r["v_b_post"]),
-            f"{_e(r['measured'])} ({r['measured_worst']})", f"{_e(r['truth'])} ({r['truth_worst']})",
+            short_error(r["m_eff"]), short_error(r["e"]), short_error(r["v_a_post"]), short_error(r["v_b_post"]),
+            f"{short_error(r['measured'])} ({r['measured_worst']})", f"{short_error(r['truth'])} ({r['truth_worst']})",
             "/".join("yes" if r[k] else "no" for k in ("front", "front_cpu", "front_rhs")),
         ])
-    return _md(header, rows)
+    return md_table(header, rows)
 
 
 def format_wp_references(result: dict) -> str:
@@ -393,8 +396,8 @@ def format_wp_references(result: dict) -> str:
         h = sc["ref_half_error"]
         rows.append([sc["label"], f"{sc['default'][0]}/{sc['default'][1]}", f"{sc['ref'][0]}/{sc['ref'][1]}",
                      f"{sc['ref_wall'] * 1e3:.0f}", f"{sc['m_eff']:.4g}", f"{sc['e']:.4f}",
-                     _e(h["ident"]), _e(h["velocity"]), _e(h["truth"])])
-    return _md(["scene", "default c/f", "reference c/f", "reference wall [ms]", "m* ref [kg]", "e ref",
+                     short_error(h["ident"]), short_error(h["velocity"]), short_error(h["truth"])])
+    return md_table(["scene", "default c/f", "reference c/f", "reference wall [ms]", "m* ref [kg]", "e ref",
                 "half-ref vs ref: m*, e", "v'", "truth channels"], rows)
 
 
@@ -430,7 +433,7 @@ def plot_work_precision(result: dict, path: str | os.PathLike) -> Path:
             if r["setting"] == "rk4 uniform 0.1 ms":
                 ax.scatter([r["wall"] * 1e3], [max(r["combined"], ERR_FLOOR)], s=120, marker="+", color="k",
                            label="rig RK4, uniform 0.1 ms", zorder=5)
-        target = TARGET_FLEXIBLE if label.startswith("flexible") else TARGET_FIXED
+        target = TARGET_FLEXIBLE if label.startswith(FLEXIBLE) else TARGET_FIXED
         ax.axhline(TARGET_REL_ERR, color="grey", lw=0.7, ls=":")
         ax.axvline(target * 1e3, color="grey", lw=0.7, ls=":")
         ax.set_xscale("log")

@@ -74,7 +74,7 @@ def _ls(args: argparse.Namespace) -> int:
     return 0
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
+def register(subparsers) -> None:
     """Add ``campaign archive {verify,finalize,ls}``."""
     parser = subparsers.add_parser(
         "archive", help=HELP["archive"],

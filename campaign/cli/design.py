@@ -9,8 +9,8 @@ from ..core.errors import InputError
 from ..core.files import check_output_file
 from ..design.run import run_design, write_design
 from ..model.paper import load_paper
+from .args import parse_vector
 from .commands import HELP
-from .meff import parse_vector
 
 
 def register(sub) -> None:

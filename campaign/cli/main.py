@@ -26,15 +26,8 @@ import sys
 from .. import __version__
 from ..core.errors import CampaignError, WriteError
 from ..core.files import source_date_epoch
+from .args import OneLineParser
 from .commands import COMMANDS, HELP
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """An argument parser whose usage errors are one line on stderr, as every other error of
-    the command: ``campaign <cmd>: error: <what>; see 'campaign <cmd> --help'`` (status 2)."""
-
-    def error(self, message: str):
-        self.exit(2, f"{self.prog}: error: {' '.join(message.split())}; see '{self.prog} --help'\n")
 
 
 def _chosen(argv: list[str]) -> str | None:

@@ -15,16 +15,15 @@ from pathlib import Path
 
 from ..core.errors import InputError
 from ..core.files import check_output_file
-from ..core.vocabulary import bases
+from ..core.vocabulary import FLEXIBLE, bases
 from ..model.conventions import angle_count
 from ..model.paper import load_paper
 from ..model.robot import load_robot
 from ..plan.factory import planner_model
 from ..report.figures import plan_maps
 from ..scene.description import rig_values
+from .args import parse_named_lambdas, parse_vector
 from .commands import HELP
-from .meff import _NEGATIVE_VALUE, parse_vector
-from .plan import parse_named_lambdas
 
 __all__ = ["register", "run"]
 
@@ -51,10 +50,9 @@ def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``map`` subcommand."""
     p = subparsers.add_parser("map", help=HELP["map"], description=DESCRIPTION,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    p._negative_number_matcher = _NEGATIVE_VALUE
     p.add_argument("kind", choices=("workspace", "directions"), help="which map")
     p.add_argument("--out", required=True, metavar="PNG", help="figure file (PNG); a PDF is written beside it")
-    p.add_argument("--base", choices=bases(), default="flexible",
+    p.add_argument("--base", choices=bases(), default=FLEXIBLE,
                    help="flexible (default) adds eq 8 and the structure's displacement")
     p.add_argument("--model", metavar="FILE", default=None,
                    help="a saved response model (default: the shipped config/response_model.json)")

@@ -29,18 +29,17 @@ import re
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, bases, gain_sets
 from ..model.conventions import configurations
-from ..model.exiit import effective_mass
-from ..model.paper import configuration_q, impact_direction, load_paper
+from ..model.paper import impact_direction, load_paper
 from ..model.robot import load_robot
-from ..model.robot.floating import attach_to_floating_base
-from ..rig.beam import Beam
-from ..scene.description import make_scene
+from ..model.table2 import table2_column_classes, table2_rows
+from ..rig.base_mass import mass_on_base
+from .args import parse_vector
 from .commands import HELP
 from .meff_model import check_model_options, run_model
 
-__all__ = ["register", "run", "parse_vector", "flexible_base_body", "evaluate", "table2_rows", "format_table2"]
+__all__ = ["register", "run", "format_table2"]
 
 
 DESCRIPTION = """\
@@ -84,22 +83,12 @@ exit status: 0 on success, 2 on bad input (one line on stderr naming the value),
 model file that is corrupted, malformed or fitted for another robot or rig file.
 """
 
-#: Table 2 columns: (column, Table 3 gain class whose lambda it uses, or None for zero)
-TABLE2_COLUMNS = (("m1", None), ("m2", "zero_low"), ("m3", "high"))
-
-# Python 3.11's argparse takes "-1,0,0" for an option flag; accept any argument that starts
-# like a negative number as a value (the rule Python 3.13 adopted; this command has no
-# option that looks like a negative number).
-_NEGATIVE_VALUE = re.compile(r"^-\.?\d")
-
-
 def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``meff`` subcommand to the ``campaign`` command's subparsers."""
     p = subparsers.add_parser(
         "meff", help=HELP["meff"], description=DESCRIPTION, epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p._negative_number_matcher = _NEGATIVE_VALUE
     what = p.add_mutually_exclusive_group(required=True)
     what.add_argument("--config", metavar="N",
                       help="configuration of the robot (the PUMA 560's: the paper's Table 1, 1, 2 or 3)")
@@ -135,37 +124,6 @@ def register(subparsers) -> argparse.ArgumentParser:
 
 
 # -- parsing --------------------------------------------------------------------------
-def parse_vector(text: str, *, option: str, size: int, units: str = "") -> list[float]:
-    """Parse ``"a,b,c"`` into ``size`` finite floats, or raise InputError naming the value.
-
-    Parameters
-    ----------
-    text : str
-        The option's value as typed.
-    option : str
-        Option name for the message (``"--lambda"``).
-    size : int
-        Number of values expected.
-    units : str
-        Units for the message.
-    """
-
-    unit = f" [{units}]" if units else ""
-    parts = [s.strip() for s in str(text).split(",")]
-    if len(parts) != size:
-        raise InputError(f"{option} {text}: expected {size} comma-separated values{unit}, got {len(parts)}")
-    out = []
-    for i, s in enumerate(parts, start=1):
-        try:
-            v = float(s)
-        except ValueError:
-            raise InputError(f"{option} {text}: value {i} {s!r} is not a number") from None
-        if not math.isfinite(v):
-            raise InputError(f"{option} {text}: value {i} = {s} is not a finite number")
-        out.append(v)
-    return out
-
-
 def _arm_q(args, robot):
     """(config or None, the robot's angles [deg], model angles [rad]) from --config / --q."""
 
@@ -213,91 +171,16 @@ def _direction(args) -> list[float]:
     return (n / norm).tolist()
 
 
-# -- evaluation -----------------------------------------------------------------------
-def flexible_base_body(rig_path=None):
-    """The emulated base body of the flexible scene, exactly as the rig builds it.
-
-    Platform (``flexible.platform_mass`` [kg], ``flexible.platform_inertia`` [kg m^2]) plus
-    the beam's tip share of its mass (:meth:`campaign.rig.beam.Beam.base_body`), the arm's
-    base frame ``flexible.mount_height`` [m] above the beam tip.
-
-    Parameters
-    ----------
-    rig_path : str or Path, optional
-        Rig parameter file; default ``config/rig.yaml``.
-
-    Returns
-    -------
-    campaign.model.robot.floating.BaseBody
-    """
-
-    return Beam.from_scene(make_scene(base="flexible", rig=rig_path)).base_body()
-
-
-def evaluate(robot, q, *, lam, n, base: str = "fixed", base_body=None) -> float:
-    """Effective mass [kg] of ``robot`` at DH angles ``q`` [rad] (eq 11, ``inf`` off range).
-
-    Parameters
-    ----------
-    robot : campaign.model.robot.Robot
-    q : array_like, shape (nv,)
-        DH joint angles [rad].
-    lam : array_like, shape (nv,)
-        Diagonal Virtual Rotor Inertia [kg m^2].
-    n : array_like, shape (3,)
-        Impact direction in the arm's base frame.
-    base : {"fixed", "flexible"}
-        Eq 7 or eq 8.
-    base_body : BaseBody, optional
-        Base of the flexible case; default :func:`flexible_base_body`.
-    """
-
-    if base == "fixed":
-        return effective_mass(robot, q, n, lam)
-    if base == "flexible":
-        frobot = attach_to_floating_base(robot, flexible_base_body() if base_body is None else base_body)
-        return effective_mass(frobot, q, n, lam)
-    raise ValueError(f"unknown base {base!r}; expected 'fixed' or 'flexible'")
-
-
-def table2_rows(robot=None) -> list[dict]:
-    """Table 2 of the paper recomputed: one row per (configuration, column).
-
-    ``m1`` uses lambda = 0, ``m2`` and ``m3`` the paper's Table 3 lambda of the Zero/Low and
-    High gain classes; fixed base, the paper's impact direction.
-
-    Returns
-    -------
-    list of dict
-        Keys ``config``, ``column``, ``gain_class`` (None for m1), ``lambda`` [kg m^2],
-        ``model`` [kg], ``paper`` [kg], ``rel_diff`` = (model - paper) / paper.
-    """
-
-    paper = load_paper()
-    robot = load_robot(paper["robot"]) if robot is None else robot
-    n = impact_direction()
-    rows = []
-    for column, gain_class in TABLE2_COLUMNS:
-        lam = [0.0] * robot.nv if gain_class is None else [float(v) for v in paper["table3"][gain_class]]
-        for config in sorted(paper["configurations"]):
-            model = effective_mass(robot, configuration_q(config), n, lam)
-            published = float(paper["table2"][column][config])
-            rows.append({
-                "config": int(config), "column": column, "gain_class": gain_class, "lambda": lam,
-                "model": model, "paper": published, "rel_diff": (model - published) / published,
-            })
-    return rows
-
-
+# -- output -----------------------------------------------------------------------------
 def format_table2(rows: list[dict]) -> str:
     """Plain-text Table 2: configurations as rows, model / paper / difference per column."""
-    columns = [c for c, _ in TABLE2_COLUMNS]
+    columns = [c for c, _ in table2_column_classes()]
     by = {(r["config"], r["column"]): r for r in rows}
     configs = sorted({r["config"] for r in rows})
     lines = ["Table 2: effective mass m* [kg] of the tip along the paper's n, fixed base (eq 7, 11)"]
-    for column, gain_class in TABLE2_COLUMNS:
+    for column, gain_class in table2_column_classes():
         lam = by[(configs[0], column)]["lambda"]
-        source = "zero" if gain_class is None else f"the paper's Table 3, {gain_class} gains"
+        source = "zero" if gain_class is None else f"the paper's Table 3, {gain_class} gains"  # not a vocabulary name
         lines.append(f"  {column}: lambda = {_fmt(lam)} kg m^2 ({source})")
     lines.append("")
     head = "config" + "".join(f"  {c + ' model':>9} {c + ' paper':>9} {'diff':>7}" for c in columns)
@@ -333,14 +216,14 @@ def run(args) -> int:
     if args.table:
         extra = [f"{opt} {val}" for opt, val in (("--lambda", args.lam), ("--direction", args.direction),
                                                  ("--robot", args.robot)) if val is not None]
-        if args.base == "flexible":
+        if args.base == FLEXIBLE:
             extra.append("--base flexible")
         if extra:
             raise InputError(f"--table reproduces the paper's Table 2 (fixed base, the paper's n and "
                              f"Table 3 lambda) and takes no {', '.join(extra)}")
         rows = table2_rows()
         if args.json:
-            print(json.dumps({"table": "2", "units": "kg", "base": "fixed", "robot": paper["robot"],
+            print(json.dumps({"table": "2", "units": "kg", "base": FIXED, "robot": paper["robot"],
                               "direction": impact_direction().tolist(), "rows": rows}))
         else:
             print(format_table2(rows))
@@ -352,8 +235,8 @@ def run(args) -> int:
     if args.model is not None:
         return run_model(args, robot=robot, config=config, q_paper=q_paper, q=q, n=n)
     lam = _lambda(args, robot.nv)
-    base = args.base or "fixed"
-    m = evaluate(robot, q, lam=lam, n=n, base=base)
+    base = args.base or FIXED
+    m = mass_on_base(robot, q, lam=lam, n=n, base=base)
     infinite = math.isinf(m)
     if args.json:
         print(json.dumps({
@@ -365,7 +248,7 @@ def run(args) -> int:
     where = f", configuration {config}" if config is not None else ""
     value = "inf (n leaves the range of G*_33: the tip cannot move along n)" if infinite else f"{m:.6g}"
     print(f"m*        = {value} kg")
-    print(f"base      = {base} (eq {'7' if base == 'fixed' else '8'})")
+    print(f"base      = {base} (eq {'7' if base == FIXED else '8'})")
     convention = "paper" if robot.name == paper["robot"] else f"{robot.name}'s angles"
     print(f"arm       = {robot.name}{where}, q = {_fmt(q_paper)} deg ({convention}) = "
           f"{_fmt(np.degrees(q))} deg ({'DH' if robot.name == paper['robot'] else 'model'})")

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..joints.impacts import Impacts
 from ..joints.modelfile import load_model, shipped_model_path
 from ..joints.setting import Setting, display_path
@@ -43,7 +44,7 @@ def check_model_options(args) -> None:
         raise InputError(f"--speed {args.speed:g}: the object's speed must be > 0 m/s")
     if args.mass is not None and not (math.isfinite(args.mass) and args.mass > 0):
         raise InputError(f"--mass {args.mass:g}: the object's mass must be > 0 kg")
-    if args.structure is not None and args.base != "flexible":
+    if args.structure is not None and args.base != FLEXIBLE:
         raise InputError("--structure names the flexible base's structure: give --base flexible too")
 
 
@@ -57,10 +58,10 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
     path = args.model or shipped_model_path()
     shown = display_path(path) + (" (shipped)" if not args.model else "")
     model = load_model(path, setting=setting)
-    base = args.base or "fixed"
+    base = args.base or FIXED
     impacts = Impacts(q=np.asarray(q, float)[None], direction=np.asarray(n, float)[None], speed=float(args.speed),
                       gain=str(args.gain), mass=None if args.mass is None else float(args.mass),
-                      pendulum=args.mass is None, base=base, structure=args.structure if base == "flexible" else None)
+                      pendulum=args.mass is None, base=base, structure=args.structure if base == FLEXIBLE else None)
     m, lo, hi = (float(x[0]) for x in model.predict_interval(impacts))
     extra = {}
     if hasattr(model, "respond"):
@@ -68,8 +69,8 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
         extra = {"contact_duration": float(r.duration[0, 0]), "impulse": float(r.impulse[0, 0])}
         if r.base_peak is not None:
             extra["peak_base_displacement"] = float(r.base_peak[0, 0])
-    structure = setting.structure if base == "flexible" else None
-    coupling = ("VES loop" if setting.loop is not None else "ideal coupling") if base == "flexible" else None
+    structure = setting.structure if base == FLEXIBLE else None
+    coupling = ("VES loop" if setting.loop is not None else "ideal coupling") if base == FLEXIBLE else None
     mass = setting.hammer_mass if args.mass is None else float(args.mass)
     if args.json:
         print(json.dumps({

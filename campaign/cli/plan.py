@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases
+from ..core.vocabulary import FIXED, FLEXIBLE, bases
 from ..joints.modelfile import shipped_model_path
 from ..joints.setting import display_path
 from ..model.conventions import angle_count
@@ -28,10 +28,10 @@ from ..plan.directions import cone_directions, horizontal_directions
 from ..plan.factory import build_planner, planner_model
 from ..plan.prediction import check_object
 from ..scene.description import rig_values
+from .args import parse_named_lambdas, parse_vector
 from .commands import HELP
-from .meff import _NEGATIVE_VALUE, parse_vector
 
-__all__ = ["register", "run", "parse_named_lambdas"]
+__all__ = ["register", "run"]
 
 
 DESCRIPTION = """\
@@ -90,7 +90,6 @@ def register(subparsers) -> argparse.ArgumentParser:
     """Add the ``plan`` subcommand to the ``campaign`` command's subparsers."""
     p = subparsers.add_parser("plan", help=HELP["plan"], description=DESCRIPTION, epilog=EPILOG,
                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    p._negative_number_matcher = _NEGATIVE_VALUE
     p.add_argument("--point", metavar="X,Y,Z", required=True, help="contact point in the arm's base frame [m]")
     dirs = p.add_mutually_exclusive_group()
     dirs.add_argument("--direction", metavar="X,Y,Z",
@@ -105,7 +104,7 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--speed", type=float, default=2.0, help="object speed along n [m/s] (default 2.0)")
     p.add_argument("--restitution", type=float, default=None,
                    help="restitution e (default: contact.restitution of config/rig.yaml)")
-    p.add_argument("--base", choices=bases(), default="fixed",
+    p.add_argument("--base", choices=bases(), default=FIXED,
                    help="fixed: ground-fixed arm (eq 7); flexible: on the rig's cantilever (eq 8)")
     p.add_argument("--model", metavar="FILE", default=None,
                    help="a saved response model (default: the shipped config/response_model.json)")
@@ -123,23 +122,6 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object with every candidate")
     p.set_defaults(func=run)
     return p
-
-
-def parse_named_lambdas(texts, *, nv: int) -> dict[str, list[float]]:
-    """``--lambda NAME=L1,L2,L3`` options as ``{NAME: [L1, L2, L3]}`` (kg m^2, each >= 0), ``nv``
-    values each (one per joint of the planner's robot)."""
-    out: dict[str, list[float]] = {}
-    for text in texts:
-        name, sep, values = str(text).partition("=")
-        if not sep or not name.strip():
-            raise InputError(f"--lambda {text}: expected NAME=L1,L2,L3")
-        lam = parse_vector(values, option=f"--lambda {name.strip()}", size=nv, units="kg m^2")
-        if any(v < 0 for v in lam):
-            raise InputError(f"--lambda {text}: lambda must be >= 0 kg m^2")
-        if name.strip() in out:
-            raise InputError(f"--lambda {text}: gain class {name.strip()!r} is given twice; give each class once")
-        out[name.strip()] = lam
-    return out
 
 
 def _directions(args):
@@ -190,7 +172,7 @@ def run(args) -> int:
     if args.top < 0:
         raise InputError(f"--top {args.top}: must be >= 0")
     weights = parse_vector(args.weights, option="--weights", size=3)
-    if args.objective == "displacement" and args.base != "flexible":
+    if args.objective == "displacement" and args.base != FLEXIBLE:
         raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
@@ -213,7 +195,7 @@ def run(args) -> int:
             "candidates": rows,
         }))
         return 0
-    flex = args.base == "flexible"
+    flex = args.base == FLEXIBLE
     how = f"(eq {'8' if flex else '7'})" if model is None else "(response model)"
     print(f"point      = {_fmt(point, '.4g')} m, base {args.base} {how}")
     print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")

@@ -11,10 +11,10 @@ from pathlib import Path
 from ..archive import TRIAL_BYTES
 from ..core.errors import InputError
 from ..core.files import check_output_dir
-from ..core.vocabulary import bases, config_folder, gain_sets, layout
-from ..pipeline.simulate import run_cells
+from ..core.vocabulary import FIXED, bases, config_folder, gain_sets, layout
+from ..pipeline.sweep import run_cells
+from .args import key_value
 from .commands import HELP
-from .trial import _param
 
 
 def _items(text: str, *, option: str, convert, what: str) -> list:
@@ -45,7 +45,7 @@ def register(sub) -> None:
         "write one NetCDF4/HDF5 file per trial under OUT, at the campaign's paths "
         "(<base>/config<N>/<gain>/v<speed>/r<repeat>.nc). Rig parameters come from config/rig.yaml (SI units).",
     )
-    p.add_argument("--base", choices=bases(), default="fixed", help="base of every trial (default fixed)")
+    p.add_argument("--base", choices=bases(), default=FIXED, help="base of every trial (default fixed)")
     p.add_argument("--configs", default="1,2,3", metavar="N,N",
                    help="arm configurations of the robot (the PUMA 560's: the paper's Table 1; default 1,2,3)")
     p.add_argument("--gains", default=",".join(gain_sets()), metavar="G,G",
@@ -56,7 +56,7 @@ def register(sub) -> None:
     p.add_argument("--campaign-seed", type=int, default=0, metavar="S",
                    help="seed the trials' seeds derive from, with their cells (default 0)")
     p.add_argument("--rig", default=None, metavar="PATH", help="rig parameter file (default config/rig.yaml)")
-    p.add_argument("--set", dest="params", type=_param, action="append", default=[], metavar="KEY=VALUE",
+    p.add_argument("--set", dest="params", type=key_value, action="append", default=[], metavar="KEY=VALUE",
                    help="override a rig parameter by dotted key, e.g. --set contact.stiffness=2000 (SI units)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder the trial files go under (written atomically)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")

@@ -2,26 +2,17 @@
 
 from __future__ import annotations
 
-import argparse
 import time
 
 from ..archive import TRIAL_BYTES, write_trial
 from ..core.files import check_output_file
-from ..core.vocabulary import bases, gain_sets
-from ..core.yamlfile import yaml_load
+from ..core.vocabulary import FIXED, ZERO, bases, gain_sets
 from ..model.conventions import angle_count
 from ..plan.stroke import check_scene_stroke
 from ..rig import simulate
 from ..scene.description import make_scene, rig_values
+from .args import key_value, parse_vector
 from .commands import HELP
-from .meff import parse_vector
-
-
-def _param(text: str):
-    if "=" not in text:
-        raise argparse.ArgumentTypeError(f"--set expects KEY=VALUE, got {text!r}")
-    key, value = text.split("=", 1)
-    return key.strip(), yaml_load(value)
 
 
 def register(sub) -> None:
@@ -32,7 +23,7 @@ def register(sub) -> None:
         "its raw sensor channels (group /measured) and the simulator truth (group /truth) to one file. "
         "Rig parameters come from config/rig.yaml (SI units); --set overrides any of them.",
     )
-    p.add_argument("--base", choices=bases(), default="fixed",
+    p.add_argument("--base", choices=bases(), default=FIXED,
                    help="ground-fixed base, or the flexible long-reach base emulated by the VES (default: fixed)")
     pose = p.add_mutually_exclusive_group()
     pose.add_argument("--config", type=int, default=None, metavar="N",
@@ -40,13 +31,13 @@ def register(sub) -> None:
                            "default 1)")
     pose.add_argument("--q", default=None, metavar="Q1,Q2,Q3",
                       help="any arm pose instead, one angle per joint of the robot, in its own angles [deg] (the "
-                           "PUMA 560's are the paper's: q_DH = q + (0, 0, -90) deg); write --q=-10,150,90 when the "
-                           "first angle is negative")
+                           "PUMA 560's are the paper's: q_DH = q + (0, 0, -90) deg); a negative first angle works "
+                           "as it is (--q -10,150,90)")
     p.add_argument("--direction", default=None, metavar="NX,NY,NZ",
                    help="impact direction n in the arm's base frame: a horizontal unit vector (the hammer moves "
                         "horizontally at the bottom of its swing; default the paper's -x). The pendulum is placed to "
                         "strike the impact point along n; a pose or direction it cannot strike is refused")
-    p.add_argument("--gain", choices=gain_sets(), default="zero",
+    p.add_argument("--gain", choices=gain_sets(), default=ZERO,
                    help="servo gain set of Table 1, in the paper's controller counts (default zero)")
     p.add_argument("--speed", type=float, required=True, metavar="V",
                    help="hammer speed along the impact direction at the touch [m/s] (the paper: 1.0-2.5)")
@@ -57,7 +48,7 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=None, metavar="S",
                    help="RNG seed of the sensors and the touch instant (default: derived from the cell)")
     p.add_argument("--rig", default=None, metavar="PATH", help="rig parameter file (default config/rig.yaml)")
-    p.add_argument("--set", dest="params", type=_param, action="append", default=[], metavar="KEY=VALUE",
+    p.add_argument("--set", dest="params", type=key_value, action="append", default=[], metavar="KEY=VALUE",
                    help="override a rig parameter by dotted key, e.g. --set contact.stiffness=2000 (SI units)")
     p.add_argument("--out", required=True, metavar="PATH", help="trial file to write (.nc); written atomically")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")

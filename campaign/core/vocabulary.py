@@ -1,13 +1,17 @@
 """The campaign's vocabulary: bases, gain sets and classes, and where a trial lives in an archive.
 
 The names come from ``config/paper.yaml`` (its ``bases``, the gain sets of its Table 1 and
-the gain classes of its Tables 2-3); the archive layout is spelled here once:
+the gain classes of its Tables 2-3) and ``config/rig.yaml`` (its ``structures``); code names
+one of them through the constants below, never by a string of its own (``tests/test_layout.py``
+finds such strings, ``tests/test_vocabulary.py`` checks the constants against the files). The
+archive layout is spelled here once:
 
     <base>/<pose>/<gain>/v<speed m/s, 3 decimals>/r<repeat, 2 digits>.nc
 
 with ``<pose>`` ``config<N>`` for a paper configuration struck along the paper's direction,
 else ``pose-<q1>_<q2>_<q3>-n<azimuth>``. The scene, the archive, the pipeline and the
-workflow's helpers all build and read paths with these functions. Standard library and
+workflow's plan all build and read paths with these functions (:func:`trial_pattern` gives
+the workflow's output pattern, :func:`parse_trial_relpath` reads a path back). Standard library and
 PyYAML only: the workflow imports this module while Snakemake builds the DAG.
 """
 
@@ -24,15 +28,32 @@ from .errors import InputError
 from .yamlfile import config_dir, read_yaml
 
 __all__ = [
-    "TRIAL_SUFFIX", "SPEED_DECIMALS", "bases", "gain_sets", "gain_classes", "check_cell", "speed_folder",
+    "FIXED", "FLEXIBLE", "ZERO", "LOW", "HIGH", "ZERO_LOW", "STIFF_MAST", "SPACE_CLASS", "NAMES", "TRIAL_SUFFIX", "SPEED_DECIMALS", "bases", "gain_sets", "gain_classes", "check_cell", "speed_folder",
     "repeat_file", "config_folder", "layout", "custom_pose_folder", "direction_azimuth", "pose_folder", "cell_dir",
-    "trial_relpath", "misfiled",
+    "trial_relpath", "trial_pattern", "trial_wildcards", "parse_trial_relpath", "misfiled", "table2_columns",
+    "table2_column", "figure_cells",
 ]
+
+#: the bases (``config/paper.yaml`` ``bases``)
+FIXED, FLEXIBLE = "fixed", "flexible"
+#: the gain sets of the paper's Table 1 (``config/paper.yaml`` ``gains``)
+ZERO, LOW, HIGH = "zero", "low", "high"
+#: the gain class pooling Zero and Low (``config/paper.yaml`` ``gain_classes``); the other
+#: class holds High alone and is named :data:`HIGH`
+ZERO_LOW = "zero_low"
+#: the structures a flexible base emulates (``config/rig.yaml`` ``structures``)
+STIFF_MAST, SPACE_CLASS = "stiff_mast", "space_class"
+#: every name above: code spells none of them as a string of its own
+NAMES = frozenset({FIXED, FLEXIBLE, ZERO, LOW, HIGH, ZERO_LOW, STIFF_MAST, SPACE_CLASS})
 
 #: suffix of a trial file
 TRIAL_SUFFIX = ".nc"
 #: decimals of a speed in a trial's path (``v1.500``); speeds must differ at this precision
 SPEED_DECIMALS = 3
+# the first letters of a speed folder, a repeat file and a paper configuration's pose folder,
+# and the digits of a repeat
+_SPEED_PREFIX, _REPEAT_PREFIX, _CONFIG_PREFIX = "v", "r", "config"
+_REPEAT_DIGITS = 2
 
 
 def _paper() -> dict:
@@ -54,6 +75,40 @@ def gain_classes() -> dict[str, tuple[str, ...]]:
     return {str(k): tuple(str(g) for g in v) for k, v in _paper()["gain_classes"].items()}
 
 
+def table2_columns() -> dict[str, str]:
+    """The experiment columns of the paper's Table 2 and the gain class whose trials each
+    averages: ``{column: class}`` (``m2``: ``zero_low``, ``m3``: ``high``)."""
+    classes = gain_classes()
+    out = {str(k): str(v) for k, v in _paper()["table2_columns"].items()}
+    for name in out.values():
+        if name not in classes:
+            raise InputError(f"paper.yaml table2_columns: unknown gain class {name!r}; expected one of {tuple(classes)}")
+    return out
+
+
+def table2_column(gain: str) -> str:
+    """The Table 2 column that averages the trials of gain set ``gain`` (``m2`` for ``zero``
+    and ``low``, ``m3`` for ``high``)."""
+    classes = gain_classes()
+    for column, name in table2_columns().items():
+        if gain in classes[name]:
+            return column
+    raise InputError(f"gain set {gain!r} is in no column of Table 2; expected one of {gain_sets()}")
+
+
+def figure_cells(figure: str) -> tuple[tuple[str, int, str], ...]:
+    """The sweep cells (base, configuration, gain) whose trials a single-trial figure of the
+    paper shows (``fig5``, ``fig9``), configuration-major, in drawing order."""
+    table = _paper()["figure_cells"]
+    if figure not in table:
+        raise InputError(f"unknown single-trial figure {figure!r}; expected one of {tuple(table)}")
+    spec = table[figure]
+    cells = tuple((str(spec["base"]), int(c), str(g)) for c in spec["configurations"] for g in spec["gains"])
+    for cell in cells:
+        check_cell(*cell)
+    return cells
+
+
 def check_cell(base: str, config: int, gain: str) -> None:
     """A sweep cell's base, paper configuration and gain set, or InputError naming the bad one."""
     if base not in bases():
@@ -66,18 +121,18 @@ def check_cell(base: str, config: int, gain: str) -> None:
 
 def speed_folder(speed: float) -> str:
     """``v<speed>``: the folder of an impact speed [m/s] (:data:`SPEED_DECIMALS` decimals)."""
-    return f"v{float(speed):.{SPEED_DECIMALS}f}"
+    return f"{_SPEED_PREFIX}{float(speed):.{SPEED_DECIMALS}f}"
 
 
 def repeat_file(repeat: int) -> str:
     """``r<NN>.nc``: the file of a repeat."""
-    return f"r{int(repeat):02d}{TRIAL_SUFFIX}"
+    return f"{_REPEAT_PREFIX}{int(repeat):0{_REPEAT_DIGITS}d}{TRIAL_SUFFIX}"
 
 
 def config_folder(config) -> str:
     """``config<N>``: the folder of a paper configuration struck along the paper's direction
     (``config`` may also be a wildcard such as ``"{config}"``)."""
-    return f"config{config}"
+    return f"{_CONFIG_PREFIX}{config}"
 
 
 def layout(base: str, pose: str, gain: str, speed: float, repeat: int) -> tuple[str, str, str, str, str]:
@@ -137,6 +192,49 @@ def trial_relpath(base: str, config: int, gain: str, speed: float, repeat: int) 
         raise InputError(f"repeat must be an integer >= 0, got {repeat!r}")
     check_cell(base, config, gain)
     return "/".join(layout(base, config_folder(config), gain, speed, repeat))
+
+
+def trial_pattern() -> str:
+    """:func:`trial_relpath` with a Snakemake wildcard for each part, ``{base}``, ``{config}``,
+    ``{gain}``, ``{speed}`` and ``{repeat}`` (their values: :func:`trial_wildcards`)."""
+    return "/".join(("{base}", config_folder("{config}"), "{gain}", _SPEED_PREFIX + "{speed}",
+                     f"{_REPEAT_PREFIX}{{repeat}}{TRIAL_SUFFIX}"))
+
+
+def trial_wildcards() -> dict[str, str]:
+    """Regular expressions of the base, speed and repeat of :func:`trial_pattern`, as
+    :func:`trial_relpath` writes them."""
+    return {"base": "|".join(bases()), "speed": rf"[0-9]+\.[0-9]{{{SPEED_DECIMALS}}}",
+            "repeat": f"[0-9]{{{_REPEAT_DIGITS}}}"}
+
+
+def parse_trial_relpath(path: str | os.PathLike) -> dict[str, Any]:
+    """The cell, speed and repeat a trial's path names (its last five parts).
+
+    Returns ``{"base", "pose", "config", "gain", "speed", "repeat"}``: ``config`` is the
+    paper configuration of a ``config<N>`` pose folder, else None. A path that is not in the
+    layout as :func:`layout` writes it raises InputError naming it.
+
+    Examples
+    --------
+    >>> parse_trial_relpath("archive/ci/fixed/config1/zero/v2.500/r00.nc")["speed"]
+    2.5
+    """
+    parts = Path(path).parts[-5:]
+    try:
+        base, pose, gain, speed_part, repeat_part = parts
+        speed = float(speed_part.removeprefix(_SPEED_PREFIX))
+        repeat = int(repeat_part.removeprefix(_REPEAT_PREFIX).removesuffix(TRIAL_SUFFIX))
+        exact = (layout(base, pose, gain, speed, repeat) == parts and base in bases() and gain in gain_sets()
+                 and math.isfinite(speed) and speed > 0 and repeat >= 0)
+    except ValueError:
+        exact = False
+    if not exact:
+        raise InputError(f"{path}: not a trial path <base>/<pose>/<gain>/{_SPEED_PREFIX}<speed>/"
+                         f"{_REPEAT_PREFIX}<repeat>{TRIAL_SUFFIX}")
+    number = pose.removeprefix(_CONFIG_PREFIX)
+    config = int(number) if pose.startswith(_CONFIG_PREFIX) and number.isdigit() else None
+    return {"base": base, "pose": pose, "config": config, "gain": gain, "speed": speed, "repeat": repeat}
 
 
 #: the attributes that place a trial in an archive, in path order

@@ -5,7 +5,7 @@ are paper-degree poses with horizontal impact directions; :func:`paper_design` i
 paper's three configurations. :func:`feasible` keeps those the rig can strike (joint
 limits, the pendulum's placement, :mod:`campaign.rig.placement`, and a hammer lighter than
 the arm's free effective mass); :func:`rig_refusal` checks a chosen pose again by
-assembling its rig (:func:`campaign.rig.simulate.build`) for every gain and speed, which
+assembling its rig (:func:`campaign.rig.trial.build`) for every gain and speed, which
 also refuses a pose whose servo would be unstable.
 """
 
@@ -18,11 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED
 from ..model.exiit import effective_mass
 from ..model.paper import impact_direction, load_paper, paper_offset_deg, paper_q
 from ..rig.pendulum import Pendulum
 from ..rig.placement import place_pendulum, placement_params
-from ..rig.simulate import build
+from ..rig.trial import build
 from ..scene.description import (
     check_direction,
     direction_from_azimuth,
@@ -134,7 +135,7 @@ def rig_refusal(q_paper, n, *, gains: Sequence[str], speeds: Sequence[float], ri
     for gain in gains:
         for v in speeds:
             try:
-                build(make_scene(base="fixed", config=0, q_paper_deg=[float(x) for x in q_paper],
+                build(make_scene(base=FIXED, config=0, q_paper_deg=[float(x) for x in q_paper],
                                  direction=[float(x) for x in n], gain=gain, speed=float(v), rig=rig))
             except (InputError, ValueError) as exc:
                 return f"{gain} gains, {v:g} m/s: {exc}"

@@ -35,8 +35,10 @@ import numpy as np
 from ..archive import trial_path, write_trial
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.stats import Z95
 from ..core.timing import Timer
-from ..core.vocabulary import direction_azimuth, gain_classes, gain_sets
+from ..core.vocabulary import FIXED, FLEXIBLE, direction_azimuth, gain_classes, gain_sets
+from ..identify.results import is_usable
 from ..identify.table import identify_trials, read_identification
 from ..joints.coulomb import CoulombLambdaFit
 from ..joints.impacts import Impacts
@@ -172,7 +174,7 @@ def scenes(the_plan: Mapping[str, Any], role: str, gain: str, *, structure: str 
 
     if role not in ROLES:
         raise InputError(f"unknown role {role!r}; expected one of {ROLES}")
-    base = "fixed" if structure is None else "flexible"
+    base = FIXED if structure is None else FLEXIBLE
     params = None if structure is None else {"flexible.structure": structure}
     out = []
     for p in the_plan["poses"][role]:
@@ -264,7 +266,7 @@ def _fit_summary(est) -> dict[str, Any]:
             "rms_log_residual": est.rms_log_residual_}
 
 
-def _asymptotic_ci(est, rows, *, z: float = 1.959963984540054) -> dict[str, Any]:
+def _asymptotic_ci(est, rows, *, z: float = Z95) -> dict[str, Any]:
     """Gauss-Newton 95 % intervals of a LambdaFit from its per-trial sensitivities and residuals:
     ``cov(ln lambda) = s^2 (S^T S)^-1``, ``s^2 = RSS / (N - nv)``. Used where a stratified
     bootstrap cannot vary (one trial per pose, as in a fit per speed)."""
@@ -314,8 +316,7 @@ def report(plan_json, ident_tables: Mapping[str, Sequence[str]], out_json, out_m
 
     with open(plan_json, encoding="utf-8") as fh:
         the_plan = json.load(fh)
-    rows = {role: [r for r in read_identification(ident_tables.get(role, ()))
-                   if not r["excluded"] and math.isfinite(r["m_eff"]) and r["m_eff"] > 0] for role in ROLES}
+    rows = {role: [r for r in read_identification(ident_tables.get(role, ())) if is_usable(r)] for role in ROLES}
     excluded = {role: sum(1 for r in read_identification(ident_tables.get(role, ())) if r["excluded"])
                 for role in ROLES}
     robot = load_robot(next(r["robot"] for role in ROLES for r in rows[role]))

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.vocabulary import FLEXIBLE
 from ..identify.table import read_identification
 from ..joints.impacts import Impacts
 from ..joints.impedance_model import JointImpedance
@@ -47,7 +48,7 @@ def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, S
     model.structure_scatter_, model.structure_residuals_ = {}, {}
     for name, tables in sorted(flexible_tables.items()):
         imp = Impacts.from_records(read_identification(tables), structure=name)
-        if imp.base != "flexible":
+        if imp.base != FLEXIBLE:
             raise InputError(f"structure {name}: its trials are not on the flexible base")
         r = np.log(model.predict(imp)) - np.log(imp.m_eff)
         ok = np.isfinite(r)

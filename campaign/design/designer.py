@@ -33,17 +33,16 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.stats import Z95
 from ..core.vocabulary import direction_azimuth
 from ..joints.lambda_fit import design_arrays
 from ..model.paper import paper_q
 from .error_model import ErrorModel
 
-__all__ = ["ExperimentDesign", "CRITERIA", "Z95"]
+__all__ = ["ExperimentDesign", "CRITERIA"]
 
 #: optimality criteria
 CRITERIA = ("D", "A", "E")
-#: two-sided 95 % normal quantile
-Z95 = 1.959963984540054
 
 
 def _arrays(robot, Q_paper, D):

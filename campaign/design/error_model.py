@@ -24,6 +24,7 @@ import numpy as np
 
 from ..archive import open_trial_arrays
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED
 from ..core.yamlfile import PROJECT_DIR
 from ..identify.table import read_identification
 
@@ -116,7 +117,7 @@ def calibrate_error_model(ident_tables: Sequence[str | Path] | None = None, *,
     for t in ident_tables:
         if not Path(t).is_file():
             raise InputError(f"identification table {t} does not exist (the error model is calibrated from it)")
-    rows = [r for r in read_identification(ident_tables) if r["base"] == "fixed" and not r["excluded"]]
+    rows = [r for r in read_identification(ident_tables) if r["base"] == FIXED and not r["excluded"]]
     mi, mt, mb, v = [], [], [], []
     for r in rows:
         path = Path(r["path"])

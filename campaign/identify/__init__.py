@@ -17,17 +17,18 @@ The methods, their equations and their measured accuracy: user guide, *Identific
 from __future__ import annotations
 
 from .channels import base_geometry
-from .contact import Contact, detect_contact
+from .contact import ContactWindow, detect_contact
 from .hammer import hammer_velocity
 from .loading import find_trials, identify_file, identify_files, load_trial
-from .options import ACCURACY_NOTE, REQUIRED_CHANNELS, IdentifyOptions
+from .options import ACCURACY_NOTE, REQUIRED_CHANNELS, IdentifyOptions, check_identify_options
 from .results import TrialIdentification
+from .table import identify_trials, read_identification
 from .trial import identify_trial
 
 __all__ = [
     "ACCURACY_NOTE",
     "REQUIRED_CHANNELS",
-    "Contact",
+    "ContactWindow",
     "IdentifyOptions",
     "TrialIdentification",
     "base_geometry",
@@ -37,5 +38,8 @@ __all__ = [
     "identify_file",
     "identify_files",
     "identify_trial",
+    "identify_trials",
     "load_trial",
+    "read_identification",
+    "check_identify_options",
 ]

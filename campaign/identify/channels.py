@@ -19,7 +19,8 @@ xr = LazyModule("xarray")
 # ----------------------------------------------------------------------------------------
 # measured channels
 # ----------------------------------------------------------------------------------------
-def _check_channels(ds: xr.Dataset, names: Mapping[str, tuple], where: str) -> None:
+def check_channels(ds: xr.Dataset, names: Mapping[str, tuple], where: str) -> None:
+    """Raise InputError (naming ``where``) unless ``ds`` holds each channel of ``names`` with its dims."""
     for name, dims in names.items():
         if name not in ds.variables:
             raise InputError(f"{where}: the measured group has no channel {name!r}")
@@ -27,7 +28,8 @@ def _check_channels(ds: xr.Dataset, names: Mapping[str, tuple], where: str) -> N
             raise InputError(f"{where}: channel {name!r} has dims {tuple(ds[name].dims)}, expected {dims}")
 
 
-def _time(ds: xr.Dataset, dim: str, where: str) -> np.ndarray:
+def time_coordinate(ds: xr.Dataset, dim: str, where: str) -> np.ndarray:
+    """The clock ``dim`` of ``ds`` [s]; InputError unless finite, strictly increasing, >= 2 samples."""
     if dim not in ds.coords:
         raise InputError(f"{where}: time coordinate {dim!r} is missing")
     t = np.asarray(ds[dim].values, dtype=float)
@@ -37,7 +39,7 @@ def _time(ds: xr.Dataset, dim: str, where: str) -> np.ndarray:
     return t
 
 
-def _servo_channel(ds: xr.Dataset, nv: int, where: str):
+def servo_channel(ds: xr.Dataset, nv: int, where: str):
     """``(t_servo, tau_cmd)`` when the trial has a usable commanded-torque channel (dims
     ``(t_servo, joint)``, ``nv`` joints, finite), else ``None`` (the joint model then falls
     back to ``arm_model="lti"``)."""
@@ -46,10 +48,11 @@ def _servo_channel(ds: xr.Dataset, nv: int, where: str):
     tau = np.asarray(ds["tau_cmd"].values, float)
     if tau.shape[1] != nv or tau.shape[0] < 2 or not np.all(np.isfinite(tau)):
         return None
-    return _time(ds, "t_servo", where), tau
+    return time_coordinate(ds, "t_servo", where), tau
 
 
-def _finite_scalar(ds, name, where, positive=True) -> float:
+def finite_constant(ds, name, where, positive=True) -> float:
+    """The measured constant ``name`` of ``ds``; InputError unless finite (and > 0 when ``positive``)."""
     v = float(ds[name].values)
     if not math.isfinite(v) or (positive and v <= 0):
         raise InputError(f"{where}: constant {name} = {v!r} must be a finite number > 0")
@@ -84,14 +87,16 @@ def base_geometry(measured: xr.Dataset, meta: Mapping, where: str = "trial") -> 
     return com, np.array([0.0, 0.0, h])
 
 
-def _int_or(v, default: int) -> int:
+def int_or(v, default: int) -> int:
+    """``int(v)``, or ``default`` when ``v`` is not a number."""
     try:
         return int(v)
     except (TypeError, ValueError):
         return default
 
 
-def _float_or(v) -> float:
+def float_or_nan(v) -> float:
+    """``float(v)``, or NaN when ``v`` is not a number."""
     try:
         return float(v)
     except (TypeError, ValueError):

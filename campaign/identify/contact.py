@@ -11,8 +11,8 @@ from .options import IdentifyOptions
 
 
 @dataclasses.dataclass(frozen=True)
-class Contact:
-    """The contact found in the piezo force.
+class ContactWindow:
+    """The contact window found in the piezo force: when the hammer touched the arm and how hard.
 
     Attributes
     ----------
@@ -119,7 +119,7 @@ def _edge_power(t: np.ndarray, r: np.ndarray, idx: np.ndarray, t_line: float, si
     return float(fit.x[1])
 
 
-def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = None) -> Contact:
+def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = None) -> ContactWindow:
     """Find the contact in a piezo force record.
 
     Parameters
@@ -134,7 +134,7 @@ def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = No
 
     Returns
     -------
-    Contact
+    ContactWindow
         ``n_contacts == 0`` when nothing crosses the threshold.
     """
     opt = options or IdentifyOptions()
@@ -159,7 +159,7 @@ def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = No
         else:
             merged.append([a, b])
     if not merged:
-        return Contact(float("nan"), float("nan"), peak, float("nan"), base, sigma, thr, 0, (), False, True)
+        return ContactWindow(float("nan"), float("nan"), peak, float("nan"), base, sigma, thr, 0, (), False, True)
     intervals = tuple((float(t[a]), float(t[b])) for a, b in merged)
     # the main contact: the one with the largest peak
     k = int(np.argmax([r[a:b + 1].max() for a, b in merged]))
@@ -199,11 +199,11 @@ def detect_contact(t, f, full_scale: float, options: IdentifyOptions | None = No
     rr = np.concatenate([[0.0], r[inside], [0.0]])
     imp = float(np.trapezoid(rr, tt))
     saturated = bool(np.any(f[a:b + 1] >= full_scale * (1 - 1e-9)))
-    return Contact(float(t_s), float(t_e), float(r[a:b + 1].max()), imp, base, sigma, thr, len(merged),
+    return ContactWindow(float(t_s), float(t_e), float(r[a:b + 1].max()), imp, base, sigma, thr, len(merged),
                    intervals, saturated, bool(complete))
 
 
-class _ContactInput:
+class ContactInput:
     """The measured force shape of the contact, the input of the arm models.
 
     ``g(t)``: baseline-corrected force over the contact divided by its impulse (integral
@@ -212,7 +212,7 @@ class _ContactInput:
     the start, growing with slope 1 after the end.
     """
 
-    def __init__(self, t, f, contact: Contact, t_stop: float):
+    def __init__(self, t, f, contact: ContactWindow, t_stop: float):
         t = np.asarray(t, float)
         r = np.asarray(f, float) - contact.baseline
         self.start, self.end = contact.start, contact.end

@@ -10,8 +10,8 @@ import pinocchio as pin
 
 from ..core.errors import InputError
 from ..core.lazy import LazyModule
-from .channels import _check_channels, _time
-from .contact import Contact
+from .channels import check_channels, time_coordinate
+from .contact import ContactWindow
 from .options import FT_CHANNELS, IdentifyOptions
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
@@ -59,7 +59,7 @@ def _momentum_map(model, data, q, frame_id: int):
     return A, p, Jt, com
 
 
-def _zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
+def zoh_integral(ts: np.ndarray, tau: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Integral from ``ts[0]`` to each ``t`` of the zero-order-hold signal ``tau`` (value
     ``tau[j]`` held on ``[ts[j], ts[j+1])``), shape (len(t), ncols)."""
     cum = np.vstack([np.zeros((1, tau.shape[1])), np.cumsum(tau[:-1] * np.diff(ts)[:, None], axis=0)])
@@ -124,7 +124,7 @@ class _Balance:
     wrow: np.ndarray
 
 
-def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: np.ndarray, Q: np.ndarray,
+def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: ContactWindow, tj: np.ndarray, Q: np.ndarray,
                     opt: IdentifyOptions, where: str, info: dict | None = None) -> tuple[float, float, str]:
     """Tip velocities along n at the contact edges from the arm's momentum balance.
 
@@ -141,7 +141,7 @@ def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: 
     robot : campaign.model.robot.Robot
     n : ndarray, shape (3,)
         Unit impact direction, base frame.
-    c : Contact
+    c : ContactWindow
     tj, Q : ndarray, shapes (N,), (N, nv)
         Joint encoder samples.
     opt : IdentifyOptions
@@ -191,15 +191,15 @@ def ft_tip_velocity(measured: xr.Dataset, robot, n: np.ndarray, c: Contact, tj: 
     return v_a, v_post, ""
 
 
-def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOptions,
+def _ft_record(measured: xr.Dataset, c: ContactWindow, tj: np.ndarray, opt: IdentifyOptions,
                where: str) -> tuple[_FTRecord | None, str]:
     """The F/T channels checked usable for the momentum balance, or ``(None, why)`` not:
     missing, too few samples at rest or over the contact, a record that does not cover it,
     too few joint samples before it, or a reading that does not respond to it."""
     if not all(name in measured.variables for name in FT_CHANNELS):
         return None, "no F/T channels (ft_force, ft_torque)"
-    _check_channels(measured, FT_CHANNELS, where)
-    tft = _time(measured, "t_ft", where)
+    check_channels(measured, FT_CHANNELS, where)
+    tft = time_coordinate(measured, "t_ft", where)
     W = np.hstack([np.asarray(measured["ft_force"].values, float), np.asarray(measured["ft_torque"].values, float)])
     if not np.all(np.isfinite(W)):
         raise InputError(f"{where}: F/T channels have non-finite samples")
@@ -227,10 +227,11 @@ def _ft_record(measured: xr.Dataset, c: Contact, tj: np.ndarray, opt: IdentifyOp
     return _FTRecord(t=tft, W=W, W_rest=W_rest, sig=sig, pre=pre), ""
 
 
-def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: Contact, opt: IdentifyOptions, where: str) -> _Balance:
+def _balance_inputs(measured: xr.Dataset, ft: _FTRecord, c: ContactWindow, opt: IdentifyOptions,
+                    where: str) -> _Balance:
     """The F/T grid over the contact with the reading change, the accumulated piezo impulse
     along n (baseline-corrected, clipped at 0) and the held servo torque on it."""
-    tf = _time(measured, "t_force", where)
+    tf = time_coordinate(measured, "t_force", where)
     r = np.asarray(measured["f_piezo"].values, float) - c.baseline
     inside = (tf > c.start) & (tf < c.end)
     tt = np.concatenate([[c.start], tf[inside], [c.end]])
@@ -259,12 +260,12 @@ def _held_servo_torque(measured: xr.Dataset, grid: np.ndarray, where: str) -> tu
     """
     if not ("tau_cmd" in measured.variables and tuple(measured["tau_cmd"].dims) == ("t_servo", "joint")):
         return None
-    ts = _time(measured, "t_servo", where)
+    ts = time_coordinate(measured, "t_servo", where)
     tau = np.asarray(measured["tau_cmd"].values, float)
     if not bool(np.all(np.isfinite(tau)) and ts[0] <= grid[0]):
         return None
     tau0 = tau[int(np.searchsorted(ts, grid[0], side="right")) - 1]
-    Tcum = _zoh_integral(ts, tau - tau0, grid)
+    Tcum = zoh_integral(ts, tau - tau0, grid)
     # a sample on a tick reads the new torque (the command written at the tick)
     tau_at = tau[np.clip(np.searchsorted(ts, grid + 1e-9 * (grid[1] - grid[0]), side="right") - 1, 0, None)] - tau0
     return Tcum, tau_at

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .contact import _ContactInput
+from .contact import ContactInput
 from .options import IdentifyOptions
 
 
@@ -65,11 +65,11 @@ def hammer_velocity(t, theta, t_edge: float, side: str, radius: float,
     n : int
         Samples in the window.
     """
-    v, th_e, nsel, _ = _hammer_fit(t, theta, t_edge, side, radius, options)
+    v, th_e, nsel, _ = hammer_fit(t, theta, t_edge, side, radius, options)
     return v, th_e, nsel
 
 
-def _hammer_fit(t, theta, t_edge: float, side: str, radius: float, options: IdentifyOptions | None = None):
+def hammer_fit(t, theta, t_edge: float, side: str, radius: float, options: IdentifyOptions | None = None):
     """:func:`hammer_velocity` and, with the ODE model, the fitted ``w^2`` [1/s^2] and its
     variance from the fit's residual scatter (``(nan, nan)`` otherwise); returns
     ``(v, theta_edge, n, (w2, var_w2))``."""
@@ -124,8 +124,8 @@ def _hammer_fit(t, theta, t_edge: float, side: str, radius: float, options: Iden
     return float(radius * thd_e * math.cos(th_e)), th_e, nsel, (w2, var_w2)
 
 
-def _contact_impulse(m_b: float, radius: float, v_b: float, th_s: float, v_b_post: float, th_e: float, w2s,
-                     tp: np.ndarray, theta: np.ndarray, cin: _ContactInput) -> float:
+def contact_impulse(m_b: float, radius: float, v_b: float, th_s: float, v_b_post: float, th_e: float, w2s,
+                     tp: np.ndarray, theta: np.ndarray, cin: ContactInput) -> float:
     """The contact impulse along n from the pendulum, gravity's impulse removed [N s].
 
     The hammer (pivot at rest, ``m_b = I_p / r^2``, the contact force ``F`` along n at the

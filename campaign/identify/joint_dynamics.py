@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from .contact import Contact, _ContactInput
-from .ft_momentum import _zoh_integral
+from .contact import ContactInput, ContactWindow
+from .ft_momentum import zoh_integral
 from .options import IdentifyOptions
 
 
@@ -38,7 +38,7 @@ def _cell_means(grid: np.ndarray, cum) -> np.ndarray:
     return np.diff(C, axis=0) / np.diff(grid).reshape((-1,) + (1,) * (C.ndim - 1))
 
 
-def joint_dynamics_fit(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: Contact, cin: _ContactInput,
+def joint_dynamics_fit(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: ContactWindow, cin: ContactInput,
                        ts: np.ndarray, tau: np.ndarray, post_window: float, opt: IdentifyOptions,
                        info: dict | None = None) -> tuple[float, float]:
     """Tip velocities along n at the contact edges from a joint-space dynamics fit.
@@ -81,8 +81,8 @@ def joint_dynamics_fit(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: Co
         Unit impact direction, base frame.
     t, Q : ndarray, shapes (N,), (N, nv)
         Joint samples of the window (pre-contact, contact and post-contact).
-    c : Contact
-    cin : _ContactInput
+    c : ContactWindow
+    cin : ContactInput
         The measured force shape.
     ts, tau : ndarray, shapes (S,), (S, nv)
         Servo tick times and commanded torques.
@@ -128,14 +128,14 @@ class _LinearJointModel:
     the cubic Hermite weights that interpolate node states to the sample times.
     """
 
-    def __init__(self, robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: Contact, cin: _ContactInput,
+    def __init__(self, robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, c: ContactWindow, cin: ContactInput,
                  ts: np.ndarray, tau: np.ndarray, opt: IdentifyOptions):
         self.robot, self.n, self.t, self.Q, self.opt = robot, n, t, Q, opt
         self._linearise(c)
         self._inputs(c, cin, ts, tau)
         self._interpolation(c)
 
-    def _linearise(self, c: Contact) -> None:
+    def _linearise(self, c: ContactWindow) -> None:
         """``q_s``, ``H^-1``, ``G = dg/dq`` and ``n . J(q_s)`` at the pre-contact pose; the
         drive file's friction."""
         robot = self.robot
@@ -153,7 +153,7 @@ class _LinearJointModel:
         self.visc = np.asarray(robot.viscous, float)
         self.cpos, self.cneg = np.asarray(robot.coulomb_pos, float), np.asarray(robot.coulomb_neg, float)
 
-    def _inputs(self, c: Contact, cin: _ContactInput, ts: np.ndarray, tau: np.ndarray) -> None:
+    def _inputs(self, c: ContactWindow, cin: ContactInput, ts: np.ndarray, tau: np.ndarray) -> None:
         """The integration grid and its inputs, as cell means: the normalised force, the
         servo torque change from its value at t_s."""
         grid = self.grid = _joint_grid(c.start, c.end, max(float(self.t[-1]), c.end) + 1e-9, ts, self.opt)
@@ -163,9 +163,9 @@ class _LinearJointModel:
         self.force = _cell_means(grid, lambda x: np.interp(x, cin._tt, cin._I, left=0.0, right=1.0))
         k0 = int(np.searchsorted(ts, c.start, side="right")) - 1
         dtau = tau - tau[max(k0, 0)]
-        self.servo = _cell_means(grid, lambda x: _zoh_integral(ts, dtau, x))
+        self.servo = _cell_means(grid, lambda x: zoh_integral(ts, dtau, x))
 
-    def _interpolation(self, c: Contact) -> None:
+    def _interpolation(self, c: ContactWindow) -> None:
         """The cells and cubic Hermite weights (positions and velocities at the cell's ends)
         of the samples from the contact start; the pre-contact samples' times from it; each
         joint's weight, the inverse of its encoder resolution."""

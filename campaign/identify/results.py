@@ -1,4 +1,4 @@
-"""One trial's identification result, :class:`TrialIdentification`."""
+"""One trial's identification result, :class:`TrialIdentification`, and which results fits and tables use."""
 
 from __future__ import annotations
 
@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+__all__ = ["TrialIdentification", "is_usable"]
 
 @dataclasses.dataclass(frozen=True)
 class TrialIdentification:
@@ -105,6 +106,20 @@ class TrialIdentification:
         for f in dataclasses.fields(self):
             out[f.name] = _json_safe(getattr(self, f.name))
         return out
+
+
+def is_usable(record) -> bool:
+    """Whether a trial's identification record may enter fits and tables: not excluded, and
+    its m* finite and > 0.
+
+    ``record`` is a mapping with ``excluded`` and ``m_eff``, as
+    :meth:`TrialIdentification.to_dict` or :func:`campaign.identify.table.read_identification`
+    give it (an ``m_eff`` of ``None`` or NaN is not usable).
+    """
+    if record.get("excluded"):
+        return False
+    m_eff = record.get("m_eff")
+    return m_eff is not None and math.isfinite(float(m_eff)) and float(m_eff) > 0
 
 
 def _json_safe(v):

@@ -8,14 +8,14 @@ import numpy as np
 import pinocchio as pin
 
 from ..model.exiit import impact_jacobian
-from .contact import _ContactInput
+from .contact import ContactInput
 from .options import IdentifyOptions
 
 
 # ----------------------------------------------------------------------------------------
 # arm
 # ----------------------------------------------------------------------------------------
-def _rotate(rotvec: np.ndarray, v: np.ndarray) -> np.ndarray:
+def rotate(rotvec: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Rotate ``v`` ((3,) or (N, 3)) by the rotation vectors ``rotvec`` (N, 3) (Rodrigues)."""
     rotvec = np.atleast_2d(np.asarray(rotvec, float))
     v = np.broadcast_to(np.asarray(v, float), rotvec.shape)
@@ -25,7 +25,7 @@ def _rotate(rotvec: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v * c + np.cross(k, v) * s + k * np.sum(k * v, axis=1, keepdims=True) * (1 - c)
 
 
-def _tip_positions(robot, Q: np.ndarray) -> np.ndarray:
+def tip_positions(robot, Q: np.ndarray) -> np.ndarray:
     """Impact-point positions (N, 3) in the arm's base frame [m] (forward kinematics)."""
     model = robot.model
     data = model.createData()
@@ -36,7 +36,7 @@ def _tip_positions(robot, Q: np.ndarray) -> np.ndarray:
     return out
 
 
-def _arm_fit(t, s, t_s, t_e, cin: _ContactInput, post_window: float, opt: IdentifyOptions, fit: bool = True,
+def arm_fit(t, s, t_s, t_e, cin: ContactInput, post_window: float, opt: IdentifyOptions, fit: bool = True,
              info: dict | None = None):
     """Velocities along n at the contact edges from a position series ``s(t)`` [m].
 
@@ -108,7 +108,7 @@ def _lti_kernels(a1: float, a0: float, x: np.ndarray):
     return h, hd
 
 
-def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool, velocity: bool = True):
+def _lti_responses(cin: ContactInput, a1: float, a0: float, with_step: bool, velocity: bool = True):
     """Position and velocity responses of ``y'' + a1 y' + a0 y = input`` on ``cin.grid``.
 
     Inputs: the normalised contact force ``g`` (integral 1) and, with ``with_step``, a
@@ -140,7 +140,7 @@ def _lti_responses(cin: _ContactInput, a1: float, a0: float, with_step: bool, ve
 _LTI_STARTS = ((1.0, 0.0), (30.0, 300.0))
 
 
-def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: dict | None = None):
+def _lti_fit(t, s, t_s, t_e, cin: ContactInput, with_step: bool = True, info: dict | None = None):
     """Fit ``s = s_s + v_a u + w y_f(t) + c y_step(t)`` (user guide, *Identification*, step 3, ``arm_model="lti"``).
 
     ``y_f`` and ``y_step`` are the responses of the joint-resistance law
@@ -196,7 +196,7 @@ def _lti_fit(t, s, t_s, t_e, cin: _ContactInput, with_step: bool = True, info: d
     return float(p[1]), float(v_post)
 
 
-def _start_jacobian_series(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, t_s: float,
+def start_jacobian_series(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, t_s: float,
                            rb_w: np.ndarray | None = None, tip0: np.ndarray | None = None) -> np.ndarray:
     """The impact point's position along n with the joint motion mapped linearly through
     the Jacobian at the contact start: ``n . (p(q_s) + J(q_s) (q(t) - q_s))`` [m].
@@ -223,10 +223,10 @@ def _start_jacobian_series(robot, n: np.ndarray, t: np.ndarray, Q: np.ndarray, t
     P = p_s + (Q - q_s) @ Jt_s.T
     if rb_w is None:
         return P @ n
-    return _rotate(rb_w, P - tip0) @ n
+    return rotate(rb_w, P - tip0) @ n
 
 
-def _tip_displacement(robot, q_cmd, n, t, s, t_s, t_e, post_window, opt):
+def tip_displacement(robot, q_cmd, n, t, s, t_s, t_e, post_window, opt):
     """Largest tip displacement along n after the contact relative to the pre-contact mean
     [m], and the joint encoders' resolution projected on the tip along n [m]."""
 

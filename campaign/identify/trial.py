@@ -13,20 +13,21 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.lazy import LazyModule
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..model.robot import Robot, load_robot
 from ..scene.schema import GroupArrays
 from .channels import (
-    _check_channels,
-    _finite_scalar,
-    _float_or,
-    _int_or,
-    _servo_channel,
-    _time,
     base_geometry,
+    check_channels,
+    finite_constant,
+    float_or_nan,
+    int_or,
+    servo_channel,
+    time_coordinate,
 )
-from .contact import Contact, _ContactInput, detect_contact
+from .contact import ContactInput, ContactWindow, detect_contact
 from .ft_momentum import ft_tip_velocity
-from .hammer import _contact_impulse, _hammer_fit
+from .hammer import contact_impulse, hammer_fit
 from .joint_dynamics import joint_dynamics_fit
 from .options import (
     BASE_POSE_CHANNELS,
@@ -36,11 +37,11 @@ from .options import (
 )
 from .results import TrialIdentification
 from .tip_lti import (
-    _arm_fit,
-    _rotate,
-    _start_jacobian_series,
-    _tip_displacement,
-    _tip_positions,
+    arm_fit,
+    rotate,
+    start_jacobian_series,
+    tip_displacement,
+    tip_positions,
 )
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
@@ -101,7 +102,7 @@ class _ArmWindow:
     t: np.ndarray
     Q: np.ndarray
     post_window: float
-    cin: _ContactInput
+    cin: ContactInput
     servo: tuple | None
     joint_model: bool
 
@@ -164,7 +165,7 @@ class _ArmVelocities:
     n_pre: int
     n_contact: int
     n_post: int
-    cin: _ContactInput
+    cin: ContactInput
     reasons: list
 
 
@@ -247,17 +248,17 @@ def _check_measured(measured, meta: Mapping, where: str) -> tuple[str, bool, tup
     if not isinstance(measured, GroupArrays) and not isinstance(measured, xr.Dataset):
         raise InputError(f"{where}: expected the measured group as an xarray.Dataset (or "
                          f"campaign.scene.schema.GroupArrays), got {type(measured).__name__}")
-    _check_channels(measured, REQUIRED_CHANNELS, where)
+    check_channels(measured, REQUIRED_CHANNELS, where)
     base_kind = str(meta.get("base", "") or "")
-    flexible = base_kind == "flexible" or (not base_kind and "base_mass" in measured.variables)
+    flexible = base_kind == FLEXIBLE or (not base_kind and "base_mass" in measured.variables)
     pose_names = None
     if flexible:
-        _check_channels(measured, FLEXIBLE_CONSTANTS, where)
+        check_channels(measured, FLEXIBLE_CONSTANTS, where)
         pose_names = next((pair for pair in BASE_POSE_CHANNELS if all(p in measured.variables for p in pair)), None)
         if pose_names is None:
             raise InputError(f"{where}: flexible-base trial has no base pose channels "
                              f"(platform_position/platform_rotation or base_position/base_rotation)")
-        _check_channels(measured, {p: ("t_base", "axis") for p in pose_names}, where)
+        check_channels(measured, {p: ("t_base", "axis") for p in pose_names}, where)
     return base_kind, flexible, pose_names
 
 
@@ -281,18 +282,18 @@ def _resolve_robot(robot, meta: Mapping, measured, where: str) -> Robot:
 def _read_channels(measured, meta: Mapping, flexible: bool, pose_names: tuple | None, where: str) -> _Channels:
     """The clocks, samples and constants identification reads, checked finite (and the
     constants > 0, the impact direction non-zero and normalised)."""
-    tj = _time(measured, "t_joint", where)
-    tp = _time(measured, "t_pend", where)
-    tf = _time(measured, "t_force", where)
+    tj = time_coordinate(measured, "t_joint", where)
+    tp = time_coordinate(measured, "t_pend", where)
+    tf = time_coordinate(measured, "t_force", where)
     Q = np.asarray(measured["q_enc"].values, float)
     theta = np.asarray(measured["theta_pend"].values, float)
     f = np.asarray(measured["f_piezo"].values, float)
     for name, arr in (("q_enc", Q), ("theta_pend", theta), ("f_piezo", f)):
         if not np.all(np.isfinite(arr)):
             raise InputError(f"{where}: channel {name} has non-finite samples")
-    m_b = _finite_scalar(measured, "hammer_mass_eff", where)
-    radius = _finite_scalar(measured, "pendulum_radius", where)
-    full_scale = _finite_scalar(measured, "piezo_full_scale", where)
+    m_b = finite_constant(measured, "hammer_mass_eff", where)
+    radius = finite_constant(measured, "pendulum_radius", where)
+    full_scale = finite_constant(measured, "piezo_full_scale", where)
     n = np.asarray(measured["impact_direction"].values, float)
     if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
         raise InputError(f"{where}: impact_direction = {n.tolist()} must be a non-zero 3-vector")
@@ -302,7 +303,7 @@ def _read_channels(measured, meta: Mapping, flexible: bool, pose_names: tuple | 
         raise InputError(f"{where}: q_cmd = {q_cmd.tolist()} is not finite")
     base_mass, base_inertia, base_com, base_mount = _NAN, (), (), ()
     if flexible:
-        base_mass = _finite_scalar(measured, "base_mass", where)
+        base_mass = finite_constant(measured, "base_mass", where)
         base_inertia = tuple(float(x) for x in np.asarray(measured["base_inertia"].values, float).ravel())
         com, mount = base_geometry(measured, meta, where)
         base_com, base_mount = tuple(float(x) for x in com), tuple(float(x) for x in mount)
@@ -314,9 +315,9 @@ def _read_channels(measured, meta: Mapping, flexible: bool, pose_names: tuple | 
 def _identity(meta: Mapping, robot: Robot, base_kind: str, ch: _Channels, opt: IdentifyOptions) -> dict:
     """The trial's file and scene identity and constants, as the result's fields."""
     return dict(
-        path=str(meta.get("path", "")), robot=robot.name, base=base_kind or ("flexible" if ch.flexible else "fixed"),
-        config=_int_or(meta.get("config"), -1), gain=str(meta.get("gain", "") or ""),
-        speed=_float_or(meta.get("speed")), repeat=_int_or(meta.get("repeat"), -1),
+        path=str(meta.get("path", "")), robot=robot.name, base=base_kind or (FLEXIBLE if ch.flexible else FIXED),
+        config=int_or(meta.get("config"), -1), gain=str(meta.get("gain", "") or ""),
+        speed=float_or_nan(meta.get("speed")), repeat=int_or(meta.get("repeat"), -1),
         q_cmd=tuple(float(x) for x in ch.q_cmd), hammer_mass=ch.m_b, impact_direction=tuple(float(x) for x in ch.n),
         base_mass=ch.base_mass, base_inertia=ch.base_inertia, base_com=ch.base_com, base_mount=ch.base_mount,
         m_eff_estimator=opt.m_eff_estimator,
@@ -326,7 +327,7 @@ def _identity(meta: Mapping, robot: Robot, base_kind: str, ch: _Channels, opt: I
 # ----------------------------------------------------------------------------------------
 # 1. contact
 # ----------------------------------------------------------------------------------------
-def _no_contact(c: Contact, ident: dict) -> TrialIdentification:
+def _no_contact(c: ContactWindow, ident: dict) -> TrialIdentification:
     """The excluded result of a trial whose piezo force shows no contact."""
     return TrialIdentification(
         m_eff=_NAN, e=_NAN, v_a=_NAN, v_a_post=_NAN, v_b=_NAN, v_b_post=_NAN, impulse=_NAN, impulse_momentum=_NAN,
@@ -335,7 +336,7 @@ def _no_contact(c: Contact, ident: dict) -> TrialIdentification:
         **ident)
 
 
-def _contact_reasons(c: Contact, full_scale: float) -> list[str]:
+def _contact_reasons(c: ContactWindow, full_scale: float) -> list[str]:
     """Why the contact found cannot serve: a rebound, saturation, or a cut-off record."""
     reasons = []
     if c.n_contacts > 1:
@@ -351,11 +352,11 @@ def _contact_reasons(c: Contact, full_scale: float) -> list[str]:
 # ----------------------------------------------------------------------------------------
 # 2. hammer
 # ----------------------------------------------------------------------------------------
-def _hammer_velocities(ch: _Channels, c: Contact, opt: IdentifyOptions) -> _Hammer:
+def _hammer_velocities(ch: _Channels, c: ContactWindow, opt: IdentifyOptions) -> _Hammer:
     """The hammer's velocities at the contact edges from the pendulum encoder, and why a
     window has too few samples."""
-    v_b, th_s, nb_pre, w2_pre = _hammer_fit(ch.tp, ch.theta, c.start, "pre", ch.radius, opt)
-    v_b_post, th_e, nb_post, w2_post = _hammer_fit(ch.tp, ch.theta, c.end, "post", ch.radius, opt)
+    v_b, th_s, nb_pre, w2_pre = hammer_fit(ch.tp, ch.theta, c.start, "pre", ch.radius, opt)
+    v_b_post, th_e, nb_post, w2_post = hammer_fit(ch.tp, ch.theta, c.end, "post", ch.radius, opt)
     ode = opt.pendulum_model == "ode"
     reasons = []
     if not math.isfinite(v_b):
@@ -371,7 +372,7 @@ def _hammer_velocities(ch: _Channels, c: Contact, opt: IdentifyOptions) -> _Hamm
 # ----------------------------------------------------------------------------------------
 # 3. arm tip along n
 # ----------------------------------------------------------------------------------------
-def _arm_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: IdentifyOptions,
+def _arm_velocities(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions,
                     where: str) -> _ArmVelocities:
     """The arm tip's velocities along n at the contact edges by the method the options and
     the trial allow (F/T, encoders, or both combined), the base point's on a flexible base,
@@ -388,7 +389,7 @@ def _arm_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: Iden
     if enc.why:
         reasons.append(enc.why)
     else:
-        moved, quantum = _tip_displacement(robot, ch.q_cmd, ch.n, win.t, tip.s, c.start, c.end, win.post_window, opt)
+        moved, quantum = tip_displacement(robot, ch.q_cmd, ch.n, win.t, tip.s, c.start, c.end, win.post_window, opt)
         if moved < opt.min_tip_counts * quantum:
             reasons.append(f"the arm tip did not move measurably along n ({moved:.3g} m within {win.post_window:g} s "
                            f"after the contact; encoder resolution at the tip {quantum:.3g} m)")
@@ -397,7 +398,8 @@ def _arm_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: Iden
                           n_post=enc.n_post, cin=win.cin, reasons=reasons)
 
 
-def _arm_window(measured, robot: Robot, ch: _Channels, c: Contact, opt: IdentifyOptions, where: str) -> _ArmWindow:
+def _arm_window(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions,
+                where: str) -> _ArmWindow:
     """The arm model (joint-space or tip-space), its post-contact window and the joint samples in it."""
     tj = ch.tj
     rate = 1.0 / float(np.median(np.diff(tj)))
@@ -412,35 +414,35 @@ def _arm_window(measured, robot: Robot, ch: _Channels, c: Contact, opt: Identify
     # eq 11 on those 40 ms contacts (every arm model). Neither is a defect of the joint
     # model on the rig, whose arm has gravity; the gate is kept until rig trials with a
     # known lambda at 50 Hz say otherwise
-    servo = (_servo_channel(measured, robot.nv, where)
+    servo = (servo_channel(measured, robot.nv, where)
              if opt.arm_model == "joint" and not ch.flexible and 1.0 / rate <= opt.auto_joint_interval * (1 + 1e-9)
              else None)
     joint_model = servo is not None and servo[0][0] <= c.start
     post_window = opt.joint_model_window(rate) if joint_model else opt.post_window(rate)
-    cin = _ContactInput(ch.tf, ch.f, c, c.end + post_window + 1e-3)
+    cin = ContactInput(ch.tf, ch.f, c, c.end + post_window + 1e-3)
     win = (tj >= c.start - opt.joint_pre_window) & (tj <= c.end + post_window)
     return _ArmWindow(t=tj[win], Q=ch.Q[win], post_window=post_window, cin=cin, servo=servo, joint_model=joint_model)
 
 
-def _tip_series(measured, robot: Robot, ch: _Channels, c: Contact, win: _ArmWindow, opt: IdentifyOptions,
+def _tip_series(measured, robot: Robot, ch: _Channels, c: ContactWindow, win: _ArmWindow, opt: IdentifyOptions,
                 where: str) -> _TipSeries:
     """The tip's position along n over the window by forward kinematics, and on a flexible
     base the base point's motion: the arm part rotated with the base, the base point's
     velocities from one-sided fits (:func:`_base_fit`)."""
     tw = win.t
-    P = _tip_positions(robot, win.Q) if tw.size else np.empty((0, 3))
+    P = tip_positions(robot, win.Q) if tw.size else np.empty((0, 3))
     if not ch.flexible:
         return _TipSeries(s=P @ ch.n, v_base_pre=0.0, v_base_post=0.0, R_base=None, tip0=None)
-    tb = _time(measured, "t_base", where)
+    tb = time_coordinate(measured, "t_base", where)
     pb = np.asarray(measured[ch.pose_names[0]].values, float)
     rb = np.asarray(measured[ch.pose_names[1]].values, float)
     if not (np.all(np.isfinite(pb)) and np.all(np.isfinite(rb))):
         raise InputError(f"{where}: base pose channels {ch.pose_names} have non-finite samples")
-    tip0 = _tip_positions(robot, ch.q_cmd[None, :])[0]
+    tip0 = tip_positions(robot, ch.q_cmd[None, :])[0]
     r0 = np.asarray(ch.base_mount) + tip0      # tip at q_cmd in the base frame
-    s_base = (pb + _rotate(rb, r0)) @ ch.n
+    s_base = (pb + rotate(rb, r0)) @ ch.n
     rb_w = np.column_stack([np.interp(tw, tb, rb[:, k]) for k in range(3)])
-    s_arm = _rotate(rb_w, P - tip0) @ ch.n
+    s_arm = rotate(rb_w, P - tip0) @ ch.n
     return _TipSeries(s=s_arm, v_base_pre=_base_fit(tb, s_base, c.start, "pre", opt),
                       v_base_post=_base_fit(tb, s_base, c.end, "post", opt), R_base=rb_w, tip0=tip0)
 
@@ -458,7 +460,7 @@ def _base_fit(t, s, t_edge, side, opt: IdentifyOptions) -> float:
     return float(c[1]) / opt.base_window
 
 
-def _ft_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: IdentifyOptions,
+def _ft_velocities(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: IdentifyOptions,
                    where: str) -> _FTVelocities:
     """The F/T method when asked for (``arm_velocity``: "ft", "combined", or "auto" on
     encoders coarser than ``auto_joint_interval``) and the trial allows it."""
@@ -474,12 +476,12 @@ def _ft_velocities(measured, robot: Robot, ch: _Channels, c: Contact, opt: Ident
     return _FTVelocities(v_a=v_ft, v_a_post=v_ft_post, method="encoders" if note else want, note=note, info=info)
 
 
-def _encoder_velocities(robot: Robot, ch: _Channels, c: Contact, win: _ArmWindow, tip: _TipSeries, *,
+def _encoder_velocities(robot: Robot, ch: _Channels, c: ContactWindow, win: _ArmWindow, tip: _TipSeries, *,
                         method: str, opt: IdentifyOptions) -> _EncoderVelocities:
     """The encoders' tip velocities: the windows checked, then the joint-space model or the
     tip-space model fitted (neither when the F/T alone serves)."""
     info: dict = {}
-    va_rel, va_post_rel, n_pre, n_con, n_post, why = _arm_fit(win.t, tip.s, c.start, c.end, win.cin, win.post_window,
+    va_rel, va_post_rel, n_pre, n_con, n_post, why = arm_fit(win.t, tip.s, c.start, c.end, win.cin, win.post_window,
                                                              opt, fit=method != "ft" and not win.joint_model,
                                                              info=info)
     # m_eff_estimator="impulse": the tip's velocity change through the start pose's
@@ -495,8 +497,8 @@ def _encoder_velocities(robot: Robot, ch: _Channels, c: Contact, win: _ArmWindow
         if impulse_estimator:
             delta_lin = info.get("v_post_start_jacobian", _NAN) - va_rel
     elif impulse_estimator and method != "ft" and not why:
-        s_lin = _start_jacobian_series(robot, ch.n, win.t, win.Q, c.start, tip.R_base, tip.tip0)
-        v_lin, v_lin_post, *_ = _arm_fit(win.t, s_lin, c.start, c.end, win.cin, win.post_window, opt)
+        s_lin = start_jacobian_series(robot, ch.n, win.t, win.Q, c.start, tip.R_base, tip.tip0)
+        v_lin, v_lin_post, *_ = arm_fit(win.t, s_lin, c.start, c.end, win.cin, win.post_window, opt)
         delta_lin = v_lin_post - v_lin
     return _EncoderVelocities(v_a=va_rel, v_a_post=va_post_rel, delta_lin=delta_lin, n_pre=n_pre, n_contact=n_con,
                               n_post=n_post, why=why, info=info)
@@ -544,7 +546,7 @@ def _m_eff_and_e(ch: _Channels, hammer: _Hammer, arm: _ArmVelocities, *, impulse
     if impulse_estimator:
         # P / n.J(q_s)(qd' - qd): the contact impulse from the hammer (user guide,
         # *Identification*, step 4) over the impulsive-limit tip velocity change (the base's part as measured)
-        imp_mom = _contact_impulse(ch.m_b, ch.radius, v_b, hammer.theta_start, v_b_post, hammer.theta_end,
+        imp_mom = contact_impulse(ch.m_b, ch.radius, v_b, hammer.theta_start, v_b_post, hammer.theta_end,
                                    (hammer.w2_pre, hammer.w2_post), ch.tp, ch.theta, arm.cin)
         dv_m = arm.delta_lin + (arm.v_base_post - arm.v_base_pre)
     else:
@@ -574,7 +576,7 @@ def _estimate_reasons(est: _Estimate, hammer: _Hammer, *, impulse_estimator: boo
     return reasons
 
 
-def _result(c: Contact, hammer: _Hammer, arm: _ArmVelocities, est: _Estimate, reasons: list[str],
+def _result(c: ContactWindow, hammer: _Hammer, arm: _ArmVelocities, est: _Estimate, reasons: list[str],
             ident: dict) -> TrialIdentification:
     """The trial's :class:`TrialIdentification`, excluded when there is a reason."""
     return TrialIdentification(

@@ -16,7 +16,8 @@ from collections.abc import Iterable, Mapping, Sequence
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import bases
+from ..core.vocabulary import FIXED, bases
+from ..identify.results import is_usable
 
 __all__ = ["Impacts"]
 
@@ -57,7 +58,7 @@ class Impacts:
     gain: tuple
     mass: np.ndarray | None = None
     pendulum: bool = True
-    base: str = "fixed"
+    base: str = FIXED
     structure: str | None = None
     m_eff: np.ndarray | None = None
     restitution: np.ndarray | None = None
@@ -119,12 +120,10 @@ class Impacts:
         ``q_cmd``, ``impact_direction``, ``speed``, ``gain``, ``hammer_mass`` (the rig's hammer
         where a record lacks it), ``m_eff``, ``e``, ``path``, ``base``; all of one base.
         ``gain_sets`` keeps those gain sets only."""
-        rows = [r for r in records if not r.get("excluded") and r.get("m_eff") is not None
-                and math.isfinite(float(r["m_eff"])) and float(r["m_eff"]) > 0
-                and (gain_sets is None or r.get("gain") in gain_sets)]
+        rows = [r for r in records if is_usable(r) and (gain_sets is None or r.get("gain") in gain_sets)]
         if not rows:
             raise InputError("no usable identification records (every one is excluded or has no finite m*)")
-        base = {str(r.get("base") or "fixed") for r in rows}
+        base = {str(r.get("base") or FIXED) for r in rows}
         if len(base) != 1:
             raise InputError(f"the records mix bases {sorted(base)}; give one base at a time")
         nv = len(rows[0]["q_cmd"])

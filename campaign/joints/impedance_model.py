@@ -22,7 +22,9 @@ from typing import ClassVar
 import numpy as np
 
 from ..core.errors import InputError
-from .family import Z95, ResponseModel, json_numbers
+from ..core.stats import Z95
+from ..core.vocabulary import FIXED, FLEXIBLE
+from .estimator import ResponseModel, json_numbers
 from .impacts import Impacts
 from .response import STEPS_PER_CONTACT, WINDOW_SAMPLES, Response, respond
 from .setting import Setting
@@ -127,7 +129,7 @@ class JointImpedance(ResponseModel):
         impacts = self._check_impacts(impacts)
         setting = self.setting_for(impacts.structure)
         if terms is None:
-            terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == "flexible" else None)
+            terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == FLEXIBLE else None)
         return self.respond_terms(terms, impacts.gain, impacts.direction[:, None, :], speed=impacts.speed[:, None],
                                   mass=self._masses(impacts)[:, None], pendulum=impacts.pendulum, theta=theta,
                                   window=window, structure=impacts.structure)
@@ -145,7 +147,7 @@ class JointImpedance(ResponseModel):
         """``sqrt(g^T cov g)`` with ``g = d ln m* / d [ln beta, ln s]`` per impact (finite differences)."""
         impacts = self._check_impacts(impacts)
         setting = self.setting_for(impacts.structure)
-        terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == "flexible" else None)
+        terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == FLEXIBLE else None)
         th = self._theta()
         base = np.log(self.respond(impacts, theta=th, window=False, terms=terms).m_eff[:, 0])
         G = np.empty((len(impacts), th.size))
@@ -161,7 +163,7 @@ class JointImpedance(ResponseModel):
         from scipy.optimize import least_squares  # scipy.optimize costs ~0.4 s to import: the fit only
 
         impacts = self._check_impacts(impacts, fitting=True)
-        if impacts.base != "fixed":
+        if impacts.base != FIXED:
             raise InputError("JointImpedance fits on fixed-base impacts (the flexible base adds the structure)")
         setting = self._the_setting()
         nv = setting.robot.nv

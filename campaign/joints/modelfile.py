@@ -35,7 +35,7 @@ from ..core.errors import InputError
 from ..core.files import write_atomic
 from ..core.yamlfile import config_file
 from .coulomb import CoulombLambdaFit
-from .family import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
+from .estimator import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
 from .impedance_model import JointImpedance
 from .setting import Setting, display_path
 

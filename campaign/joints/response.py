@@ -8,7 +8,7 @@ at the contact's end, for arrays of cases at once:
 
 * **The pulse** is the rig's contact law between two free bodies of reduced mass
   ``mu = m* m_b / (m* + m_b)`` meeting at the hammer's speed: its shape and duration in
-  closed form (:func:`campaign.rig.contact.pulse_shape`, :meth:`~campaign.rig.contact.Contact.duration`),
+  closed form (:func:`campaign.rig.contact.pulse_shape`, :meth:`~campaign.rig.contact.ContactLaw.duration`),
   its impulse ``P = (1 + e) v mu`` (eq 14, the arm at rest). ``m*`` is the response's own, so
   the pulse and the response are iterated (the duration moves as ``mu^0.58``, barely with m*).
 * **The arm**, linearised about the struck pose: ``H q'' + (K_d + beta - K_p T_s / 2) q' +
@@ -48,6 +48,7 @@ import math
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED
 from .cases import (
     Cases,
     ContactPulse,
@@ -250,10 +251,10 @@ def _checked(terms, kp, kd, damping, coulomb_pos, coulomb_neg, coupling, loop):
     if not (np.all(np.isfinite(kp) & (kp >= 0)) and np.all(np.isfinite(kd) & (kd >= 0))):
         raise InputError("servo gains must be finite and >= 0")
     if coupling is None:
-        coupling = "fixed" if terms.base is None else "loop"
-    if coupling not in ("fixed", "ideal", "loop"):
+        coupling = FIXED if terms.base is None else "loop"
+    if coupling not in (FIXED, "ideal", "loop"):
         raise InputError(f"coupling {coupling!r} is not one of fixed, ideal, loop")
-    if (coupling == "fixed") != (terms.base is None):
+    if (coupling == FIXED) != (terms.base is None):
         raise InputError(f"coupling {coupling!r} does not fit terms {'without' if terms.base is None else 'with'} "
                          "a flexible base")
     if coupling == "loop" and loop is None:
@@ -282,7 +283,7 @@ def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, direc
         Impact directions n (the force on the arm), base frame.
     speed, mass, restitution : array_like, shape (C, D) or scalar
         The object's speed [m/s], mass ``m_b`` [kg] and the restitution of eq 14.
-    contact : campaign.rig.contact.Contact
+    contact : campaign.rig.contact.ContactLaw
     gravity : float
         [m/s^2]
     servo_period : float
@@ -318,7 +319,7 @@ def respond(terms: ArmTerms, *, kp, kd, damping, coulomb_pos, coulomb_neg, direc
     ko = np.broadcast_to(np.asarray(object_stiffness, float), (C, D))
     cases = Cases(terms=terms, kp=kp, damping=damping_total, tc_pos=vals["coulomb_pos"], tc_neg=vals["coulomb_neg"],
                   n=n, speed=sp, mass=mb, restitution=e, gravity=float(gravity), object_stiffness=ko)
-    sys = LinearArm(cases, flexible=coupling != "fixed")
+    sys = LinearArm(cases, flexible=coupling != FIXED)
     m0 = start_mass(cases)
     h = float(np.min(pulse_of(cases, contact, m0)[0])) / int(steps)
     coarse = max(int(round(math.log2(int(steps) / GUESS_STEPS))), 0)

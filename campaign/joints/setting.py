@@ -4,7 +4,7 @@ structures, the robot, and the digests that tie a fitted model to them.
 A joint-resistance model fits the joints' own resistance (damping, friction, or a lambda);
 everything else it needs is the rig's documented design, read from the rig file
 (``config/rig.yaml``) and the paper's Table 1 gains (``config/paper.yaml``): the contact law
-(:class:`campaign.rig.contact.Contact`), the hammer's effective mass, gravity, the servo's
+(:class:`campaign.rig.contact.ContactLaw`), the hammer's effective mass, gravity, the servo's
 gains in joint units and its period, the named structures (:class:`campaign.rig.beam.Beam`) and
 the VES-II loop. The arm's friction and damping in the rig file (``arm.*``) are what the
 models estimate; no model reads them. :class:`Setting` carries those values with the
@@ -26,7 +26,7 @@ from ..core.yamlfile import PROJECT_DIR, config_file, read_yaml
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot, robot_dir
 from ..rig.beam import Beam
-from ..rig.contact import Contact
+from ..rig.contact import ContactLaw
 from ..rig.controller import joint_gains
 from ..rig.pendulum import Pendulum
 from ..scene.description import load_structures, rig_values
@@ -71,7 +71,7 @@ class Setting:
     Attributes
     ----------
     robot : campaign.model.robot.Robot
-    contact : campaign.rig.contact.Contact
+    contact : campaign.rig.contact.ContactLaw
         The contact law (``contact.*``).
     hammer_mass : float
         The hammer's effective mass at its head ``m_b`` [kg] (eq 10).
@@ -97,7 +97,7 @@ class Setting:
     """
 
     robot: Robot
-    contact: Contact
+    contact: ContactLaw
     hammer_mass: float
     hammer_stiffness: float
     gravity: float
@@ -130,7 +130,7 @@ class Setting:
                    "robot": robot_digests(str(values["robot"]))}
         loop = Loop.from_values(values) if str(values["ves.mode"]) == "loop" else None
         pend = Pendulum.from_values(values)
-        return cls(robot=robot, contact=Contact.from_values(values), hammer_mass=float(pend.m_b),
+        return cls(robot=robot, contact=ContactLaw.from_values(values), hammer_mass=float(pend.m_b),
                    hammer_stiffness=float(pend.mgl) / float(pend.radius) ** 2,
                    gravity=float(values["gravity"]), servo_period=1.0 / float(values["controller.servo_rate"]),
                    gains=gains, structure=str(values["flexible.structure"]), beam=Beam.from_values(values), loop=loop,

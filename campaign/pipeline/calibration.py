@@ -30,13 +30,14 @@ import yaml
 from .. import __version__
 from ..core.errors import InputError, SimulationError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE, ZERO, table2_columns
 from ..core.yamlfile import config_dir, read_yaml
 from ..model.paper import load_paper
 from ..rig.batch import simulate_batch
 from ..scene.description import load_rig, make_scene
 
-__all__ = ["CalibrationResult", "load_calibration", "sweep_records", "residuals", "residual_terms", "force_band",
-           "hinge_log", "calibrate", "write_back"]
+__all__ = ["CalibrationResult", "load_calibration", "sweep_records", "observed_summary", "residuals", "residual_terms",
+           "force_band", "hinge_log", "calibrate", "write_back"]
 
 
 
@@ -102,13 +103,13 @@ def _record(job, trial) -> dict:
         "peak_force": float(tr["peak_force"].values),
         "joint3_excursion_deg": float(np.degrees(np.max(np.abs(q3 - q3[0])))),
     }
-    if base == "flexible":
+    if base == FLEXIBLE:
         x = m["base_position"].values[:, 0]     # axis x
         rec["peak_base_x"] = float(np.max(np.abs(x)))
     return rec
 
 
-def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = "fixed", rig=None,
+def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = FIXED, rig=None,
                   configs=None, gains=None, workers: int | None = None) -> list[dict]:
     """Simulate the sweep with rig parameter overrides ``params``; one record per trial.
 
@@ -129,14 +130,14 @@ def sweep_records(params: Mapping[str, Any], sweep: Mapping, *, base: str = "fix
     return records
 
 
-def _summary(records: list[dict]) -> dict:
+def observed_summary(records: list[dict]) -> dict:
     """The observations the paper reports, from trial records."""
     paper = load_paper()
     classes = paper["gain_classes"]
-    out: dict[str, Any] = {"m2": {}, "m3": {}}
+    out: dict[str, Any] = {name: {} for name in table2_columns()}
     for c in sorted({r["config"] for r in records}):
-        for name, gains in (("m2", classes["zero_low"]), ("m3", classes["high"])):
-            vals = [r["m_eff"] for r in records if r["config"] == c and r["gain"] in gains]
+        for name, cls in table2_columns().items():
+            vals = [r["m_eff"] for r in records if r["config"] == c and r["gain"] in classes[cls]]
             out[name][c] = float(np.mean(vals)) if vals else math.nan
     speeds = sorted({r["speed"] for r in records})
     out["e_mean"] = float(np.mean([r["e"] for r in records]))
@@ -151,7 +152,7 @@ def _summary(records: list[dict]) -> dict:
     out["force_low"] = float(np.min([r["peak_force"] for r in records if r["speed"] == speeds[0]]))
     out["force_high"] = float(np.max([r["peak_force"] for r in records if r["speed"] == speeds[-1]]))
     mid = speeds[len(speeds) // 2]
-    fig5 = [r["joint3_excursion_deg"] for r in records if r["config"] == 1 and r["gain"] == "zero"
+    fig5 = [r["joint3_excursion_deg"] for r in records if r["config"] == 1 and r["gain"] == ZERO
             and r["speed"] == mid]
     out["figure5_deg"] = float(np.mean(fig5)) if fig5 else math.nan
     out["figure5_speed"] = mid
@@ -262,7 +263,7 @@ def calibrate(*, calibration=None, rig=None, progress=print, max_nfev: int | Non
         key = tuple(np.round(x, 12))
         if key not in cache:
             params = {n: float(math.exp(v)) for n, v in zip(names, x, strict=True)}
-            summary = _summary(sweep_records(params, sweep, rig=rig))
+            summary = observed_summary(sweep_records(params, sweep, rig=rig))
             r = residuals(summary, obs)
             count[0] += 1
             cache[key] = (r, summary)

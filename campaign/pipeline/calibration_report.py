@@ -18,6 +18,7 @@ import numpy as np
 
 from ..archive import open_trial_arrays
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED, figure_cells, table2_column, table2_columns
 from ..core.yamlfile import config_dir, yaml_load
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -102,10 +103,10 @@ def assess_held_out(table4: Mapping[str, Mapping], figure9: Mapping[Any, Mapping
     for key, cell in table4.items():
         c, g = str(key).split("-")
         ref, sim = float(cell["paper"]), float(cell["simulated"])
-        eq8, fixed = cell.get("eq8"), cell.get("fixed")
+        eq8, fixed = cell.get("eq8"), cell.get(FIXED)
         rel = sim / ref - 1.0
         met = abs(rel) <= TABLE4_TOLERANCE
-        name = "m3" if g == "high" else "m2"
+        name = table2_column(g)
         paper_fixed = t2[name].get(int(c))
         note = ""
         if paper_fixed is not None and ref > paper_fixed:
@@ -222,7 +223,7 @@ def _fitted_rows(summary: Mapping, paper: Mapping) -> list[dict]:
         rows.append({"kind": kind, "observation": observation, "paper": ref, "simulated": sim,
                      "relative_difference": sim / ref - 1.0, "target": "", "verdict": "", "reason": "", "note": ""})
 
-    for name in ("m2", "m3"):
+    for name in table2_columns():
         for c in (1, 2, 3):
             row("fitted", f"Table 2 {name}, configuration {c} [kg]", t2[name][c], _fixed_value(summary, name, c))
     row("fitted", "mean restitution e (Figure 7)", paper["restitution_mean"], float(summary["e_mean"]))
@@ -242,11 +243,18 @@ def _table4_cells(table4_csv, summary: Mapping) -> dict[str, dict]:
         for r in csv.DictReader(fh):
             if r.get("in_paper") in ("yes", "True", "true"):
                 cell = {"paper": float(r["identified_paper"]), "simulated": float(r["identified"]),
-                        "fixed": _fixed_value(summary, "m3" if r["gain"] == "high" else "m2", int(r["config"]))}
+                        FIXED: _fixed_value(summary, table2_column(r["gain"]), int(r["config"]))}
                 if r.get("predicted") not in (None, ""):
                     cell["eq8"] = float(r["predicted"])
                 table4[f"{r['config']}-{r['gain']}"] = cell
     return table4
+
+
+def _figure9_grid() -> tuple[str, list[int], tuple[str, str]]:
+    """Figure 9's base, configurations and two gain sets, the lower first (``config/paper.yaml``)."""
+    cells = figure_cells("fig9")
+    low, high = dict.fromkeys(g for _, _, g in cells)
+    return cells[0][0], sorted({c for _, c, _ in cells}), (low, high)
 
 
 def _figure9(fig9_trials: Mapping[str, str | Path], paper: Mapping) -> dict[int, dict]:
@@ -254,6 +262,7 @@ def _figure9(fig9_trials: Mapping[str, str | Path], paper: Mapping) -> dict[int,
     Figure 9 trials and eq 8's impulsive answer with the paper's lambda on their bases."""
     peaks, speeds = {}, {}
     robot = None
+    _, configs, (low, high) = _figure9_grid()
     for key, trial in fig9_trials.items():
         ds = open_trial_arrays(trial)
         x = list(ds["axis"].values).index("x")
@@ -265,8 +274,8 @@ def _figure9(fig9_trials: Mapping[str, str | Path], paper: Mapping) -> dict[int,
                              "base_com": ds["base_com"].values.tolist(), "base_mount": ds["base_mount"].values.tolist()})
         speeds[key] = impulsive_base_speed(robot, ds["q_cmd"].values, base, _paper_lambda(key.split("-")[1]),
                                            float(ds["hammer_mass_eff"].values), ds["impact_direction"].values)
-    return {c: {"reduction": 1.0 - peaks[f"{c}-low"] / peaks[f"{c}-high"],
-                "eq8_paper_lambda": 1.0 - speeds[f"{c}-low"] / speeds[f"{c}-high"]} for c in (1, 2)}
+    return {c: {"reduction": 1.0 - peaks[f"{c}-{low}"] / peaks[f"{c}-{high}"],
+                "eq8_paper_lambda": 1.0 - speeds[f"{c}-{low}"] / speeds[f"{c}-{high}"]} for c in configs}
 
 
 def _report_markdown(record: Mapping, rows: list[dict], held: list[dict], paper: Mapping) -> str:
@@ -324,34 +333,35 @@ def validate(*, rig=None, speeds=(1.0, 1.75, 2.5), workers: int = 2, fixed: Mapp
     """
 
     sweep = {"speeds": list(speeds), "repeats": 1, "workers": workers}
-    recs = sweep_records({}, sweep, base="flexible", rig=rig, configs=[1, 2], gains=["low", "high"])
+    base, configs, (low, high) = _figure9_grid()
+    recs = sweep_records({}, sweep, base=base, rig=rig, configs=configs, gains=[low, high])
     paper = load_paper()
     out = {"table4": {}, "figure9": {}}
-    for c in (1, 2):
-        for g in ("low", "high"):
+    for c in configs:
+        for g in (low, high):
             sel = [r for r in recs if r["config"] == c and r["gain"] == g]
             out["table4"][f"{c}-{g}"] = {"simulated": float(np.mean([r["m_eff"] for r in sel])),
                                          "paper_experiment": paper["table4"][f"{c}-{g}"]["experiment"]}
         peaks = {g: float(np.mean([r["peak_base_x"] for r in recs if r["config"] == c and r["gain"] == g]))
-                 for g in ("low", "high")}
+                 for g in (low, high)}
         # eq 8's own answer with the paper's lambda on this base (the reason of a miss)
-        scene = make_scene(base="flexible", config=c, rig=rig)
+        scene = make_scene(base=base, config=c, rig=rig)
         p = scene.p
         m_b = Pendulum.from_scene(scene).m_b
         q = np.radians(np.asarray(scene.q_paper_deg) + paper_offset_deg())
         speed = {g: impulsive_base_speed(load_robot(p("robot")), q, Beam.from_scene(scene).base_body(),
-                                         _paper_lambda(g), m_b, paper["impact_direction"]) for g in ("low", "high")}
-        out["figure9"][c] = {"peak_low_m": peaks["low"], "peak_high_m": peaks["high"],
-                             "reduction": 1.0 - peaks["low"] / peaks["high"],
-                             "eq8_paper_lambda": 1.0 - speed["low"] / speed["high"]}
+                                         _paper_lambda(g), m_b, paper["impact_direction"]) for g in (low, high)}
+        out["figure9"][c] = {"peak_low_m": peaks[low], "peak_high_m": peaks[high],
+                             "reduction": 1.0 - peaks[low] / peaks[high],
+                             "eq8_paper_lambda": 1.0 - speed[low] / speed[high]}
     table4 = {k: {"paper": v["paper_experiment"], "simulated": v["simulated"]} for k, v in out["table4"].items()}
     if fixed:
         for k, v in table4.items():
             c, g = k.split("-")
-            group = fixed["m3" if g == "high" else "m2"]
+            group = fixed[table2_column(g)]
             value = group.get(c, group.get(int(c)))
             if value is not None:       # a sweep without this configuration: the reason goes without it
-                v["fixed"] = float(value)
+                v[FIXED] = float(value)
     out["assessment"] = assess_held_out(
         table4, {c: {"reduction": v["reduction"], "eq8_paper_lambda": v["eq8_paper_lambda"]}
                  for c, v in out["figure9"].items()})

@@ -1,8 +1,11 @@
 """The workflow's configuration checked at start-up: one line naming the key, before any job.
 
-``workflow/rules/common.smk`` calls these, so ``snakemake -n`` fails the same way as a run.
+The workflow's wiring (``workflow/rules/common.smk``) and the campaign's plan
+(:mod:`campaign.pipeline.campaign_plan`) call these, so ``snakemake -n`` fails the same way as a run.
 Only the standard library and PyYAML are imported at the top (a dry run evaluates this on
-every start); the scene is imported when a check needs it.
+every start); the scene is imported when a check needs it. ``settings`` is the workflow
+configuration (the mapping Snakemake calls ``config``), ``configuration`` an arm
+configuration's number.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ __all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_pa
 # ---------------------------------------------------------------------------------------
 # the workflow's configuration
 # ---------------------------------------------------------------------------------------
-def parse_typed_strings(config: dict, schema: Mapping[str, Any], *, given: Mapping[str, Any] | None = None) -> dict:
+def parse_typed_strings(settings: dict, schema: Mapping[str, Any], *, given: Mapping[str, Any] | None = None) -> dict:
     """Values given on Snakemake's command line as the user typed them (``--config
     simulate=false``, ``--config 'speeds=[1.0,2.5]'``): Snakemake passes a value it does
     not recognise as a string (also each item of a list), so a string where the schema
@@ -33,10 +36,10 @@ def parse_typed_strings(config: dict, schema: Mapping[str, Any], *, given: Mappi
     only their keys are read, so a value a configuration file quotes (``repeats: "3"``) stays
     the string it is and the schema refuses it. None reads every key.
     """
-    for name, value in list(config.items()):
+    for name, value in list(settings.items()):
         if given is None or name in given:
-            config[name] = _typed(value, schema.get("properties", {}).get(name, {}), schema)
-    return config
+            settings[name] = _typed(value, schema.get("properties", {}).get(name, {}), schema)
+    return settings
 
 
 def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
@@ -66,19 +69,20 @@ def check_environment() -> None:
     source_date_epoch()
 
 
-def check_schema(config: Mapping[str, Any], schema: Mapping[str, Any]) -> None:
-    """``config`` against the JSON schema: the first failure as one line naming its key."""
+def check_schema(settings: Mapping[str, Any], schema: Mapping[str, Any]) -> None:
+    """``settings`` (the workflow configuration) against the JSON schema: the first failure
+    as one line naming its key."""
     import jsonschema
 
     cls = jsonschema.validators.validator_for(schema)
-    error = jsonschema.exceptions.best_match(cls(schema).iter_errors(config))
+    error = jsonschema.exceptions.best_match(cls(schema).iter_errors(settings))
     if error is not None:
         key = ".".join(str(p) for p in error.absolute_path) or "(top level)"
         raise InputError(f"configuration key {key}: {error.message}")
 
 
 
-def check_workflow_config(config: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[str, Any]]) -> None:
+def check_workflow_config(settings: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[str, Any]]) -> None:
     """What the schema cannot say about a workflow configuration (after it passed the schema).
 
     ``sweeps`` is ``{base: {configurations, gains, speeds, repeats}}`` as the workflow runs
@@ -90,8 +94,8 @@ def check_workflow_config(config: Mapping[str, Any], *, sweeps: Mapping[str, Map
     from ..scene.checks import check_rig_params, check_speeds, pendulum_reach
     from ..scene.description import make_scene
 
-    rig = config.get("rig") or None
-    params = dict(config.get("rig_params") or {})
+    rig = settings.get("rig") or None
+    params = dict(settings.get("rig_params") or {})
     values = check_rig_params(params, rig=rig, key="configuration key rig_params")
     for base, sweep in sweeps.items():
         try:
@@ -99,44 +103,46 @@ def check_workflow_config(config: Mapping[str, Any], *, sweeps: Mapping[str, Map
                        speed=min(sweep["speeds"]), params=params, rig=rig)
         except InputError as exc:
             raise InputError(f"configuration key rig_params: {exc}") from None
-        where = f"bases.{base}.speeds" if "speeds" in (config.get("bases", {}).get(base) or {}) else "speeds"
+        where = f"bases.{base}.speeds" if "speeds" in (settings.get("bases", {}).get(base) or {}) else "speeds"
         check_speeds(sweep["speeds"], key=f"configuration key {where}", reach=pendulum_reach(values))
-    if config.get("identify"):
+    if settings.get("identify"):
         # identification's options module imports its package (pinocchio): only when set
         from ..identify.options import check_identify_options
 
-        check_identify_options(config["identify"], key="configuration key identify")
+        check_identify_options(settings["identify"], key="configuration key identify")
 
 
 
-def check_paths(config: Mapping[str, Any]) -> None:
+def check_paths(settings: Mapping[str, Any]) -> None:
     """The folders and files a configuration names, before anything reads or writes them:
     ``archive_root`` and ``results_root`` are folders (or do not exist yet), ``rig`` is an
     existing file, ``reuse_archive`` (when nothing is simulated) and ``identification_csv``
     are not folders of the wrong kind. One line naming the key."""
     for key in ("archive_root", "results_root"):
-        value = config.get(key)
+        value = settings.get(key)
         if value is not None and Path(value).exists() and not Path(value).is_dir():
             raise InputError(f"configuration key {key}: {value!r} is a file, not a folder")
-    rig = config.get("rig")
+    rig = settings.get("rig")
     if rig is not None and not Path(rig).is_file():
         what = "is a folder, not" if Path(rig).is_dir() else "does not exist: it names"
         raise InputError(f"configuration key rig: {rig!r} {what} a rig parameter file (null = config/rig.yaml)")
-    reuse = config.get("reuse_archive")
-    if not config.get("simulate", True) and reuse and Path(reuse).exists() and not Path(reuse).is_dir():
+    reuse = settings.get("reuse_archive")
+    if not settings.get("simulate", True) and reuse and Path(reuse).exists() and not Path(reuse).is_dir():
         raise InputError(f"configuration key reuse_archive: {reuse!r} is a file, not an archive folder")
-    export = config.get("identification_csv")
+    export = settings.get("identification_csv")
     if export and Path(export).is_dir():
         raise InputError(f"configuration key identification_csv: {export!r} is a folder, not a CSV file")
 
 
-def trial_pick_problem(base: str, config: int, gain: str, speed: float, repeat: int, *,
+def trial_pick_problem(base: str, configuration: int, gain: str, speed: float, repeat: int, *,
                        sweeps: Mapping[str, Mapping[str, Any]], key: str, held: Sequence[tuple] = ()) -> str:
     """Why the trial a figure shows (configuration key ``key``: ``figures.fig5``) is not one
-    of the campaign's, or "". ``sweeps`` as :func:`check_workflow_config`; ``held`` are the
-    cells (base, configuration, gain) the campaign holds."""
-    if (base, config, gain) not in held:
-        return f"configuration key {key} needs cell {base}/config{config}/{gain}, which bases.{base} does not list"
+    of the campaign's, or "". ``configuration`` is the arm configuration's number; ``sweeps``
+    as :func:`check_workflow_config`; ``held`` are the cells (base, configuration, gain) the
+    campaign holds."""
+    if (base, configuration, gain) not in held:
+        return (f"configuration key {key} needs cell {base}/config{configuration}/{gain}, "
+                f"which bases.{base} does not list")
     sweep = sweeps[base]
     if float(speed) not in [float(s) for s in sweep["speeds"]]:
         return (f"configuration key {key}.speed: {speed:g} m/s is not one of the {base}-base speeds "
@@ -146,30 +152,32 @@ def trial_pick_problem(base: str, config: int, gain: str, speed: float, repeat: 
     return ""
 
 
-def check_products(config: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[str, Any]],
+def check_products(settings: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[str, Any]],
                    held: Mapping[str, Sequence[tuple]], wanted: Mapping[str, bool]) -> None:
     """The configuration of the products, at start-up (one line naming the key): the trial
     each single-trial figure shows (``figures.fig5``, ``figures.fig9``, for a figure the
     campaign makes: ``wanted``), and the planner's maps (``plan_maps.config`` a paper
     configuration, ``plan_maps.resolution`` a grid the map can sample)."""
     # the paper's tables and the map's grid limit: standard library and PyYAML only
+    from ..core.vocabulary import figure_cells
     from ..core.yamlfile import config_file, read_yaml
     from ..plan.grid import grid_points
 
-    figures = config.get("figures") or {}
-    for name, (base, picks) in {"fig5": ("fixed", [(1, "zero")]),
-                                "fig9": ("flexible", [(c, g) for c in (1, 2) for g in ("low", "high")])}.items():
+    figures = settings.get("figures") or {}
+    for name in ("fig5", "fig9"):
+        cells = figure_cells(name)
+        base = cells[0][0]
         if not wanted.get(name) or base not in sweeps:
             continue
         pick = figures.get(name) or {}
         speed = float(pick.get("speed", max(sweeps[base]["speeds"])))
         repeat = int(pick.get("repeat", 0))
-        for c, g in picks:
+        for _, c, g in cells:
             why = trial_pick_problem(base, c, g, speed, repeat, sweeps=sweeps, key=f"figures.{name}",
                                      held=held.get(base, ()))
             if why:
                 raise InputError(why)
-    maps = config.get("plan_maps") or {}
+    maps = settings.get("plan_maps") or {}
     known = sorted(int(c) for c in read_yaml(config_file("paper.yaml"))["configurations"])
     if "config" in maps and maps["config"] not in known:
         raise InputError(f"configuration key plan_maps.config: {maps['config']!r} is not a paper configuration "

@@ -16,7 +16,8 @@ from pathlib import Path
 
 from ..core.errors import InputError
 
-__all__ = ["PACKAGE", "module_name", "modules", "imports", "graph", "closure", "source_files", "code_digest"]
+__all__ = ["PACKAGE", "module_name", "modules", "lazy_face", "imports", "graph", "closure", "source_files",
+           "code_digest"]
 
 #: the campaign package's folder
 PACKAGE = Path(__file__).resolve().parents[1]
@@ -64,7 +65,10 @@ def _index(root: Path, stamp: tuple) -> tuple[dict[str, Path], dict[str, frozens
     for path, _, _ in stamp:
         parts = Path(path).relative_to(parent).with_suffix("").parts
         known[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = Path(path)
-    return known, {name: frozenset(imports(name, path, known)) for name, path in known.items()}
+    faces = {name: {export: module for module, names in lazy_face(ast.parse(path.read_text())).items()
+                    for export in names}
+             for name, path in known.items() if path.name == "__init__.py"}
+    return known, {name: frozenset(imports(name, path, known, faces=faces)) for name, path in known.items()}
 
 
 def modules(*, root: Path = PACKAGE) -> dict[str, Path]:
@@ -73,9 +77,30 @@ def modules(*, root: Path = PACKAGE) -> dict[str, Path]:
     return dict(_index(root, _stamp(root))[0])
 
 
-def imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
-    """The package modules ``name`` imports (absolute or relative, anywhere in the file)."""
+def lazy_face(tree: ast.AST) -> dict[str, tuple[str, ...]]:
+    """The names a package's ``__init__`` exports on first use: ``{member module: names}`` of
+    its ``lazy_exports(__name__, {...})`` call (:func:`campaign.core.lazy.lazy_exports`), read
+    from the literal; empty when it has none."""
+    out: dict[str, tuple[str, ...]] = {}
+    for node in getattr(tree, "body", ()):
+        call = getattr(node, "value", None)
+        if not isinstance(call, ast.Call) or len(call.args) != 2:
+            continue
+        func = call.func
+        if (func.id if isinstance(func, ast.Name) else getattr(func, "attr", "")) == "lazy_exports":
+            out.update({str(k): tuple(v) for k, v in ast.literal_eval(call.args[1]).items()})
+    return out
+
+
+def imports(name: str, path: Path, known: dict[str, Path], *,
+            faces: dict[str, dict[str, str]] | None = None) -> set[str]:
+    """The package modules ``name`` imports (absolute or relative, anywhere in the file).
+
+    A name taken from a package's lazy face (``faces``: ``{package: {name: member module}}``,
+    :func:`lazy_face`) imports the member module that provides it: Python runs that module
+    when the name is first used, not when the package is imported."""
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    faces = faces or {}
     out = set()
     for node in _import_statements(ast.parse(path.read_text(), filename=str(path))):
         if isinstance(node, ast.Import):
@@ -88,7 +113,8 @@ def imports(name: str, path: Path, known: dict[str, Path]) -> set[str]:
             else:
                 stem = node.module or ""
             # `from pkg import sub` imports the module pkg.sub when it is one, else a name of pkg
-            targets = [stem] + [f"{stem}.{alias.name}" for alias in node.names]
+            face = faces.get(stem, {})
+            targets = [stem] + [f"{stem}.{face.get(alias.name, alias.name)}" for alias in node.names]
         out.update(t for t in targets if t in known and t != name)
     return out
 

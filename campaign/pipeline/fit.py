@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import os
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -13,6 +12,8 @@ import numpy as np
 
 from ..core.files import check_output_file, write_atomic
 from ..core.timing import Timer
+from ..core.vocabulary import FIXED
+from ..identify.results import is_usable
 from ..identify.table import read_identification
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.robot import load_robot
@@ -20,7 +21,7 @@ from ..model.robot import load_robot
 __all__ = ["fit_lambda"]
 def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.PathLike, *,
                gain_class: str, gains: Sequence[str],
-               base: str = "fixed", options: Mapping[str, Any] | None = None, seed: int = 0,
+               base: str = FIXED, options: Mapping[str, Any] | None = None, seed: int = 0,
                timer: Timer | None = None) -> dict[str, Any]:
     """Fit lambda (eq 11, 15) to the identified effective masses of one gain class.
 
@@ -70,7 +71,7 @@ def fit_lambda(ident_tables: Iterable[str | os.PathLike], out_json: str | os.Pat
         raise ValueError(f"fit: unknown option(s) {unknown}; known: {sorted(allowed)}")
     check_output_file(out_json, option="lambda fit")
     rows = [r for r in read_identification(ident_tables) if r["base"] == base and r["gain"] in gains]
-    used = [r for r in rows if not r["excluded"] and math.isfinite(r["m_eff"]) and r["m_eff"] > 0]
+    used = [r for r in rows if is_usable(r)]
     if not used:
         raise ValueError(f"fit {gain_class}: no usable {base}-base trial with gains {list(gains)} "
                          f"({len(rows)} found, all excluded)")

@@ -1,7 +1,7 @@
 """Where a campaign's trials and results are: the trials of a sweep cell, declared or found
 in an archive, and the results folder of a re-analysed archive.
 
-Standard library only: the workflow's helpers call these while Snakemake builds the DAG.
+Standard library only: the campaign's plan calls these while Snakemake builds the DAG.
 """
 
 from __future__ import annotations

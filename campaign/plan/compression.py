@@ -1,7 +1,7 @@
 """The peak contact force with the arm's joints resisting over the compression (the planner's force term).
 
 The contact law's peak force between two free bodies depends on their reduced mass only
-(:meth:`campaign.rig.contact.Contact.peak_force`). The arm is no free body during the
+(:meth:`campaign.rig.contact.ContactLaw.peak_force`). The arm is no free body during the
 contact: its servo, the joints' viscous friction and the rotors resist from the first
 instant on, and the force peaks early, at a fixed fraction of the contact (about a
 quarter for the rig's law, :func:`campaign.rig.contact.pulse_shape`). The Virtual Rotor
@@ -84,7 +84,7 @@ def compression_mass(H, J, n, kp, damping, *, contact, mass: float, speed: float
     kp, damping : (G, nv) arrays
         Per gain set: the servo's proportional gain [N m/rad] and the joints' total damping
         ``K_d + B_v`` [N m s/rad].
-    contact : campaign.rig.contact.Contact
+    contact : campaign.rig.contact.ContactLaw
     mass, speed : float
         The object's mass ``m_b`` [kg] and approach speed [m/s].
     tol, max_iter
@@ -96,7 +96,7 @@ def compression_mass(H, J, n, kp, damping, *, contact, mass: float, speed: float
     m_c : (N, G, D) array
         ``P(t_peak) / n.v_tip(t_peak)`` [kg].
     peak_force : (N, G, D) array
-        :meth:`~campaign.rig.contact.Contact.peak_force` at the reduced mass ``m_c m_b / (m_c + m_b)`` [N].
+        :meth:`~campaign.rig.contact.ContactLaw.peak_force` at the reduced mass ``m_c m_b / (m_c + m_b)`` [N].
 
     Notes
     -----

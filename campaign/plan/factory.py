@@ -18,19 +18,20 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import gain_classes
+from ..core.vocabulary import FLEXIBLE, gain_classes
 from ..joints.modelfile import load_model, shipped_model_path
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot
 from ..rig.beam import Beam
-from ..rig.contact import Contact
+from ..rig.contact import ContactLaw
 from ..rig.controller import joint_gains
 from ..rig.pendulum import Pendulum
 from ..scene.description import rig_values
 from .planner import ImpactPlanner
 from .post_contact import ArmAfterImpact
 
-__all__ = ["planner_lambdas", "planner_model", "object_defaults", "gain_sets", "arm_after_impact", "build_planner"]
+__all__ = ["planner_lambdas", "planner_model", "object_defaults", "lambdas_per_gain_set", "arm_after_impact",
+           "build_planner"]
 
 
 def planner_lambdas(*, fits: Sequence[str | Path] = (), named: Mapping[str, Sequence[float]] | None = None,
@@ -78,12 +79,12 @@ def planner_model(*, model=None, fits: Sequence[str | Path] = (), named: Mapping
 def object_defaults(values: Mapping[str, Any]) -> dict[str, float]:
     """The object the planner assumes by default: the rig's hammer (its effective mass
     [kg]), the contact law's stiffness and exponent and its restitution."""
-    contact = Contact.from_values(values)
+    contact = ContactLaw.from_values(values)
     return {"mass": Pendulum.from_values(values).m_b, "restitution": float(contact.restitution),
             "contact_stiffness": float(contact.stiffness), "contact_exponent": float(contact.exponent)}
 
 
-def gain_sets(lambdas: Mapping[str, Sequence[float]]) -> dict[str, Sequence[float]]:
+def lambdas_per_gain_set(lambdas: Mapping[str, Sequence[float]]) -> dict[str, Sequence[float]]:
     """``lambdas`` with each of the paper's pooled gain classes (``zero_low``) split into its
     gain sets (``zero``, ``low``), each with the class's lambda: after the impact their servos
     differ, so the structure's response does too."""
@@ -138,9 +139,9 @@ def build_planner(*, base: str, lambdas=None, model=None, mass=None, speed: floa
     params : mapping, optional
         Dotted rig overrides, applied to every value the planner reads.
     post_contact : bool
-        Split the paper's pooled gain classes into their gain sets (:func:`gain_sets`) and
-        let the arm's servo, friction and gravity (:func:`arm_after_impact`) act over the
-        contact's pulse and after it.
+        Split the paper's pooled gain classes into their gain sets
+        (:func:`lambdas_per_gain_set`) and let the arm's servo, friction and gravity
+        (:func:`arm_after_impact`) act over the contact's pulse and after it.
     """
     if (lambdas is None) == (model is None):
         raise InputError("the planner predicts with lambdas or with a response model: give exactly one")
@@ -153,7 +154,7 @@ def build_planner(*, base: str, lambdas=None, model=None, mass=None, speed: floa
     values = rig_values(rig=rig, params=over or None)
     robot = load_robot(str(values["robot"])) if robot is None else robot
     d = object_defaults(values)
-    beam = Beam.from_values(values) if base == "flexible" else None
+    beam = Beam.from_values(values) if base == FLEXIBLE else None
     if model is not None:
         return ImpactPlanner(robot, model=model, mass=d["mass"] if mass is None else mass, speed=speed,
                              restitution=model.restitution_ if restitution is None else restitution,
@@ -162,7 +163,7 @@ def build_planner(*, base: str, lambdas=None, model=None, mass=None, speed: floa
                              pendulum=mass is None, contact_restitution=d["restitution"])
     arm = None
     if post_contact:
-        lambdas = gain_sets(lambdas)
+        lambdas = lambdas_per_gain_set(lambdas)
         arm = arm_after_impact(values, robot)
     return ImpactPlanner(robot, lambdas=lambdas, mass=d["mass"] if mass is None else mass, speed=speed,
                          restitution=d["restitution"] if restitution is None else restitution,

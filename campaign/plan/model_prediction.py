@@ -44,7 +44,7 @@ def predict_model(robot, Q, model, gains, directions, *, mass: float, speed: flo
         Impact directions n.
     mass, speed, restitution : float
         The object's mass [kg] and speed [m/s]; eq 14's restitution.
-    contact : campaign.rig.contact.Contact
+    contact : campaign.rig.contact.ContactLaw
     flexible : bool
         On the flexible base (the model's named ``structure``, default the rig file's).
     pendulum : bool

@@ -21,7 +21,7 @@ from ..core.vocabulary import gain_sets
 from ..model.exiit import lambda_matrix
 from ..model.robot import Robot
 from ..model.robot.ik import position_branches
-from ..rig.contact import Contact
+from ..rig.contact import ContactLaw
 from .directions import unit_directions
 from .model_prediction import predict_model
 from .prediction import Predictions, check_object, pose_terms, predict
@@ -117,7 +117,7 @@ class ImpactPlanner:
         if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
             raise InputError(f"weights = {np.asarray(self.weights).tolist()} must be 3 values >= 0, not all zero")
         e = self.restitution if self.contact_restitution is None else self.contact_restitution
-        return Contact(float(self.contact_stiffness), float(self.contact_exponent), float(e)), w
+        return ContactLaw(float(self.contact_stiffness), float(self.contact_exponent), float(e)), w
 
     def fit(self, point, directions) -> ImpactPlanner:
         """Find every pose reaching ``point`` [m] and predict each candidate; rank them.

@@ -11,7 +11,7 @@ every gain class (its Virtual Rotor Inertia lambda) and every allowed impact dir
   the flexible base with the generalised ``J*`` and ``H*`` of eq 8);
 * the contact's duration and the peak contact force of the rig's contact law between two
   free bodies of reduced mass ``m* m_b / (m* + m_b)``
-  (:meth:`campaign.rig.contact.Contact.peak_force`); given the arm's servo and friction
+  (:meth:`campaign.rig.contact.ContactLaw.peak_force`); given the arm's servo and friction
   (``arm``), on the fixed base the peak force takes the arm's apparent mass over the
   compression instead of m* (:mod:`campaign.plan.compression`: the force peaks before the
   servo has built up the resistance lambda averages over the whole contact);
@@ -216,7 +216,7 @@ class Predictions:
     structure_peak_release : the first bending pair released with eq 8's base velocity
         change (arm locked after the impact), each mode at its first peak [m], else None.
     contact_duration : duration of the contact law's pulse at the reduced mass [s]
-        (:meth:`campaign.rig.contact.Contact.duration`).
+        (:meth:`campaign.rig.contact.ContactLaw.duration`).
     compression_mass : the arm's apparent mass over the compression [kg] (fixed base, with
         ``arm`` and its finite contact), which then sets ``peak_force``
         (:mod:`campaign.plan.compression`), else None.
@@ -271,7 +271,7 @@ def predict(terms: PoseTerms, lambdas, directions, *, mass: float, speed: float,
         The object's mass ``m_b`` [kg] and its speed along n ``v_b`` [m/s]; the arm is at rest.
     restitution : float
         ``e`` of eq 13-14 [1].
-    contact : campaign.rig.contact.Contact
+    contact : campaign.rig.contact.ContactLaw
         The contact law for the peak force (its restitution should be ``restitution``).
     arm : campaign.plan.post_contact.ArmAfterImpact, optional
         The servo gains, joint friction and gravity acting on the arm during and after the

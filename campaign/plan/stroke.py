@@ -4,7 +4,7 @@ The planner's eq 8 prediction of the platform's peak excursion (an impulsive con
 the structure's first bending pair, the larger of a free and a locked arm) bounds the
 simulated peak from above, so a trial it puts far beyond ``ves.stroke`` is refused before
 any integration. The rig's own check on the simulated platform
-(:func:`campaign.rig.simulate.check_stroke`) stays the definitive one.
+(:func:`campaign.rig.trial.check_stroke`) stays the definitive one.
 """
 
 from __future__ import annotations
@@ -12,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FLEXIBLE
 from ..model.robot import load_robot
 from ..rig.beam import Beam
-from ..rig.contact import Contact
+from ..rig.contact import ContactLaw
 from ..rig.pendulum import Pendulum
 from ..scene.description import Scene
 from .prediction import pose_terms, predict
@@ -59,14 +60,14 @@ def check_scene_stroke(scene: Scene) -> None:
     """:func:`check_stroke_before` for one scene: a flexible-base scene whose rig states a
     stroke (``ves.stroke``); nothing to check otherwise."""
     params = scene.param_dict
-    if scene.base != "flexible" or "ves.stroke" not in params:
+    if scene.base != FLEXIBLE or "ves.stroke" not in params:
         return
     robot = load_robot(scene.p("robot"))
     try:
         q0 = robot.q_from_angles(scene.q_paper_deg, what=f"pose {list(scene.q_paper_deg)} deg ({robot.name} angles)")
     except ValueError as exc:
         raise InputError(str(exc)) from None
-    contact = Contact.from_scene(scene)
+    contact = ContactLaw.from_scene(scene)
     peak = predicted_platform_peak(robot, q0, scene.impact_direction, Beam.from_scene(scene),
                                    mass=Pendulum.from_scene(scene).m_b, speed=scene.speed,
                                    restitution=contact.restitution, contact=contact)

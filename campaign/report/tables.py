@@ -38,7 +38,9 @@ import numpy as np
 from ..core import vocabulary
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..identify import find_trials, identify_files
+from ..identify.results import is_usable
 from ..joints.impacts import Impacts
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.exiit import effective_mass_batch, effective_mass_from_G, exiit_floating
@@ -163,7 +165,7 @@ def as_records(records: Iterable) -> list[dict]:
 def _usable(recs, base=None, gains=None):
     out = []
     for r in recs:
-        if r["excluded"] or not (math.isfinite(r["m_eff"]) and r["m_eff"] > 0):
+        if not is_usable(r):
             continue
         if base is not None and r["base"] != base:
             continue
@@ -235,7 +237,7 @@ def fit_gain_classes(records, *, robot=None, gain_classes: Mapping[str, Sequence
     rob = _robot(robot, recs)
     fits = {}
     for name, members in classes.items():
-        use = _usable(recs, base="fixed", gains=set(members))
+        use = _usable(recs, base=FIXED, gains=set(members))
         if not use:
             continue
         D = _directions(use)
@@ -272,7 +274,7 @@ def table2(records, *, paper: Mapping[str, Any], robot=None, gain_classes=None) 
     :func:`campaign.model.paper.load_paper`)."""
     classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
-    fixed = [r for r in recs if r["base"] == "fixed"]
+    fixed = [r for r in recs if r["base"] == FIXED]
     rob = _robot(robot, fixed)
     configs = _configs(fixed)
     n = _direction(fixed) if fixed else None
@@ -281,10 +283,10 @@ def table2(records, *, paper: Mapping[str, Any], robot=None, gain_classes=None) 
     for cfg in sorted(configs):
         q = np.asarray(configs[cfg])[None, :]
         m1 = float(effective_mass_batch(rob, q, n)[0])
-        m2, sd2, n2 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get("zero_low", ())))
-                              if r["config"] == cfg])
-        m3, sd3, n3 = _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get("high", ())))
-                              if r["config"] == cfg])
+        # m2 and m3: the trials of the gain class each column averages (config/paper.yaml)
+        means = {column: _stats([r["m_eff"] for r in _usable(fixed, gains=set(classes.get(cls, ())))
+                                 if r["config"] == cfg]) for column, cls in vocabulary.table2_columns().items()}
+        (m2, sd2, n2), (m3, sd3, n3) = means["m2"], means["m3"]
         pm1, pm2, pm3 = (p2[k].get(cfg) for k in ("m1", "m2", "m3"))
         r21 = m2 / m1 if m2 is not None else None
         r31 = m3 / m1 if m3 is not None else None
@@ -375,7 +377,7 @@ def table4(records, fits: Mapping, *, paper: Mapping[str, Any], robot=None, gain
     model it is) go into the notes."""
     classes = dict(gain_classes or vocabulary.gain_classes())
     recs = as_records(records)
-    flex = [r for r in recs if r["base"] == "flexible"]
+    flex = [r for r in recs if r["base"] == FLEXIBLE]
     rob = _robot(robot, flex or recs)
     p4 = paper["table4"]
     cells: dict[tuple[int, str], list] = {}

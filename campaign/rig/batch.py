@@ -13,23 +13,23 @@ from __future__ import annotations
 
 from ..core.errors import SimulationError
 from .integrate import integrate_trial
-from .simulate import build, integration_args, record_arrays
+from .trial import build, integration_args, record_arrays
 
 __all__ = ["simulate_batch"]
 
 
 def simulate_batch(scenes, *, integration: dict | None = None, on_done=None) -> list:
-    """Simulate a job's trials; per scene what :func:`.simulate.simulate_arrays` returns (the
+    """Simulate a job's trials; per scene what :func:`.trial.simulate_arrays` returns (the
     same arrays), or the :class:`~campaign.core.errors.SimulationError` that ended that trial.
 
-    Every scene is built and checked first (:func:`.simulate.build`), so a bad input raises
+    Every scene is built and checked first (:func:`.trial.build`), so a bad input raises
     its :class:`~campaign.core.errors.InputError` before any trial is integrated.
 
     Parameters
     ----------
     scenes : sequence of Scene
     integration : dict, optional
-        Integrator overrides for every trial (:func:`.simulate.build`).
+        Integrator overrides for every trial (:func:`.trial.build`).
     on_done : callable, optional
         Called as ``on_done(i, result)`` as trial ``i`` is recorded or fails.
     """

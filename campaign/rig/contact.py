@@ -27,7 +27,7 @@ import numpy as np
 
 from ..core.errors import InputError
 
-__all__ = ["Contact", "restitution_of_damping", "damping_for_restitution", "contact_duration_estimate",
+__all__ = ["ContactLaw", "restitution_of_damping", "damping_for_restitution", "contact_duration_estimate",
            "peak_force_factor", "pulse_shape"]
 
 
@@ -74,7 +74,7 @@ def restitution_of_damping(d: float, p: float = 1.0) -> float:
 
 @functools.lru_cache(maxsize=64)
 def damping_for_restitution(e: float, p: float = 1.0) -> float:
-    """The damping factor ``d`` of :class:`Contact` that yields restitution ``e`` (0 < e <= 1).
+    """The damping factor ``d`` of :class:`ContactLaw` that yields restitution ``e`` (0 < e <= 1).
 
     Separating ``x' dx' / (1 + d x') = -x^p dx`` and integrating over the whole contact
     (``x`` returns to 0, so the right side vanishes) gives, for any exponent ``p``,
@@ -111,7 +111,7 @@ def peak_force_factor(d: float, p: float = 1.0) -> float:
     The dimensionless problem does not depend on the stiffness, the masses or the speed
     (module notes), so one integration per ``(d, p)`` gives the peak force of every impact
     of two free bodies through this contact: ``F_max = k delta*^p * peak_force_factor(d, p)``
-    (:meth:`Contact.peak_force`). Without damping the peak sits at the largest compression,
+    (:meth:`ContactLaw.peak_force`). Without damping the peak sits at the largest compression,
     ``x_max = ((p + 1) / 2)^(1/(p+1))`` (energy), so the factor is ``x_max^p``.
     """
     d, p = float(d), float(p)
@@ -143,7 +143,7 @@ def pulse_shape(d: float, p: float = 1.0, *, samples: int = 257) -> tuple[float,
     Like the peak (:func:`peak_force_factor`) it does not depend on the stiffness, the masses
     or the speed: two free bodies of reduced mass ``m`` meeting at ``v0`` feel
     ``F(t) = k delta*^p f(t v0 / delta*)`` for ``t`` up to ``tau_end delta* / v0``
-    (:meth:`Contact.duration`), with ``delta* = (m v0^2 / k)^(1/(p+1))``. The force starts
+    (:meth:`ContactLaw.duration`), with ``delta* = (m v0^2 / k)^(1/(p+1))``. The force starts
     and ends at zero and integrates to ``1 + e`` (the momentum exchanged, eq 14).
     """
     d, p = float(d), float(p)
@@ -174,8 +174,8 @@ def contact_duration_estimate(k: float, p: float, m: float, v0: float) -> float:
 
 
 @dataclasses.dataclass(frozen=True)
-class Contact:
-    """Compliant, never-tensile normal contact.
+class ContactLaw:
+    """The contact law of hammer and arm: compliant, never-tensile normal contact.
 
     Attributes
     ----------
@@ -192,13 +192,13 @@ class Contact:
     restitution: float
 
     @classmethod
-    def from_values(cls, values: Mapping[str, Any]) -> Contact:
+    def from_values(cls, values: Mapping[str, Any]) -> ContactLaw:
         """The contact law of flat rig values (``contact.*``, dotted keys)."""
         return cls(float(values["contact.stiffness"]), float(values["contact.exponent"]),
                    float(values["contact.restitution"]))
 
     @classmethod
-    def from_scene(cls, scene) -> Contact:
+    def from_scene(cls, scene) -> ContactLaw:
         """The contact law of a :class:`~campaign.scene.description.Scene`."""
         return cls.from_values(scene.param_dict)
 

@@ -34,13 +34,13 @@ import pinocchio as pin
 from ..model.robot import Robot
 from ..model.robot.floating import attach_to_floating_base
 from .beam import Beam
-from .contact import Contact
+from .contact import ContactLaw
 from .ideal_base import IdealBase, static_arm_wrench
 from .pendulum import Pendulum
-from .plant import _EMPTY, FixedBasePlant
+from .plant import NO_HOLDING, FixedBasePlant
 from .ves import VesLoop
 
-__all__ = ["IdealCouplingPlant", "VesLoopPlant"]
+__all__ = ["IdealCouplingPlant", "VesLoopPlant", "platform_free_flyer"]
 
 
 def _quat_of_rotvec(r):
@@ -55,7 +55,7 @@ def _quat_of_rotvec_xyz(rx: float, ry: float, rz: float):
     return k * rx, k * ry, k * rz, math.cos(0.5 * angle)
 
 
-def _platform_free_flyer(pose, twist, accel):
+def platform_free_flyer(pose, twist, accel):
     """Free-flyer configuration (7), body twist (6) and body acceleration (6) of a
     small-angle platform state: :func:`.ves.platform_motion` without the object churn.
 
@@ -68,7 +68,7 @@ def _platform_free_flyer(pose, twist, accel):
 
 
 def _free_flyer_of_rows(pose, twist, accel, r):
-    """:func:`_platform_free_flyer` of the platform state as lists of floats and its
+    """:func:`platform_free_flyer` of the platform state as lists of floats and its
     rotation vector ``r`` as an array (what ``pin.exp3`` takes)."""
     p0, p1, p2, rx, ry, rz = pose
     t0, t1, t2, t3, t4, t5 = twist
@@ -160,7 +160,7 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
     State ``x = [p (3), r (3), q_arm, theta, v_base (6), v_arm, thetadot, P, S (3)]``.
     """
 
-    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: ContactLaw, beam: Beam, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float):
         self.q0_arm = np.asarray(q0, dtype=float)
         super().__init__(robot, q0, n, pendulum, contact, coulomb_scale=coulomb_scale,
@@ -255,7 +255,7 @@ class IdealCouplingPlant(_FloatingMixin, FixedBasePlant):
         """:meth:`FixedBasePlant.evaluate` composed from :meth:`rhs` and :meth:`holding`
         (the ideal coupling is the reference mode, not the fast path)."""
         xd = self.rhs(x, tau_servo, fs, contact_v0, caught, t)
-        lam = _EMPTY if fs.none_stuck else self.holding(x, tau_servo, fs, contact_v0, t)[0]
+        lam = NO_HOLDING if fs.none_stuck else self.holding(x, tau_servo, fs, contact_v0, t)[0]
         gap = self.gap(x)[:2] if (contact_v0 is not None or not caught) else None
         return xd, lam, gap
 
@@ -341,7 +341,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
     acceleration at any instant come from the emulator (:class:`.ves.VesLoop`).
     """
 
-    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, beam: Beam, *,
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: ContactLaw, beam: Beam, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float, rate: float, latency: float,
                  bandwidth: float, duration: float):
         self.q0_arm = np.asarray(q0, dtype=float)
@@ -504,7 +504,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
             return -u, self._na0
         a = self._free_accel(q, u, fs)
         if fs.none_stuck:
-            return _EMPTY, a
+            return NO_HOLDING, a
         m0, d0 = self._arm0
         stuck = fs.stuck
         return pin.rnea(m0, d0, q, self._na0, a)[stuck] - u[stuck], a
@@ -548,7 +548,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         """Tip speed along n [m/s] with the platform at ``pose``/``twist`` (6 each). One state
         at a time: the recording uses the batched :func:`.sensors.truth_terms`, and this is
         its per-sample reference in the tests."""
-        qb, vb, _ = _platform_free_flyer(pose, twist, self._z6)
+        qb, vb, _ = platform_free_flyer(pose, twist, self._z6)
         qf = np.concatenate([qb, q_arm])
         vf = np.concatenate([vb, v_arm])
         pin.computeJointJacobians(self.fmodel, self.fdata, qf)
@@ -566,7 +566,7 @@ class VesLoopPlant(_FloatingMixin, FixedBasePlant):
         (the platform is driven by the emulator: this energy is not conserved). Per-sample
         reference of the batched :func:`.sensors.truth_terms` (tests)."""
         na = self.na
-        qb, vb, _ = _platform_free_flyer(pose, twist, self._z6)
+        qb, vb, _ = platform_free_flyer(pose, twist, self._z6)
         qf = np.concatenate([qb, x[:na]])
         vf = np.concatenate([vb, x[self.i_v]])
         H = pin.crba(self.fmodel, self.fdata, qf)

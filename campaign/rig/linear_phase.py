@@ -35,7 +35,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from .flexible import _platform_free_flyer
+from .flexible import platform_free_flyer
 
 __all__ = ["FrozenArm", "neglected_wrench", "frozen_wrench"]
 
@@ -53,7 +53,7 @@ def frozen_wrench(plant, q_arm, pose, accel, twist=None):
     :meth:`.flexible.VesLoopPlant._bias`) with the arm still."""
 
     twist = np.zeros(6) if twist is None else np.asarray(twist, float)
-    qb, vb, ab = _platform_free_flyer(np.asarray(pose, float), twist, np.asarray(accel, float))
+    qb, vb, ab = platform_free_flyer(np.asarray(pose, float), twist, np.asarray(accel, float))
     na = plant.na
     qf = np.concatenate([qb, q_arm])
     vf = np.concatenate([vb, np.zeros(na)])

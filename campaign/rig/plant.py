@@ -30,12 +30,13 @@ import numpy as np
 import pinocchio as pin
 
 from ..model.robot import Robot
-from .contact import Contact
+from .contact import ContactLaw
 from .pendulum import Pendulum
 
-__all__ = ["FixedBasePlant", "FrictionState", "base_wrench"]
+__all__ = ["FixedBasePlant", "FrictionState", "base_wrench", "NO_HOLDING"]
 
-_EMPTY = np.zeros(0)
+#: the holding torques of a step where no joint is stuck (none)
+NO_HOLDING = np.zeros(0)
 _LWA = pin.LOCAL_WORLD_ALIGNED
 #: ABA's world-frame convention: the one the campaign's trials are integrated with (the
 #: local convention differs from it in the last digits; the trial loop's kernel,
@@ -119,14 +120,14 @@ class FixedBasePlant:
     n : ndarray
         Unit impact direction, base frame.
     pendulum : Pendulum
-    contact : Contact
+    contact : ContactLaw
     coulomb_scale, viscous_scale : float
         Multiply the drive file's joint-side Coulomb and viscous friction.
     gravity : float
         [m/s^2]; along -z of the base frame.
     """
 
-    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: Contact, *,
+    def __init__(self, robot: Robot, q0, n, pendulum: Pendulum, contact: ContactLaw, *,
                  coulomb_scale: float, viscous_scale: float, gravity: float):
         self.robot = robot
         self.model = robot.model.copy()
@@ -252,7 +253,7 @@ class FixedBasePlant:
         two Pinocchio calls instead of a CRBA, the bias terms and a small solve."""
         model, data = self.model, self.data
         if fs.none_stuck:
-            return _EMPTY, pin.aba(model, data, q, v, tau, _WORLD)
+            return NO_HOLDING, pin.aba(model, data, q, v, tau, _WORLD)
         a = np.zeros(self.nv)
         if not fs.all_stuck:
             rm, rd = fs.reduced
@@ -405,11 +406,11 @@ class FixedBasePlant:
             a[0] = (b0 * c00 + b1 * (h02 * h21 - h01 * h22) + b2 * (h01 * h12 - h02 * h11)) / det
             a[1] = (b0 * c01 + b1 * (h00 * h22 - h02 * h20) + b2 * (h02 * h10 - h00 * h12)) / det
             a[2] = (b0 * c02 + b1 * (h01 * h20 - h00 * h21) + b2 * (h00 * h11 - h01 * h10)) / det
-            return _EMPTY, a
+            return NO_HOLDING, a
         elif len(free) > 2:
             a[free] = np.linalg.solve(H[np.ix_(free, free)], b[free])
         if not len(stuck):
-            return _EMPTY, a
+            return NO_HOLDING, a
         lam = H[stuck] @ a - b[stuck]
         return lam, a
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from ..core.vocabulary import FIXED
 from ..model.robot import load_robot
 from .integrate import Trajectory
 from .plant import FixedBasePlant, base_wrench
@@ -124,7 +125,7 @@ class StateSampler:
         return np.maximum(F, 0.0)
 
 
-# -- fast recording: the per-sample Pinocchio evaluations of :func:`.simulate.record` ----------
+# -- fast recording: the per-sample Pinocchio evaluations of :func:`.trial.record` ----------
 # Each sample costs a few Pinocchio calls (< 1 us each); everything around them is hoisted
 # (frame ids, placements, the external-force vector) or done once over all samples in NumPy
 # (0.5 v^T H v from the stack of mass matrices, n^T J v, the pendulum's and the contact's
@@ -138,7 +139,7 @@ def _kind(plant) -> str:
         return "loop"
     if hasattr(plant, "ibase"):
         return "ideal"
-    return "fixed"
+    return FIXED
 
 
 def _point_force(r, n: np.ndarray, R: np.ndarray, F: float) -> pin.Force:
@@ -170,7 +171,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
     if N == 0:
         return out
     nv, n = plant.nv, plant.n
-    if kind == "fixed":
+    if kind == FIXED:
         model, data, fid = plant.model, plant.data, plant.fid
         joint = 1                                 # the first joint: the wrench below it
         Q = X[:, :nv]
@@ -192,7 +193,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
     # the fixed base joint 1 hangs from the universe, so its placement is RNEA's liMi[1]
     # (oMi[1] = oMi[0] liMi[1] with oMi[0] the identity) and no forward pass is needed
     f_joint = data.f[joint]
-    M_joint = data.liMi[joint] if kind == "fixed" else oMi[joint]
+    M_joint = data.liMi[joint] if kind == FIXED else oMi[joint]
     fk, rnea = pin.forwardKinematics, pin.rnea
     if kind == "ideal":
         mount = plant.mount_id
@@ -205,10 +206,10 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
             rnea(model, data, q, v, a, fext)
             fext[jid] = zero
         else:                                     # no external force: RNEA without fext is identical
-            if kind != "fixed":
+            if kind != FIXED:
                 fk(model, data, q)
             rnea(model, data, q, v, a)
-        if kind == "fixed":
+        if kind == FIXED:
             out[k] = M_joint.act(f_joint).vector
         else:
             place(model, data, mount)
@@ -218,7 +219,7 @@ def mount_wrenches(plant, X, XD, F) -> np.ndarray:
 
 def _platform_chart(pose, twist):
     """Free-flyer configurations (n, 7) and body twists (n, 6) of small-angle platform
-    states ``pose``/``twist`` (n, 6 each): :func:`.flexible._platform_free_flyer` with zero
+    states ``pose``/``twist`` (n, 6 each): :func:`.flexible.platform_free_flyer` with zero
     acceleration, the matrix products done once over all rows."""
     pose = np.asarray(pose, dtype=float)
     twist = np.asarray(twist, dtype=float)

@@ -1,5 +1,5 @@
 """The trial's plain arrays (:class:`campaign.scene.schema.TrialArrays`) as an
-``xarray.DataTree``: what :func:`.simulate.simulate` returns.
+``xarray.DataTree``: what :func:`.trial.simulate` returns.
 
 xarray and pandas are imported on first use: the campaign's simulation jobs store the
 plain arrays and never pay ~0.7 s for them.
@@ -18,7 +18,7 @@ pd = LazyModule("pandas")
 
 
 def to_tree(trial: TrialArrays) -> xr.DataTree:
-    """The trial as an ``xarray.DataTree`` (what :func:`.simulate.simulate` returns): each group is
+    """The trial as an ``xarray.DataTree`` (what :func:`.trial.simulate` returns): each group is
     built from its Variables and indexed coordinates in one constructor call, and attached
     to the root without the copies ``DataTree.from_dict`` makes."""
     children = {}

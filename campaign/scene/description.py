@@ -22,8 +22,10 @@ from typing import Any
 
 from ..core.errors import InputError, allowed_names
 from ..core.vocabulary import (
+    FIXED,
     SPEED_DECIMALS,
     TRIAL_SUFFIX,
+    ZERO,
     bases,
     config_folder,
     custom_pose_folder,
@@ -432,7 +434,7 @@ def rig_values(*, rig: str | Path | None = None, params: Mapping[str, Any] | Non
     return values
 
 
-def make_scene(*, base: str = "fixed", config: int | None = 1, gain: str = "zero", speed: float = 1.5,
+def make_scene(*, base: str = FIXED, config: int | None = 1, gain: str = ZERO, speed: float = 1.5,
                repeat: int = 0, seed: int | None = None, scene: str = "default",
                q_paper_deg=None, gains_counts=None, params: Mapping[str, Any] | None = None,
                rig: str | Path | None = None, campaign_seed: int = 0, direction=None) -> Scene:

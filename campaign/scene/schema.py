@@ -25,6 +25,8 @@ import dataclasses
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from ..core.vocabulary import FIXED, FLEXIBLE
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -52,7 +54,7 @@ class Var:
     dims: tuple[str, ...]
     units: str
     long_name: str
-    bases: tuple[str, ...] = ("fixed", "flexible")  # scenes that carry it
+    bases: tuple[str, ...] = (FIXED, FLEXIBLE)  # scenes that carry it
 
 
 CLOCKS = {
@@ -65,7 +67,7 @@ CLOCKS = {
     "t_truth": Clock("t_truth", "simulator truth sample time", "sensors.truth_rate"),
 }
 
-_FLEX = ("flexible",)
+_FLEX = (FLEXIBLE,)
 
 MEASURED = (
     # channels
@@ -188,7 +190,7 @@ class TrialArrays:
     """A trial as plain arrays: root attributes and the groups ``measured`` and ``truth``.
 
     ``campaign.archive.write_trial`` stores it exactly as it stores the same trial given as
-    an :class:`xarray.DataTree` (``campaign.rig.simulate.to_tree`` builds that tree), without
+    an :class:`xarray.DataTree` (``campaign.rig.trial.to_tree`` builds that tree), without
     building xarray objects or importing xarray: a simulation job then does not pay ~0.7 s
     for importing xarray and pandas (``campaign.rig.simulate_arrays``).
     """

@@ -19,6 +19,8 @@ the tests. This module imports nothing: the workflow reads :data:`FILES` at star
 Method and findings: the user guide's *Studies* page (``docs/studies.rst``).
 """
 
+__all__ = ["FILES", "NAMES"]
+
 #: the files each study writes into ``results/studies/<name>/`` (a quick run writes the same
 #: files; a part it skips holds only its header)
 FILES = {

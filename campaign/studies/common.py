@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 import os
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -15,8 +14,10 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
+from ..core import vocabulary
 from ..core.files import write_atomic
 from ..identify import identify_trial
+from ..identify.results import is_usable
 from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit
 from ..model.paper import impact_direction, load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -29,12 +30,12 @@ __all__ = ["STIFF_MAST", "PASSIVE", "CELLS", "SPEEDS", "FIG9_SPEED", "Log", "qui
            "truth_values", "identified_lambda", "lambda_rows", "reduction", "write_csv"]
 
 #: the rig's stiff mast, the structure a study's flexible trials emulate unless it names another
-STIFF_MAST = {"flexible.structure": "stiff_mast"}
+STIFF_MAST = {"flexible.structure": vocabulary.STIFF_MAST}
 #: Zero gains and these overrides make the arm passive and frictionless: lambda = 0 exactly
 #: (the rotor inertia is in H), so eq 8 needs no identified lambda
 PASSIVE = {"gravity": 0.0, "arm.coulomb_scale": 0.0, "arm.viscous_scale": 0.0}
 #: the paper's Table 4 cells (configuration, gain set)
-CELLS = ((1, "low"), (1, "high"), (2, "low"), (2, "high"))
+CELLS = ((1, vocabulary.LOW), (1, vocabulary.HIGH), (2, vocabulary.LOW), (2, vocabulary.HIGH))
 #: the reference campaign's impact speeds [m/s]
 SPEEDS = (1.5, 2.5)
 #: the campaign's Figure 9 trials (``figures.fig9`` of the configuration) [m/s]
@@ -85,7 +86,7 @@ def run_trial(*, base: str, config: int, gain: str, speed: float, params: Mappin
     out = {"base": base, "config": config, "gain": gain, "speed": speed, "record": ident.to_dict(),
            "m_truth": m_truth, "m_ident": float(ident.m_eff), "excluded": bool(ident.excluded),
            "e_truth": e_truth, "m_b": m_b, "impulse": float(tr.impulse), "Tc": t1 - t0}
-    if base == "flexible":
+    if base == vocabulary.FLEXIBLE:
         out.update(_base_motion(m, t0, t1, out["impulse"]))
         out["freqs"] = modes(scene)
         out["f1"] = float(out["freqs"][0])
@@ -122,8 +123,7 @@ def reduction(low: float, high: float) -> float:
 # lambda from the rig's fixed base
 # ----------------------------------------------------------------------------------------
 def _usable(trials, members) -> list[dict]:
-    return [t["record"] for t in trials if t["gain"] in members and not t["excluded"]
-            and t["record"]["m_eff"] is not None and math.isfinite(t["record"]["m_eff"]) and t["record"]["m_eff"] > 0]
+    return [t["record"] for t in trials if t["gain"] in members and is_usable(t["record"])]
 
 
 def identified_lambda(*, speeds: Sequence[float] = SPEEDS, log: Log = quiet) -> dict:
@@ -134,8 +134,8 @@ def identified_lambda(*, speeds: Sequence[float] = SPEEDS, log: Log = quiet) -> 
     and the lambda model's own error on the fixed base (identified / eq 7 - 1, per speed)."""
     paper = load_paper()
     robot = load_robot()
-    fixed = [run_trial(base="fixed", config=c, gain=g, speed=v)
-             for c in (1, 2, 3) for g in ("zero", "low", "high") for v in speeds]
+    fixed = [run_trial(base=vocabulary.FIXED, config=c, gain=g, speed=v)
+             for c in (1, 2, 3) for g in (vocabulary.ZERO, vocabulary.LOW, vocabulary.HIGH) for v in speeds]
     fits = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)
@@ -148,7 +148,7 @@ def identified_lambda(*, speeds: Sequence[float] = SPEEDS, log: Log = quiet) -> 
     lam = {g: fits[cls].lambda_matrix_ for cls, members in paper["gain_classes"].items() for g in members}
     log("lambda " + "; ".join(f"{cls} {np.round(f.lambda_, 3).tolist()}" for cls, f in fits.items()))
     cell = {(c, g): [f for f in fixed if f["config"] == c and f["gain"] == g] for c, g in CELLS}
-    return {"lam": lam, "fits": fits, "fixed": fixed,
+    return {"lam": lam, "fits": fits, vocabulary.FIXED: fixed,
             "m_fixed": {k: float(np.mean([f["m_ident"] for f in v])) for k, v in cell.items()},
             "error": {k: [f["m_ident"] / eq7(robot, f["record"], lam[k[1]]) - 1.0 for f in v] for k, v in cell.items()}}
 

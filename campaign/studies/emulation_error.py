@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.files import write_atomic
+from ..core.vocabulary import FLEXIBLE, HIGH
 from ..rig import simulate
 from ..scene.description import make_scene
 from .common import Log, quiet, write_csv
@@ -27,7 +28,7 @@ def traces(config: int, gain: str, speed: float) -> dict:
     """{mode: (time after the contact start [s], base displacement x [m])} for both VES modes."""
     out = {}
     for mode in ("loop", "ideal"):
-        tree = simulate(make_scene(base="flexible", config=config, gain=gain, speed=speed, params={"ves.mode": mode}))
+        tree = simulate(make_scene(base=FLEXIBLE, config=config, gain=gain, speed=speed, params={"ves.mode": mode}))
         m = tree["measured"]
         t0 = float(tree["truth"].contact_start)
         out[mode] = (m.t_base.values - t0, m.base_position.sel(axis="x").values)
@@ -68,14 +69,14 @@ def plot(tr: dict, png, title: str) -> None:
     write_atomic(png, buf.getvalue())
 
 
-def run(out_dir, *, quick: bool = False, log: Log = quiet, config: int = 2, gain: str = "high",
+def run(out_dir, *, quick: bool = False, log: Log = quiet, config: int = 2, gain: str = HIGH,
         speed: float = 2.5) -> list[str]:
     """Run the study and write its files into ``out_dir``; returns their paths. ``quick``
     changes nothing: the study is two trials."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     tr = traces(config, gain, speed)
-    p = make_scene(base="flexible").p
+    p = make_scene(base=FLEXIBLE).p
     row = {"config": config, "gain": gain, "speed_m_s": speed, "ves_rate_Hz": p("ves.rate"),
            "ves_latency_s": p("ves.latency"), "ves_bandwidth_Hz": p("ves.bandwidth"), **compare(tr)}
     log(f"loop vs ideal peak {100 * row['peak_relative_difference']:+.2f} %")

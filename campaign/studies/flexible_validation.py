@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
 
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO
 from ..model import exiit
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -117,8 +118,8 @@ def passive_contact(*, scales, log: Log = quiet) -> list[dict]:
     for c in (1, 2):
         for s in scales:
             p = dict(PASSIVE, **{"contact.stiffness": k0 * s})
-            fx = run_trial(base="fixed", config=c, gain="zero", speed=1.5, params=p)
-            ideal, loop = (run_trial(base="flexible", config=c, gain="zero", speed=1.5, params=dict(p, **{"ves.mode": m}))
+            fx = run_trial(base=FIXED, config=c, gain=ZERO, speed=1.5, params=p)
+            ideal, loop = (run_trial(base=FLEXIBLE, config=c, gain=ZERO, speed=1.5, params=dict(p, **{"ves.mode": m}))
                            for m in ("ideal", "loop"))
             row = {"config": c, "contact_scale": s, "Tc_s": fx["Tc"], "Tc_over_T1": fx["Tc"] * loop["f1"],
                    "Tc_times_f2": fx["Tc"] * loop["freqs"][2], "f1_Hz": loop["f1"],
@@ -145,7 +146,7 @@ def structure_stiffness(lam: dict, *, beams, speeds, log: Log = quiet) -> tuple[
         if (ei, mode) != (1.0, "loop"):
             params["flexible.trial_periods"] = 1.0   # m* needs the contact, not 4 periods
         for c, g in CELLS:
-            tt = trials[(ei, mode, c, g)] = [run_trial(base="flexible", config=c, gain=g, speed=v, params=params)
+            tt = trials[(ei, mode, c, g)] = [run_trial(base=FLEXIBLE, config=c, gain=g, speed=v, params=params)
                                              for v in speeds]
             row = {"EI_scale": ei, "ves_mode": mode, "cell": f"{c}-{g}", "f1_Hz": tt[0]["f1"],
                    "Tc_s": float(np.mean([t["Tc"] for t in tt])),
@@ -174,39 +175,39 @@ def figure9(lam: dict, trials: dict, *, speeds, bases) -> dict:
     iv = list(speeds).index(FIG9_SPEED)
     configs = []
     for c in (1, 2):
-        tr = {g: trials[(1.0, "loop", c, g)][iv] for g in ("low", "high")}
-        m_b = tr["high"]["m_b"]
+        tr = {g: trials[(1.0, "loop", c, g)][iv] for g in (LOW, HIGH)}
+        m_b = tr[HIGH]["m_b"]
 
-        def eq8_red(lo, hi, rec_lo=tr["low"]["record"], rec_hi=tr["high"]["record"], m_b=m_b):
+        def eq8_red(lo, hi, rec_lo=tr[LOW]["record"], rec_hi=tr[HIGH]["record"], m_b=m_b):
             return reduction(impulsive_base_velocity(robot, rec_lo, lo, m_b), impulsive_base_velocity(robot, rec_hi, hi, m_b))
 
         configs.append({
-            "config": c, "peak_low_m": tr["low"]["peak_base_x"], "peak_high_m": tr["high"]["peak_base_x"],
-            "reduction": reduction(tr["low"]["peak_base_x"], tr["high"]["peak_base_x"]),
-            "impulse_reduction": reduction(tr["low"]["impulse"], tr["high"]["impulse"]),
-            **{f"passed_{w}_{g}": tr[g][f"passed_{w}"] for w in ("end", "peak") for g in ("low", "high")},
-            "passed_reduction": reduction(tr["low"]["passed_peak"] * tr["low"]["impulse"],
-                                          tr["high"]["passed_peak"] * tr["high"]["impulse"]),
-            "t_peak_high_s": tr["high"]["t_peak"], "Tc_s": tr["high"]["Tc"], "f1_Hz": tr["high"]["f1"],
-            "eq8_rig_lambda": eq8_red(lam["lam"]["low"], lam["lam"]["high"]),
-            "eq8_paper_lambda": eq8_red(lam_paper["low"], lam_paper["high"]),
-            "eq8_free_vs_locked": eq8_red(None, np.full(3, 1e6), tr["high"]["record"], tr["high"]["record"])})
+            "config": c, "peak_low_m": tr[LOW]["peak_base_x"], "peak_high_m": tr[HIGH]["peak_base_x"],
+            "reduction": reduction(tr[LOW]["peak_base_x"], tr[HIGH]["peak_base_x"]),
+            "impulse_reduction": reduction(tr[LOW]["impulse"], tr[HIGH]["impulse"]),
+            **{f"passed_{w}_{g}": tr[g][f"passed_{w}"] for w in ("end", "peak") for g in (LOW, HIGH)},
+            "passed_reduction": reduction(tr[LOW]["passed_peak"] * tr[LOW]["impulse"],
+                                          tr[HIGH]["passed_peak"] * tr[HIGH]["impulse"]),
+            "t_peak_high_s": tr[HIGH]["t_peak"], "Tc_s": tr[HIGH]["Tc"], "f1_Hz": tr[HIGH]["f1"],
+            "eq8_rig_lambda": eq8_red(lam["lam"][LOW], lam["lam"][HIGH]),
+            "eq8_paper_lambda": eq8_red(lam_paper[LOW], lam_paper[HIGH]),
+            "eq8_free_vs_locked": eq8_red(None, np.full(3, 1e6), tr[HIGH]["record"], tr[HIGH]["record"])})
     out_bases = []
     for pm, bm in bases:
-        body = Beam.from_scene(make_scene(base="flexible", params=dict(STIFF_MAST, **{
+        body = Beam.from_scene(make_scene(base=FLEXIBLE, params=dict(STIFF_MAST, **{
             "flexible.platform_mass": pm, "flexible.beam_mass": bm}))).base_body()
         row = {"platform_kg": pm, "beam_kg": bm, "base_mass_kg": float(body.mass)}
         for c in (1, 2):
-            rec = dict(trials[(1.0, "loop", c, "high")][iv]["record"], base_mass=float(body.mass),
+            rec = dict(trials[(1.0, "loop", c, HIGH)][iv]["record"], base_mass=float(body.mass),
                        base_inertia=np.asarray(body.inertia).ravel().tolist(), base_com=np.asarray(body.com).tolist(),
                        base_mount=[0.0, 0.0, 0.0])
-            m_b = trials[(1.0, "loop", c, "high")][iv]["m_b"]
+            m_b = trials[(1.0, "loop", c, HIGH)][iv]["m_b"]
             row[f"reduction_config{c}"] = reduction(*(impulsive_base_velocity(robot, rec, lam_paper[g], m_b)
-                                                      for g in ("low", "high")))
+                                                      for g in (LOW, HIGH)))
         out_bases.append(row)
     variants = [{"EI_scale": ei, "ves_mode": mode, "config": c,
-                 "reduction": reduction(tt[iv]["peak_base_x"], trials[(ei, mode, c, "high")][iv]["peak_base_x"])}
-                for (ei, mode, c, g), tt in trials.items() if g == "low"]
+                 "reduction": reduction(tt[iv]["peak_base_x"], trials[(ei, mode, c, HIGH)][iv]["peak_base_x"])}
+                for (ei, mode, c, g), tt in trials.items() if g == LOW]
     return {"configs": configs, "bases": out_bases, "variants": variants, "paper_lambda": _paper_lambda(trials, iv)}
 
 
@@ -222,7 +223,7 @@ def _paper_lambda(trials: dict, iv: int) -> list[dict]:
         rows.append({"cell": f"{c}-{g}", "eq7_kg": eq7(robot, rec, lam_paper[g]), "eq8_kg": eq8(robot, rec, lam_paper[g]),
                      "paper_eq8_kg": paper["table4"][f"{c}-{g}"]["predicted"],
                      "paper_experiment_kg": paper["table4"][f"{c}-{g}"]["experiment"],
-                     "paper_fixed_kg": paper["table2"]["m3" if g == "high" else "m2"][c]})
+                     "paper_fixed_kg": paper["table2"]["m3" if g == HIGH else "m2"][c]})
     return rows
 
 
@@ -230,8 +231,8 @@ def servo_frequencies() -> list[dict]:
     """High-gain servo natural frequency sqrt(Kp / H_jj) per joint [Hz], configurations 1-2."""
     robot = load_robot()
     paper = load_paper()
-    sc = make_scene(gain="high")
-    g = paper["gains"]["high"]
+    sc = make_scene(gain=HIGH)
+    g = paper["gains"][HIGH]
     Kp = equivalent_gains(g["P"], g["D"], g["I"], scale=sc.p("controller.torque_per_unit"),
                           resolution=robot.encoder_resolution, period=1.0 / sc.p("controller.servo_rate"))[0]
     rows = []

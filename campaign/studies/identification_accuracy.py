@@ -25,16 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.vocabulary import FIXED, HIGH, LOW, ZERO
 from ..identify import IdentifyOptions, identify_trial
 from ..model.robot import load_robot
-from ..rig.simulate import simulate
+from ..rig.trial import simulate
 from ..scene.description import make_scene
 from .closed_forms import truth_m_impulse
 from .common import Log, quiet, truth_values, write_csv
 
 __all__ = ["Settings", "VARIANTS", "GAINS", "simulate_sweep", "score", "run"]
 
-GAINS = ("zero", "low", "high")
+GAINS = (ZERO, LOW, HIGH)
 VARIANTS = {
     "combined": {"arm_velocity": "combined"},
     "lti": {"arm_velocity": "encoders", "arm_model": "lti", "edge_model": "line", "pendulum_model": "poly",
@@ -72,7 +73,7 @@ def simulate_sweep(rate: float, *, speeds, repeats: int) -> list:
         for gain in GAINS:
             for speed in speeds:
                 for repeat in range(repeats):
-                    scene = make_scene(base="fixed", config=config, gain=gain, speed=speed, repeat=repeat,
+                    scene = make_scene(base=FIXED, config=config, gain=gain, speed=speed, repeat=repeat,
                                        params={"sensors.joint_encoder_rate": rate})
                     tree = simulate(scene)
                     out.append((gain, tree["measured"].to_dataset(), tree["truth"].to_dataset(), dict(tree.attrs)))
@@ -126,7 +127,7 @@ def ideal_rows(robot) -> list[dict]:
     worst: dict = {}
     for config in (1, 2, 3):
         for speed in (1.0, 2.5):
-            tree = simulate(make_scene(base="fixed", config=config, speed=speed, scene="ideal"))
+            tree = simulate(make_scene(base=FIXED, config=config, speed=speed, scene="ideal"))
             measured, truth = tree["measured"].to_dataset(), tree["truth"].to_dataset()
             m_true, e_true = truth_values(truth, float(measured["hammer_mass_eff"]))
             r = identify_trial(measured, robot=robot, meta=dict(tree.attrs))

@@ -21,6 +21,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from ..core.vocabulary import HIGH, LOW, ZERO, ZERO_LOW
 from ..core.yamlfile import PROJECT_DIR
 from ..design.designed_campaign import impedance_arrays
 from ..identify.table import read_identification
@@ -32,7 +33,7 @@ from .common import Log, quiet, write_csv
 
 __all__ = ["CLASSES", "diagnosis", "ablation", "run"]
 
-CLASSES = {"zero_low": ("zero", "low"), "high": ("high",)}
+CLASSES = {ZERO_LOW: (ZERO, LOW), HIGH: (HIGH,)}
 ABLATION_COLUMNS = ("model", "fitted", "zero_low_median", "zero_low_worst", "high_median", "high_worst")
 #: the rig's stick velocity [rad/s] (config/rig.yaml, arm.stick_velocity)
 STICK = 1e-4

@@ -21,11 +21,12 @@ import numpy as np
 import pinocchio as pin
 
 from ..core.errors import SimulationError
+from ..core.vocabulary import FLEXIBLE, HIGH, SPACE_CLASS, ZERO
 from ..model.paper import load_paper
 from ..model.robot.floating import attach_to_floating_base
 from ..plan.directions import horizontal_directions
 from ..plan.factory import build_planner
-from ..rig.contact import Contact, pulse_shape
+from ..rig.contact import ContactLaw, pulse_shape
 from . import plan_rig_check as prc
 from .common import Log, quiet, write_csv
 
@@ -50,7 +51,7 @@ def twin_peak(planner, i: int, g: int, d: int, *, dt: float = 2e-4) -> float:
     K, B = np.asarray(planner.beam.stiffness), np.asarray(planner.beam.damping)
     kp, damping, _ = planner.arm.matrices(planner.gain_classes_, planner.robot.nv)
     kp, damping = kp[g], damping[g]
-    c = Contact(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
+    c = ContactLaw(planner.contact_stiffness, planner.contact_exponent, planner.restitution)
     _, shape = pulse_shape(c.damping, float(c.exponent))
     s = np.linspace(0.0, 1.0, shape.size)
     # the pulse carries eq 14's impulse exactly (as the planner's first-order hold does)
@@ -133,9 +134,9 @@ def compare(speed: float, head_mass: float, *, n_dirs: int = 4, gains=tuple(prc.
     for setting, over in SETTINGS:
         params = {"pendulum.head_mass": head_mass, **over}
         row = prc.check_point(name, point, directions=directions, speed=speed, params=params, gains=gains,
-                              bases=(("flexible", "space_class"),))[0]
-        planner = build_planner(base="flexible", lambdas=table3, speed=speed, mass=prc.hammer_mass(params),
-                                objective="displacement", structure="space_class", params=params)
+                              bases=((FLEXIBLE, SPACE_CLASS),))[0]
+        planner = build_planner(base=FLEXIBLE, lambdas=table3, speed=speed, mass=prc.hammer_mass(params),
+                                objective="displacement", structure=SPACE_CLASS, params=params)
         planner.fit(point, directions)
         meas, pred, twin = _values(row, planner, dt=dt)
         keys = sorted(meas)
@@ -157,6 +158,6 @@ def compare(speed: float, head_mass: float, *, n_dirs: int = 4, gains=tuple(prc.
 def run(out_dir, *, quick: bool = False, log: Log = quiet) -> list[str]:
     """Run the study (2.0 m/s, head mass 5 kg, 4 directions; ``quick``: 2 directions, gain
     sets zero and high, a coarser twin step) and write ``twin.csv`` into ``out_dir``."""
-    kw = dict(n_dirs=2, gains=("zero", "high"), dt=5e-4) if quick else {}
+    kw = dict(n_dirs=2, gains=(ZERO, HIGH), dt=5e-4) if quick else {}
     rows = compare(2.0, 5.0, log=log, **kw)
     return [write_csv(Path(out_dir) / "twin.csv", rows, COLUMNS)]

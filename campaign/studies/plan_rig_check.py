@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, SPACE_CLASS, STIFF_MAST, ZERO, ZERO_LOW
 from ..model.exiit import effective_mass
 from ..model.paper import configuration_q, impact_direction, load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -35,9 +36,9 @@ from ..plan.directions import horizontal_directions
 from ..plan.factory import build_planner
 from ..plan.prediction import pose_terms, predict
 from ..rig.beam import Beam
-from ..rig.contact import Contact, pulse_shape
+from ..rig.contact import ContactLaw, pulse_shape
 from ..rig.pendulum import Pendulum
-from ..rig.simulate import simulate_arrays
+from ..rig.trial import simulate_arrays
 from ..scene.description import make_scene
 from .common import PASSIVE, Log, quiet, write_csv
 
@@ -50,7 +51,7 @@ __all__ = ["Settings", "POINTS", "BASES", "CSV_COLUMNS", "GAIN_CLASS", "contact_
 #: and exposed from every horizontal direction on each branch
 POINTS = {"config 1 wrist centre": None, "side point": (30.0, 120.0, 0.0)}
 #: bases of the check: the fixed base, then the flexible base under each named structure
-BASES = (("fixed", None), ("flexible", "space_class"), ("flexible", "stiff_mast"))
+BASES = ((FIXED, None), (FLEXIBLE, SPACE_CLASS), (FLEXIBLE, STIFF_MAST))
 CSV_COLUMNS = ("object_kg", "point", "base", "structure", "f1_Hz", "branches", "candidates", "refused",
                "quantity", "unit", "predicted_min", "predicted_max", "measured_min", "measured_max",
                "spearman", "best_over_worst", "spearman_at_once", "best_over_worst_at_once",
@@ -65,7 +66,7 @@ CHECK_COLUMNS = {
     "coulomb": ("rig", "measured_over_predicted_min", "measured_over_predicted_max"),
     "sign_asymmetry": ("speed_m_s", "rig", "gain", "largest_pm_n_difference", "largest_joint_excursion_rad"),
 }
-GAIN_CLASS = {"zero": "zero_low", "low": "zero_low", "high": "high"}
+GAIN_CLASS = {ZERO: ZERO_LOW, LOW: ZERO_LOW, HIGH: HIGH}
 #: the rig settings of the sign check: as calibrated, and without the effects the planner's
 #: linear arm could still be missing (Coulomb friction, gravity)
 SIGN_SETTINGS = (("as calibrated", {}), ("Coulomb friction off", {"arm.coulomb_scale": 0.0}),
@@ -90,7 +91,7 @@ class Settings:
     @classmethod
     def quick(cls) -> Settings:
         return cls(directions=2, head_masses=(), points=("config 1 wrist centre",),
-                   bases=(("fixed", None), ("flexible", "space_class")), gains=("zero", "high"), checks=False)
+                   bases=((FIXED, None), (FLEXIBLE, SPACE_CLASS)), gains=(ZERO, HIGH), checks=False)
 
 
 def contact_points() -> dict:
@@ -128,7 +129,7 @@ def measure(base: str, q_dh, gain: str, n, speed: float, params=None, *, duratio
     truth, scene, why = simulate_truth(base, q_dh, gain, n, speed, params)
     if why is not None:
         return (None, why, None) if duration else (None, why)
-    if base == "fixed":
+    if base == FIXED:
         peak = float(np.max(truth["f_contact"].values))
     else:
         peak = float(np.max(np.linalg.norm(truth["base_position"].values, axis=1)))
@@ -159,14 +160,14 @@ def _predictions(base: str, structure, point, directions, *, speed: float, param
     never the rig's answers) and its predictions: (planner, predicted, at once, release)."""
     table3 = {k: [float(v) for v in lam] for k, lam in load_paper()["table3"].items()}
     planner = build_planner(base=base, lambdas=table3, speed=speed, mass=hammer_mass(params),
-                            objective="force" if base == "fixed" else "displacement", structure=structure, params=params)
+                            objective="force" if base == FIXED else "displacement", structure=structure, params=params)
     P = planner.fit(point, directions).predictions_
-    predicted = P.peak_force if base == "fixed" else P.structure_peak
-    release = None if base == "fixed" else P.structure_peak_release
+    predicted = P.peak_force if base == FIXED else P.structure_peak
+    release = None if base == FIXED else P.structure_peak_release
     # the same planner with the impulse arriving at once (lambda's m* for the force)
     planner.arm = dataclasses.replace(planner.arm, pulse=False)
     A = planner.fit(point, directions).predictions_
-    return planner, predicted, A.peak_force if base == "fixed" else A.structure_peak, release
+    return planner, predicted, A.peak_force if base == FIXED else A.structure_peak, release
 
 
 def _candidates(base, planner, predicted, at_once, release, *, gains, speed, params):
@@ -223,7 +224,7 @@ def csv_rows(rows: list[dict]) -> list[dict]:
     contact point and base; SI units, the quantity named)."""
     out = []
     for r in rows:
-        fixed = r["base"] == "fixed"
+        fixed = r["base"] == FIXED
         out.append({"object_kg": f"{r['object_kg']:.6g}", "point": r["point"], "base": r["base"],
                     "structure": r["structure"], "f1_Hz": "" if r["frequency"] is None else f"{r['frequency']:.6g}",
                     "branches": r["branches"], "candidates": r["candidates"], "refused": r["refused"],
@@ -261,10 +262,10 @@ def impulsive_limit(speed: float) -> list[dict]:
             params = dict(PASSIVE, **{"ves.mode": mode})
             k = scale * float(make_scene(params=params).p("contact.stiffness"))
             params["contact.stiffness"] = k
-            sc = make_scene(base="flexible", config=1, gain="zero", speed=speed, params=params)
+            sc = make_scene(base=FLEXIBLE, config=1, gain=ZERO, speed=speed, params=params)
             truth = simulate_arrays(sc)["truth"]
             p = sc.p
-            contact = Contact(k, float(p("contact.exponent")), float(p("contact.restitution")))
+            contact = ContactLaw(k, float(p("contact.exponent")), float(p("contact.restitution")))
             P = predict(pose_terms(robot, configuration_q(1)[None], beam=Beam.from_scene(sc)), [[0.0, 0.0, 0.0]],
                         [[-1.0, 0.0, 0.0]], mass=hammer_mass(params), speed=speed,
                         restitution=float(p("contact.restitution")), contact=contact)
@@ -281,14 +282,14 @@ def passive_check(speed: float, directions) -> list[dict]:
     the arm's joints free after the impact and with eq 8's release alone (the arm locked)."""
     rows = []
     for name, point in contact_points().items():
-        for structure in ("space_class", "stiff_mast"):
-            planner = build_planner(base="flexible", lambdas={"zero": [0.0, 0.0, 0.0]}, speed=speed,
+        for structure in (SPACE_CLASS, STIFF_MAST):
+            planner = build_planner(base=FLEXIBLE, lambdas={ZERO: [0.0, 0.0, 0.0]}, speed=speed,
                                     mass=hammer_mass(), objective="displacement", structure=structure, params=PASSIVE)
             P = planner.fit(point, directions).predictions_
             pred, rel, meas = [], [], []
             for i, q in enumerate(planner.q_):
                 for d, n in enumerate(planner.directions_):
-                    measured, why = measure("flexible", q, "zero", n, speed, with_structure(PASSIVE, structure))
+                    measured, why = measure(FLEXIBLE, q, ZERO, n, speed, with_structure(PASSIVE, structure))
                     if why is None:
                         pred.append(float(P.structure_peak[i, 0, d]))
                         rel.append(float(P.structure_peak_release[i, 0, d]))
@@ -307,17 +308,17 @@ def coulomb_check(speed: float, directions) -> list[dict]:
     """Measured / predicted of the zero gain set's candidates along +-y at the side point
     (space-class structure, the rig's hammer) with the rig's Coulomb friction and without it
     (the planner's linear arm has none)."""
-    zero_low = [float(v) for v in load_paper()["table3"]["zero_low"]]
+    zero_low = [float(v) for v in load_paper()["table3"][ZERO_LOW]]
     rows = []
     for label, params in (("as calibrated", None), ("Coulomb friction off", {"arm.coulomb_scale": 0.0})):
-        planner = build_planner(base="flexible", lambdas={"zero": zero_low}, speed=speed, mass=hammer_mass(params),
-                                objective="displacement", structure="space_class", params=params)
+        planner = build_planner(base=FLEXIBLE, lambdas={ZERO: zero_low}, speed=speed, mass=hammer_mass(params),
+                                objective="displacement", structure=SPACE_CLASS, params=params)
         planner.fit(contact_points()["side point"], directions)
         ratios = []
         for i, q in enumerate(planner.q_):
             for d, n in enumerate(planner.directions_):
                 if abs(n[1]) >= 0.5:
-                    measured, why = measure("flexible", q, "zero", n, speed, with_structure(params, "space_class"))
+                    measured, why = measure(FLEXIBLE, q, ZERO, n, speed, with_structure(params, SPACE_CLASS))
                     if why is None:
                         ratios.append(measured / float(planner.predictions_.structure_peak[i, 0, d]))
         rows.append({"rig": label, "measured_over_predicted_min": min(ratios),
@@ -332,7 +333,7 @@ def _sign_cell(qs, dirs, pairs, gain: str, speed: float, params) -> dict:
     for q in qs:
         peak = {}
         for d in sorted({i for pair in pairs for i in pair}):
-            truth, _, why = simulate_truth("flexible", q, gain, dirs[d], speed, params)
+            truth, _, why = simulate_truth(FLEXIBLE, q, gain, dirs[d], speed, params)
             if why is not None:
                 continue
             x = np.linalg.norm(truth["base_position"].values, axis=1)
@@ -345,7 +346,7 @@ def _sign_cell(qs, dirs, pairs, gain: str, speed: float, params) -> dict:
             "largest_joint_excursion_rad": max(excursion) if excursion else None}
 
 
-def sign_asymmetry(speed: float, directions, params=None, *, speeds=(0.5, 1.0), gains=("zero", "high"),
+def sign_asymmetry(speed: float, directions, params=None, *, speeds=(0.5, 1.0), gains=(ZERO, HIGH),
                    settings=SIGN_SETTINGS) -> list[dict]:
     """Why candidates that differ only by the sign of n measure apart: configuration 1's point on
     the space-class structure, the object of ``params``, gain sets ``gains``; at ``speed`` under
@@ -357,7 +358,7 @@ def sign_asymmetry(speed: float, directions, params=None, *, speeds=(0.5, 1.0), 
     runs = [(speed, name, over) for name, over in settings] + [(v, settings[-1][0], settings[-1][1]) for v in speeds]
     rows = []
     for v, name, over in runs:
-        trial_params = with_structure({**(params or {}), **over}, "space_class")
+        trial_params = with_structure({**(params or {}), **over}, SPACE_CLASS)
         rows += [{"speed_m_s": v, "rig": name, "gain": gain, **_sign_cell(qs, dirs, pairs, gain, v, trial_params)}
                  for gain in gains]
     return rows
@@ -369,7 +370,7 @@ def facts(directions) -> list[dict]:
     robot = load_robot("puma560")
     m1 = min(effective_mass(robot, q, n) for p in contact_points().values()
              for q in position_branches(robot, p).q for n in directions)
-    c = Contact.from_scene(make_scene())
+    c = ContactLaw.from_scene(make_scene())
     _, f = pulse_shape(c.damping, c.exponent)
     return [{"name": "smallest free m* over the candidates [kg]", "value": m1},
             {"name": "contact force peak, fraction of the contact", "value": int(np.argmax(f)) / (f.size - 1)},

@@ -37,8 +37,10 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, SPACE_CLASS, STIFF_MAST, ZERO
 from ..design.candidates import feasible, random_candidates, rig_refusal
 from ..identify import identify_trial
+from ..identify.results import is_usable
 from ..joints.impacts import Impacts
 from ..joints.modelfile import load_model, save_model, shipped_model_path
 from ..model.paper import load_paper, paper_offset_deg
@@ -47,7 +49,7 @@ from ..model.robot.ik import impact_point
 from ..plan.directions import horizontal_directions
 from ..plan.factory import build_planner
 from ..plan.model_prediction import predict_model
-from ..rig.simulate import simulate_arrays
+from ..rig.trial import simulate_arrays
 from ..scene.description import make_scene
 from .common import CELLS, Log, quiet, write_csv
 
@@ -84,8 +86,8 @@ class Settings:
     flexible_poses: int = 12
     paper_speeds: tuple = (1.0, 1.75, 2.5)
     cell_speeds: tuple = (1.5, 2.5)
-    structures: tuple = ("space_class", "stiff_mast")
-    gains: tuple = ("zero", "low", "high")
+    structures: tuple = (SPACE_CLASS, STIFF_MAST)
+    gains: tuple = (ZERO, LOW, HIGH)
     points: int = 3
     directions: int = 4
     planner_speed: float = 2.0
@@ -93,8 +95,8 @@ class Settings:
 
     @classmethod
     def quick(cls) -> Settings:
-        return cls(fixed_poses=2, flexible_poses=1, paper_speeds=(1.5,), cell_speeds=(2.5,), structures=("space_class",),
-                   gains=("zero", "high"), points=1, directions=2, rate_poses=20)
+        return cls(fixed_poses=2, flexible_poses=1, paper_speeds=(1.5,), cell_speeds=(2.5,), structures=(SPACE_CLASS,),
+                   gains=(ZERO, HIGH), points=1, directions=2, rate_poses=20)
 
 
 # ----------------------------------------------------------------------------------------
@@ -105,7 +107,7 @@ def simulate_case(case: dict, *, campaign_seed: int) -> dict | None:
     [paper deg, unit], ``gain``, ``speed``): its record with the identified m*, the measured
     peak base displacement and the truth's m* (diagnosis); None if the rig refuses it or the
     identification excludes it."""
-    params = {"flexible.structure": case["structure"]} if case["base"] == "flexible" else None
+    params = {"flexible.structure": case["structure"]} if case["base"] == FLEXIBLE else None
     kw = dict(base=case["base"], gain=case["gain"], speed=float(case["speed"]), campaign_seed=campaign_seed,
               params=params)
     if case.get("config"):
@@ -118,11 +120,11 @@ def simulate_case(case: dict, *, campaign_seed: int) -> dict | None:
         return None
     m, t = trial["measured"], trial["truth"]
     rec = identify_trial(m, meta=dict(trial.attrs)).to_dict()
-    if rec["excluded"] or rec["m_eff"] is None or not rec["m_eff"] > 0:
+    if not is_usable(rec):
         return None
     tv = {k: float(np.asarray(t[k].values)) for k in ("v_a_pre", "v_a_post", "v_b_pre", "v_b_post")}
     rec["m_truth"] = rec["hammer_mass"] * (tv["v_b_pre"] - tv["v_b_post"]) / (tv["v_a_post"] - tv["v_a_pre"])
-    if case["base"] == "flexible":
+    if case["base"] == FLEXIBLE:
         rec["peak_base"] = float(np.max(np.linalg.norm(np.asarray(m["base_position"].values), axis=1)))
     return {**case, **rec}
 
@@ -140,7 +142,7 @@ def _random_poses(n: int, seed: int, *, speeds=None) -> list[tuple]:
         if len(out) >= n:
             break
         v = float(np.round(rng.uniform(1.0, 2.5), 2)) if speeds is None else float(speeds)
-        if not rig_refusal(Q[i], D[i], gains=("zero", "low", "high"), speeds=[v]):
+        if not rig_refusal(Q[i], D[i], gains=(ZERO, LOW, HIGH), speeds=[v]):
             out.append((Q[i].tolist(), D[i].tolist(), v))
     if len(out) < n:
         raise InputError(f"only {len(out)} of {n} random poses (seed {seed}) can be struck")
@@ -149,9 +151,9 @@ def _random_poses(n: int, seed: int, *, speeds=None) -> list[tuple]:
 
 def held_out_fixed(s: Settings, *, log: Log = quiet) -> list[dict]:
     """The fixed-base held-out trials: random poses and the paper's configurations."""
-    cases = [dict(set="random", base="fixed", structure=None, q=q, n=n, gain=g, speed=v)
+    cases = [dict(set="random", base=FIXED, structure=None, q=q, n=n, gain=g, speed=v)
              for q, n, v in _random_poses(s.fixed_poses, s.fixed_seed) for g in s.gains]
-    cases += [dict(set="paper", base="fixed", structure=None, config=c, gain=g, speed=v)
+    cases += [dict(set="paper", base=FIXED, structure=None, config=c, gain=g, speed=v)
               for c in (1, 2, 3) for g in s.gains for v in s.paper_speeds]
     return _simulate_all(cases, s, log=log)
 
@@ -161,9 +163,9 @@ def held_out_flexible(s: Settings, *, log: Log = quiet) -> list[dict]:
     poses = _random_poses(s.flexible_poses, s.flexible_seed)
     cases = []
     for st in s.structures:
-        cases += [dict(set="table4", base="flexible", structure=st, config=c, gain=g, speed=v)
+        cases += [dict(set="table4", base=FLEXIBLE, structure=st, config=c, gain=g, speed=v)
                   for c, g in CELLS for v in s.cell_speeds]
-        cases += [dict(set="random", base="flexible", structure=st, q=q, n=n, gain=g, speed=v)
+        cases += [dict(set="random", base=FLEXIBLE, structure=st, q=q, n=n, gain=g, speed=v)
                   for q, n, v in poses for g in s.gains]
     return _simulate_all(cases, s, log=log)
 
@@ -196,7 +198,7 @@ def evaluate(model, records: list[dict]) -> list[dict]:
         recs = [r for r in records if r["base"] == base and r["structure"] == structure]
         imp = Impacts.from_records(recs, structure=structure)
         m, lo, hi = model.predict_interval(imp)
-        peak = model.respond(imp).base_peak[:, 0] if base == "flexible" else None
+        peak = model.respond(imp).base_peak[:, 0] if base == FLEXIBLE else None
         for i, r in enumerate(recs):
             q = _paper_deg(r["q_cmd"])
             row = {"set": r["set"], "base": base, "structure": structure, "config": r.get("config") or None,
@@ -230,7 +232,7 @@ def planner_check(model, s: Settings, *, log: Log = quiet) -> tuple[list[dict], 
     """Every candidate of the planner's default at each contact point, struck on the rig:
     (one row per point and base, one row per candidate)."""
     dirs = horizontal_directions(s.directions)
-    bases = [("fixed", None)] + [("flexible", st) for st in s.structures]
+    bases = [(FIXED, None)] + [(FLEXIBLE, st) for st in s.structures]
     summary, cands = [], []
     for k, point in enumerate(_points(s), 1):
         for base, st in bases:
@@ -249,15 +251,15 @@ def planner_check(model, s: Settings, *, log: Log = quiet) -> tuple[list[dict], 
                 rows.append({"point": k, "base": base, "structure": st, "branch": c["branch"], "gain": c["gain_class"],
                              "nx": c["direction"][0], "ny": c["direction"][1], "m_model_kg": c["m_eff"],
                              "m_identified_kg": rec["m_eff"], "error": c["m_eff"] / rec["m_eff"] - 1.0,
-                             "peak_model_mm": 1e3 * c["structure_peak"] if base == "flexible" else None,
-                             "peak_measured_mm": 1e3 * rec["peak_base"] if base == "flexible" else None})
+                             "peak_model_mm": 1e3 * c["structure_peak"] if base == FLEXIBLE else None,
+                             "peak_measured_mm": 1e3 * rec["peak_base"] if base == FLEXIBLE else None})
             cands += rows
             err = np.abs([r["error"] for r in rows])
             row = {"point": k, "base": base, "structure": st, "candidates": len(rows), "refused": refused,
                    "spearman_m_eff": _spearman([r["m_model_kg"] for r in rows], [r["m_identified_kg"] for r in rows]),
                    "median_error": float(np.median(err)) if err.size else math.nan,
                    "worst_error": float(np.max(err)) if err.size else math.nan}
-            if base == "flexible" and rows:
+            if base == FLEXIBLE and rows:
                 pm = [r["peak_measured_mm"] for r in rows]
                 row["spearman_displacement"] = _spearman([r["peak_model_mm"] for r in rows], pm)
                 best = min(rows, key=lambda r: r["peak_model_mm"])
@@ -292,14 +294,14 @@ def planner_rate(model, s: Settings) -> dict[str, float]:
     Q = np.random.default_rng(1).uniform(robot.q_lower, robot.q_upper, size=(s.rate_poses, robot.nv))
     dirs = horizontal_directions(8)
     out = {}
-    for base in ("fixed", "flexible"):
+    for base in (FIXED, FLEXIBLE):
         planner = build_planner(base=base, model=model, speed=s.planner_speed)
         contact = model.setting.contact
         kw = dict(mass=planner.mass, speed=planner.speed, restitution=planner.restitution, contact=contact,
-                  flexible=base == "flexible")
-        predict_model(robot, Q, model, ["zero", "low", "high"], dirs, **kw)          # warm-up
+                  flexible=base == FLEXIBLE)
+        predict_model(robot, Q, model, [ZERO, LOW, HIGH], dirs, **kw)          # warm-up
         t0 = time.process_time()
-        predict_model(robot, Q, model, ["zero", "low", "high"], dirs, **kw)
+        predict_model(robot, Q, model, [ZERO, LOW, HIGH], dirs, **kw)
         out[base] = Q.shape[0] * 3 * 8 / (time.process_time() - t0)
     return out
 
@@ -316,7 +318,7 @@ def summarise(fixed: list[dict], flexible: list[dict], planner: list[dict], *, b
               rates: dict[str, float]) -> list[dict]:
     """One row per target the study checks: ``quantity``, ``value``, ``target``, ``met``, ``note``."""
     both = fixed + flexible
-    flex_pl = [p for p in planner if p["base"] == "flexible"]
+    flex_pl = [p for p in planner if p["base"] == FLEXIBLE]
     items = [
         ("fixed_median", _stat(fixed, "error", np.median), f"{len(fixed)} trials"),
         ("fixed_worst", _stat(fixed, "error", np.max), ""),
@@ -332,8 +334,8 @@ def summarise(fixed: list[dict], flexible: list[dict], planner: list[dict], *, b
          f"fixed {np.mean([r['covered'] for r in fixed]):.3f}, flexible {np.mean([r['covered'] for r in flexible]):.3f}"
          if fixed and flexible else ""),
         ("save_load_bitwise", 1.0 if bitwise else 0.0, "m* and its interval, every held-out trial"),
-        ("planner_rate_fixed", rates.get("fixed", math.nan), "predictions per CPU second"),
-        ("planner_rate_flexible", rates.get("flexible", math.nan), "predictions per CPU second"),
+        ("planner_rate_fixed", rates.get(FIXED, math.nan), "predictions per CPU second"),
+        ("planner_rate_flexible", rates.get(FLEXIBLE, math.nan), "predictions per CPU second"),
     ]
     items.insert(9, ("coverage_high", items[8][1], "the same coverage, against the upper bound"))
     out = []

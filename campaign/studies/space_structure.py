@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.vocabulary import FLEXIBLE, HIGH, LOW, SPACE_CLASS, STIFF_MAST, ZERO
 from ..model.exiit import effective_mass_from_G, exiit_floating
 from ..model.paper import configuration_q, impact_direction, load_paper
 from ..model.robot import load_robot
@@ -50,14 +51,14 @@ from .common import (
 __all__ = ["Settings", "STRUCTURES", "TOLERANCE", "FIT_CELLS", "table4", "figure9", "fig9_variants", "validity_map",
            "base_fit", "run"]
 
-STRUCTURES = ("stiff_mast", "space_class")
+STRUCTURES = (STIFF_MAST, SPACE_CLASS)
 #: eq 8 holds where identified m* / eq 8 is within this
 TOLERANCE = 0.05
 #: a validity-map trial needs the contact and the identification windows, not the periods
 SHORT = {"flexible.trial_periods": 0.01}
 #: the paper's configuration 1 Low eq 8 value (13.90 kg) exceeds its eq 7 with the same lambda
 #: (12.93 kg), which no base can give (a free base only adds mobility): left out of the fit
-FIT_CELLS = ((1, "high"), (2, "low"), (2, "high"))
+FIT_CELLS = ((1, HIGH), (2, LOW), (2, HIGH))
 STRUCTURES_COLUMNS = ("structure", "cell", "f1_Hz", "Tc_over_T1", "eq8_kg", "identified_kg", "truth_kg",
                       "paper_experiment_kg", "paper_eq8_kg", "fig9_reduction", "fig9_eq8_reduction")
 VALIDITY_COLUMNS = ("structure", "EI_scale", "cell", "speed_m_s", "f1_Hz", "f2_Hz", "Tc_s", "Tc_over_T1", "eq8_kg",
@@ -72,7 +73,7 @@ class Settings:
     speeds: tuple = SPEEDS
     #: beam EI multipliers of the validity map, per structure: the space-class structure from
     #: T_c/T_1 ~ 0.005 up to where its VES loop stays stable, the stiff mast for the upper end
-    map_ei: tuple = (("space_class", (1 / 64, 1 / 16, 1 / 4, 1.0, 4.0, 16.0)), ("stiff_mast", (1 / 16, 1.0, 4.0)))
+    map_ei: tuple = ((SPACE_CLASS, (1 / 64, 1 / 16, 1 / 4, 1.0, 4.0, 16.0)), (STIFF_MAST, (1 / 16, 1.0, 4.0)))
     #: Figure 9 variations on the space-class structure: hammer head mass multipliers (the
     #: hammer must stay lighter than the arm's free m*) and speeds
     head_scales: tuple = (1.0, 3.0, 6.0)
@@ -82,12 +83,12 @@ class Settings:
 
     @classmethod
     def quick(cls) -> Settings:
-        return cls(speeds=(FIG9_SPEED,), map_ei=(("space_class", (1.0,)), ("stiff_mast", (1.0,))), head_scales=(1.0,),
+        return cls(speeds=(FIG9_SPEED,), map_ei=((SPACE_CLASS, (1.0,)), (STIFF_MAST, (1.0,))), head_scales=(1.0,),
                    fig9_speeds=(FIG9_SPEED,), fit_base=False)
 
 
 def _run(structure: str, config: int, gain: str, speed: float, **params) -> dict:
-    return run_trial(base="flexible", config=config, gain=gain, speed=speed,
+    return run_trial(base=FLEXIBLE, config=config, gain=gain, speed=speed,
                      params=dict({"flexible.structure": structure}, **params))
 
 
@@ -119,9 +120,9 @@ def table4(lam: dict, *, speeds=SPEEDS, log: Log = quiet) -> dict:
 
 def _eq8_reduction(robot, trials: dict, lam: dict) -> float:
     """Eq 8's Low-vs-High reduction of the base velocity right after an impulsive contact."""
-    m_b = trials["high"]["m_b"]
-    v = {g: impulsive_base_velocity(robot, trials[g]["record"], lam[g], m_b) for g in ("low", "high")}
-    return reduction(v["low"], v["high"])
+    m_b = trials[HIGH]["m_b"]
+    v = {g: impulsive_base_velocity(robot, trials[g]["record"], lam[g], m_b) for g in (LOW, HIGH)}
+    return reduction(v[LOW], v[HIGH])
 
 
 def figure9(lam: dict, a: dict, *, speeds=SPEEDS, log: Log = quiet) -> dict:
@@ -131,10 +132,10 @@ def figure9(lam: dict, a: dict, *, speeds=SPEEDS, log: Log = quiet) -> dict:
     out = {}
     for s in STRUCTURES:
         for c in (1, 2):
-            tr = {g: a["trials"][(s, c, g)][iv] for g in ("low", "high")}
-            out[(s, c)] = {"peak_low": tr["low"]["peak_base_x"], "peak_high": tr["high"]["peak_base_x"],
-                           "reduction": reduction(tr["low"]["peak_base_x"], tr["high"]["peak_base_x"]),
-                           "eq8": _eq8_reduction(robot, tr, lam), "t_peak": tr["high"]["t_peak"], "f1": tr["high"]["f1"]}
+            tr = {g: a["trials"][(s, c, g)][iv] for g in (LOW, HIGH)}
+            out[(s, c)] = {"peak_low": tr[LOW]["peak_base_x"], "peak_high": tr[HIGH]["peak_base_x"],
+                           "reduction": reduction(tr[LOW]["peak_base_x"], tr[HIGH]["peak_base_x"]),
+                           "eq8": _eq8_reduction(robot, tr, lam), "t_peak": tr[HIGH]["t_peak"], "f1": tr[HIGH]["f1"]}
             log(f"B {s} config {c}: reduction {100 * out[(s, c)]['reduction']:.1f} %, eq 8 "
                 f"{100 * out[(s, c)]['eq8']:.1f} %")
     return out
@@ -161,13 +162,13 @@ def fig9_variants(lam: dict, *, head_scales, speeds, log: Log = quiet) -> list[d
     for head in head_scales:
         for speed in speeds:
             for c in (1, 2):
-                tr = {g: _run("space_class", c, g, speed, **{"pendulum.head_mass": head0 * head}) for g in ("low", "high")}
-                pk = {g: _peak_readings(tr[g]) for g in ("low", "high")}
-                row = {"head_scale": head, "m_b_kg": tr["high"]["m_b"], "speed_m_s": speed, "config": c,
-                       "Tc_s": tr["high"]["Tc"], "m_truth_low_kg": tr["low"]["m_truth"],
-                       "m_truth_high_kg": tr["high"]["m_truth"], "eq8_reduction": _eq8_reduction(robot, tr, lam),
-                       "impulse_reduction": reduction(tr["low"]["impulse"], tr["high"]["impulse"]),
-                       **{f"reduction_{k}": reduction(pk["low"][k], pk["high"][k]) for k in pk["high"]}}
+                tr = {g: _run(SPACE_CLASS, c, g, speed, **{"pendulum.head_mass": head0 * head}) for g in (LOW, HIGH)}
+                pk = {g: _peak_readings(tr[g]) for g in (LOW, HIGH)}
+                row = {"head_scale": head, "m_b_kg": tr[HIGH]["m_b"], "speed_m_s": speed, "config": c,
+                       "Tc_s": tr[HIGH]["Tc"], "m_truth_low_kg": tr[LOW]["m_truth"],
+                       "m_truth_high_kg": tr[HIGH]["m_truth"], "eq8_reduction": _eq8_reduction(robot, tr, lam),
+                       "impulse_reduction": reduction(tr[LOW]["impulse"], tr[HIGH]["impulse"]),
+                       **{f"reduction_{k}": reduction(pk[LOW][k], pk[HIGH][k]) for k in pk[HIGH]}}
                 rows.append(row)
                 log(f"B space_class head x{head:g} {speed} m/s config {c}: max |x| "
                     f"{100 * row['reduction_max_abs_x']:.1f} %, eq 8 {100 * row['eq8_reduction']:.1f} %")
@@ -182,7 +183,7 @@ def validity_map(lam: dict, *, map_ei, speeds=SPEEDS, log: Log = quiet) -> list[
     ei0 = float(load_rig()[0]["flexible.beam_EI"])
     rows = []
     runs = [(f"{c}-{g}", c, g, v, {}) for c, g in CELLS for v in speeds]
-    runs += [(f"passive {c}", c, "zero", 1.5, PASSIVE) for c in (1, 2)]
+    runs += [(f"passive {c}", c, ZERO, 1.5, PASSIVE) for c in (1, 2)]
     for s, scales in map_ei:
         for ei in scales:
             for label, c, g, v, extra in runs:
@@ -208,7 +209,7 @@ def _paper_eq8_model():
     paper = load_paper()
     robot = load_robot()
     lam = {g: paper["table3"][cls] for cls, members in paper["gain_classes"].items() for g in members}
-    body = Beam.from_scene(make_scene(base="flexible", params={"flexible.structure": "space_class"})).base_body()
+    body = Beam.from_scene(make_scene(base=FLEXIBLE, params={"flexible.structure": SPACE_CLASS})).base_body()
     target = {(c, g): float(paper["table4"][f"{c}-{g}"]["predicted"]) for c, g in CELLS}
 
     def m8(mass, ixy, iz, h, c, g):
@@ -238,7 +239,7 @@ def base_fit(*, fit: bool = True) -> list[dict]:
     def misfit(unpack):
         return lambda x: [np.log(m8(*unpack(x), c, g) / target[(c, g)]) for c, g in FIT_CELLS]
 
-    rows = [row("space_class", own)]
+    rows = [row(SPACE_CLASS, own)]
     if not fit:
         return rows
 

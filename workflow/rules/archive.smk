@@ -6,20 +6,18 @@
 # scratch. When the campaign reuses an archive, that archive is verified instead (manifest,
 # schema, content digests, filing).
 
-if SIMULATE:
+if PLAN.simulate:
 
     rule finalize_archive:
         input:
-            all_job_manifests(),
+            PLAN.all_job_manifests(),
         output:
-            index=f"{ARCHIVE}/index.csv",
-            readme=f"{ARCHIVE}/README.md",
-            manifest=f"{ARCHIVE}/MANIFEST.sha256",
+            **PLAN.archive_files(),
         params:
-            archive=lambda wc: ARCHIVE,
+            archive=lambda wc: PLAN.archive,
         priority: PRIORITY["finalize_archive"]
         log:
-            log_file("finalize_archive"),
+            PLAN.log_file("finalize_archive"),
         resources:
             runtime=10,
             mem_mb=1000,
@@ -35,12 +33,12 @@ if SIMULATE:
     # the tolerance policy calls the same identification (campaign.pipeline.stages.export_identification)
     rule identification_csv:
         input:
-            [t for base in SWEEPS for t in ident_tables(base)],
+            PLAN.all_ident_tables(),
         output:
-            update(IDENTIFICATION_CSV),
+            update(PLAN.identification_csv),
         priority: PRIORITY["identification_csv"]
         log:
-            log_file("identification_csv"),
+            PLAN.log_file("identification_csv"),
         resources:
             runtime=5,
             mem_mb=1000,
@@ -53,14 +51,14 @@ else:
 
     rule verify_archive:
         input:
-            [t for ts in REUSED.values() for t in ts],
+            [t for ts in PLAN.reused.values() for t in ts],
         output:
-            f"{RESULTS}/{paths.VERIFY_FILE}",
+            PLAN.verify_file,
         params:
-            archive=lambda wc: TRIAL_ROOT,
+            archive=lambda wc: PLAN.trial_root,
         priority: PRIORITY["verify_archive"]
         log:
-            log_file("verify_archive"),
+            PLAN.log_file("verify_archive"),
         resources:
             runtime=10,
             mem_mb=1000,

@@ -6,13 +6,13 @@
 
 rule calibrate:
     input:
-        calibration=str(config_file("calibration.yaml")),
+        calibration=PLAN.calibration_settings,
     output:
-        md=f"{RESULTS}/calibration/fit.md",
+        md=PLAN.calibration_file("fit"),
     log:
-        log_file("calibrate"),
+        PLAN.log_file("calibrate"),
     params:
-        rig=RIG_FILE,
+        rig=PLAN.rig_file,
     resources:
         runtime=60,
         mem_mb=2000,

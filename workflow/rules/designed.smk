@@ -2,24 +2,24 @@
 # impact directions chosen by `campaign design`, and held-out poses, on the fixed base for
 # every gain set; lambda fitted on each design and checked on the held-out poses
 # (campaign.design.designed_campaign). `snakemake designed` makes its report. The rules exist when the
-# settings file does (common.smk: DESIGNED).
+# settings file does (the plan's designed part: campaign.pipeline.plan_parts.DesignedPlan).
 
 
-if DESIGNED:
+if PLAN.designed.settings:
 
     rule designed_plan:
         input:
-            settings=DESIGNED_FILE,
-            rig=RIG_FILE,
-            paper=PAPER_FILE,
+            settings=PLAN.designed.file,
+            rig=PLAN.rig_file,
+            paper=PLAN.paper_file,
         output:
-            plan=f"{DESIGNED_RESULTS}/plan.json",
-            md=f"{DESIGNED_RESULTS}/design.md",
+            plan=PLAN.designed.path("plan"),
+            md=PLAN.designed.path("design"),
         params:
-            code=CODE_DESIGNED,
-            settings=DESIGNED,
+            code=PLAN.stage_code("designed"),
+            settings=PLAN.designed.settings,
         log:
-            designed_log("designed_plan"),
+            PLAN.designed.log("designed_plan"),
         resources:
             runtime=10,
             mem_mb=1000,
@@ -31,18 +31,18 @@ if DESIGNED:
 
     rule designed_trials:
         input:
-            plan=f"{DESIGNED_RESULTS}/plan.json",
+            plan=PLAN.designed.path("plan"),
         output:
-            csv=f"{DESIGNED_RESULTS}/identification/{{role}}_{{gain}}.csv",
+            csv=PLAN.designed.table_pattern(),
         params:
-            code=CODE_DESIGNED,
-            archive=DESIGNED_ARCHIVE,
+            code=PLAN.stage_code("designed"),
+            archive=PLAN.designed.archive,
         wildcard_constraints:
-            role="|".join(DESIGNED_ROLES),
+            role="|".join(PLAN.designed.roles),
         # the designed trials are the most: start them first
         priority: lambda wc: 1 if wc.role == "designed" else 0
         log:
-            designed_log("designed_trials", "{role}_{gain}"),
+            PLAN.designed.log("designed_trials", "{role}_{gain}"),
         resources:
             runtime=10,
             mem_mb=1000,
@@ -54,19 +54,19 @@ if DESIGNED:
 
     rule designed_report:
         input:
-            plan=f"{DESIGNED_RESULTS}/plan.json",
-            paper=designed_tables("paper"),
-            designed=designed_tables("designed"),
-            heldout=designed_tables("heldout"),
-            model=f"{DESIGNED_RESULTS}/model/response_model.json",
+            plan=PLAN.designed.path("plan"),
+            paper=PLAN.designed.tables("paper"),
+            designed=PLAN.designed.tables("designed"),
+            heldout=PLAN.designed.tables("heldout"),
+            model=PLAN.designed.path("model"),
         output:
-            json=f"{DESIGNED_RESULTS}/report.json",
-            md=report(f"{DESIGNED_RESULTS}/report.md", caption="../report/designed.rst", category="Designed campaign",
+            json=PLAN.designed.path("report_json"),
+            md=report(PLAN.designed.path("report"), caption="../report/designed.rst", category="Designed campaign",
                       labels={"report": "Lambda from the designed poses, checked on held-out poses"}),
         params:
-            code=CODE_DESIGNED,
+            code=PLAN.stage_code("designed"),
         log:
-            designed_log("designed_report"),
+            PLAN.designed.log("designed_report"),
         resources:
             runtime=10,
             mem_mb=1000,
@@ -78,10 +78,10 @@ if DESIGNED:
 
     rule designed:
         input:
-            f"{DESIGNED_RESULTS}/report.md",
-            f"{DESIGNED_RESULTS}/design.md",
-            f"{DESIGNED_RESULTS}/model/response_model.md",
-            f"{DESIGNED_RESULTS}/model/shipped.txt",
+            PLAN.designed.path("report"),
+            PLAN.designed.path("design"),
+            PLAN.designed.path("model_md"),
+            PLAN.designed.path("shipped"),
 
 
     # ------------------------------------------------------------------------------------
@@ -92,16 +92,16 @@ if DESIGNED:
     # ------------------------------------------------------------------------------------
     rule designed_flexible_trials:
         input:
-            plan=f"{DESIGNED_RESULTS}/plan.json",
+            plan=PLAN.designed.path("plan"),
         output:
-            csv=f"{DESIGNED_RESULTS}/identification/flexible/{{structure}}_{{gain}}.csv",
+            csv=PLAN.designed.flexible_pattern(),
         params:
-            code=CODE_DESIGNED,
-            archive=lambda wc: f"{DESIGNED_ARCHIVE}/structures/{wc.structure}",
+            code=PLAN.stage_code("designed"),
+            archive=lambda wc: PLAN.designed.structure_archive(wc.structure),
         wildcard_constraints:
-            structure="|".join(DESIGNED_STRUCTURES),
+            structure="|".join(PLAN.designed.structures),
         log:
-            designed_log("designed_flexible_trials", "{structure}_{gain}"),
+            PLAN.designed.log("designed_flexible_trials", "{structure}_{gain}"),
         resources:
             runtime=10,
             mem_mb=1000,
@@ -113,21 +113,21 @@ if DESIGNED:
 
     rule designed_model:
         input:
-            plan=f"{DESIGNED_RESULTS}/plan.json",
-            fixed=designed_tables("designed"),
-            flexible=designed_flexible_tables(),
-            rig=RIG_FILE,
-            paper=PAPER_FILE,
+            plan=PLAN.designed.path("plan"),
+            fixed=PLAN.designed.tables("designed"),
+            flexible=PLAN.designed.flexible_tables(),
+            rig=PLAN.rig_file,
+            paper=PLAN.paper_file,
         output:
-            json=f"{DESIGNED_RESULTS}/model/response_model.json",
-            md=report(f"{DESIGNED_RESULTS}/model/response_model.md", caption="../report/designed.rst",
+            json=PLAN.designed.path("model"),
+            md=report(PLAN.designed.path("model_md"), caption="../report/designed.rst",
                       category="Designed campaign"),
         params:
-            code=CODE_DESIGNED_MODEL,
-            archive=DESIGNED_ARCHIVE,
-            structures=DESIGNED_STRUCTURES,
+            code=PLAN.stage_code("designed_model"),
+            archive=PLAN.designed.archive,
+            structures=PLAN.designed.structures,
         log:
-            designed_log("designed_model"),
+            PLAN.designed.log("designed_model"),
         resources:
             runtime=10,
             mem_mb=1000,
@@ -139,12 +139,12 @@ if DESIGNED:
 
     rule designed_model_shipped:
         input:
-            fitted=f"{DESIGNED_RESULTS}/model/response_model.json",
-            shipped=str(Path(PAPER_FILE).parent / "response_model.json"),
+            fitted=PLAN.designed.path("model"),
+            shipped=PLAN.response_model,
         output:
-            f"{DESIGNED_RESULTS}/model/shipped.txt",
+            PLAN.designed.path("shipped"),
         log:
-            designed_log("designed_model_shipped"),
+            PLAN.designed.log("designed_model_shipped"),
         conda:
             "../envs/campaign.yaml"
         script:

@@ -11,20 +11,20 @@
 
 rule model_figures:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        **figure_outputs("fig4", "Fixed base"),
-        **figure_outputs("fig8", "Flexible base"),
+        **outputs(PLAN.figure_outputs("fig4", "Fixed base")),
+        **outputs(PLAN.figure_outputs("fig8", "Flexible base")),
     params:
-        code=[figure_code("fig4"), figure_code("fig8")],
+        code=[PLAN.figure_code("fig4"), PLAN.figure_code("fig8")],
         rig=config["rig"],
-        rig_params=sweep_params("flexible"),
+        rig_params=PLAN.sweep_params(PLAN.flexible_base),
     priority: PRIORITY["model_figures"]
     log:
-        fig4=log_file("fig4"),
-        fig8=log_file("fig8"),
-        job=log_file("model_figures"),
+        fig4=PLAN.log_file("fig4"),
+        fig8=PLAN.log_file("fig8"),
+        job=PLAN.log_file("model_figures"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -36,17 +36,17 @@ rule model_figures:
 
 rule fig5_joint3_motion:
     input:
-        trial=lambda wc: trial_source("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5")[0],
-        paper=PAPER_FILE,
+        trial=lambda wc: PLAN.figure_inputs("fig5")[0],
+        paper=PLAN.paper_file,
     output:
-        **figure_outputs("fig5", "Fixed base"),
+        **outputs(PLAN.figure_outputs("fig5", "Fixed base")),
     params:
-        code=figure_code("fig5"),
-        trial=lambda wc: trial_source("fixed", 1, "zero", *figure_pick("fig5"), key="figures.fig5")[1],
-        pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig5"))),
+        code=PLAN.figure_code("fig5"),
+        trial=lambda wc: [*PLAN.figure_trials("fig5").values()][0],
+        pick=lambda wc: dict(zip(("speed", "repeat"), PLAN.figure_pick("fig5"))),
     priority: PRIORITY["fig5_joint3_motion"]
     log:
-        log_file("fig5"),
+        PLAN.log_file("fig5"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -58,17 +58,17 @@ rule fig5_joint3_motion:
 
 rule fig9_base_motion:
     input:
-        trials=lambda wc: sorted({source for source, _ in fig9_sources().values()}),
-        paper=PAPER_FILE,
+        trials=lambda wc: PLAN.figure_inputs("fig9"),
+        paper=PLAN.paper_file,
     output:
-        **figure_outputs("fig9", "Flexible base"),
+        **outputs(PLAN.figure_outputs("fig9", "Flexible base")),
     params:
-        code=figure_code("fig9"),
-        trials=lambda wc: {key.replace("_", "-")[1:]: path for key, (_, path) in fig9_sources().items()},
-        pick=lambda wc: dict(zip(("speed", "repeat"), figure_pick("fig9"))),
+        code=PLAN.figure_code("fig9"),
+        trials=lambda wc: PLAN.figure_trials("fig9"),
+        pick=lambda wc: dict(zip(("speed", "repeat"), PLAN.figure_pick("fig9"))),
     priority: PRIORITY["fig9_base_motion"]
     log:
-        log_file("fig9"),
+        PLAN.log_file("fig9"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -80,32 +80,21 @@ rule fig9_base_motion:
 
 rule planner_maps:
     input:
-        unpack(lambda wc: fit_jsons()),
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        unpack(lambda wc: PLAN.fit_jsons()),
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        workspace=report(f"{RESULTS}/figures/plan_workspace.png", caption="../report/plan_workspace.rst",
-                         category="Impact planner", subcategory="Maps",
-                         labels={"map": "workspace", "format": "PNG"}),
-        workspace_pdf=report(f"{RESULTS}/figures/plan_workspace.pdf", caption="../report/plan_workspace.rst",
-                             category="Impact planner", subcategory="Maps",
-                             labels={"map": "workspace", "format": "vector PDF"}),
-        directions=report(f"{RESULTS}/figures/plan_directions.png", caption="../report/plan_directions.rst",
-                          category="Impact planner", subcategory="Maps",
-                          labels={"map": "directions", "format": "PNG"}),
-        directions_pdf=report(f"{RESULTS}/figures/plan_directions.pdf", caption="../report/plan_directions.rst",
-                              category="Impact planner", subcategory="Maps",
-                              labels={"map": "directions", "format": "vector PDF"}),
+        **outputs(PLAN.planner_map_outputs()),
     params:
-        code=figure_code("plan_maps"),
-        fits=lambda wc: list(fit_jsons().values()),
+        code=PLAN.figure_code("plan_maps"),
+        fits=lambda wc: list(PLAN.fit_jsons().values()),
         rig=config["rig"],
         resolution=config.get("plan_maps", {}).get("resolution", 0.05),
         config_=config.get("plan_maps", {}).get("config", 1),
-    # scheduling: the longest job after the simulations starts as soon as the fits exist (common.smk: PRIORITY)
+    # scheduling: the longest job after the simulations starts as soon as the fits exist (plan_parts.PRIORITY)
     priority: PRIORITY["planner_maps"]
     log:
-        log_file("plan_maps"),
+        PLAN.log_file("plan_maps"),
     resources:
         runtime=10,
         mem_mb=1000,

@@ -8,26 +8,27 @@
 # log; `snakemake table2` still runs no flexible-base trial.
 
 
-if "fixed" in SWEEPS and fixed_base_products():
+if PLAN.fixed_base_products():
 
     rule fixed_base:
         input:
-            tables=ident_tables("fixed"),
-            paper=PAPER_FILE,
+            tables=PLAN.ident_tables(PLAN.fixed_base),
+            paper=PLAN.paper_file,
         output:
-            **fixed_base_outputs(),
+            **outputs(PLAN.fixed_base_outputs()),
         params:
-            code=[CODE_FIT, CODE_TABLES, figure_code("fig6"), figure_code("fig7")],
-            products=fixed_base_products(),
-            gains=fit_classes(),
+            code=[PLAN.stage_code("fit"), PLAN.stage_code("tables"), PLAN.figure_code("fig6"),
+                  PLAN.figure_code("fig7")],
+            products=PLAN.fixed_base_products(),
+            gains=PLAN.fit_classes(),
             options=config["fit"],
             seed=config["campaign_seed"],
-        # scheduling: the fits lead to the planner's maps, the longest job after them (common.smk: PRIORITY)
+        # scheduling: the fits lead to the planner's maps, the longest job after them (plan_parts.PRIORITY)
         priority: PRIORITY["fixed_base"]
         log:
-            **fixed_base_logs(),
+            **PLAN.fixed_base_logs(),
         benchmark:
-            bench_file("fixed_base")
+            PLAN.bench_file("fixed_base")
         resources:
             runtime=15,
             mem_mb=1000,

@@ -5,26 +5,24 @@
 # with its own log.
 
 
-if flexible_base_products():
+if PLAN.flexible_base_products():
 
     rule flexible_base:
         input:
-            **flexible_base_inputs(),
+            **PLAN.flexible_base_inputs(),
         output:
-            **flexible_base_outputs(),
+            **outputs(PLAN.flexible_base_outputs()),
         params:
-            code=[CODE_TABLES, code_digest("pipeline/calibration_report.py", "model/robot/*/*")],
-            products=flexible_base_products(),
-            classes=list(fit_jsons()),
-            structure=FLEX_STRUCTURE,
-            fig9_trials=lambda wc: {key.replace("_", "-")[1:]: path for key, (_, path) in fig9_sources().items()}
-            if "calibration" in flexible_base_products() else {},
+            code=[PLAN.stage_code("tables"), PLAN.stage_code("calibration_report")],
+            products=PLAN.flexible_base_products(),
+            classes=list(PLAN.fit_jsons()),
+            structure=PLAN.shown_structure,
+            fig9_trials=lambda wc: PLAN.figure_trials("fig9") if "calibration" in PLAN.flexible_base_products() else {},
         priority: PRIORITY["flexible_base"]
         log:
-            **{p: log_file("calibration_report" if p == "calibration" else p) for p in flexible_base_products()},
-            job=log_file("flexible_base"),
+            **PLAN.flexible_base_logs(),
         benchmark:
-            bench_file("flexible_base")
+            PLAN.bench_file("flexible_base")
         resources:
             runtime=10,
             mem_mb=1000,

@@ -4,31 +4,27 @@
 # table with its own log; it reads its trials from the simulation jobs' manifests, or from
 # `reuse_archive` when nothing is simulated.
 
-for _base in SWEEPS:
+for _base in PLAN.sweeps:
 
     rule:
         name:
             f"identify_{_base}"
         input:
-            base_sources(_base),
+            PLAN.base_sources(_base),
         output:
-            ident_tables(_base),
+            PLAN.ident_tables(_base),
         params:
-            code=CODE_IDENTIFY,
+            code=PLAN.stage_code("identify"),
             options=config["identify"],
-            archive=lambda wc: TRIAL_ROOT,
-            units=[{"name": unit_name(_base).format(**unit), "sources": unit_sources(_base, unit),
-                    "csv": f"{RESULTS}/identify/{unit_name(_base).format(**unit)}.csv",
-                    "log": log_file(f"identify_{_base}", unit_name(_base).format(**unit))}
-                   for unit in units(_base)],
-        # scheduling: the fixed base's identification leads to the fits and the maps (common.smk: PRIORITY)
+            archive=lambda wc: PLAN.trial_root,
+            units=PLAN.identify_units(_base),
+        # scheduling: the fixed base's identification leads to the fits and the maps (plan_parts.PRIORITY)
         priority: PRIORITY[f"identify_{_base}"]
         log:
             # the job's own (start-up, imports), then one per table
-            [log_file(f"identify_{_base}")]
-            + [log_file(f"identify_{_base}", unit_name(_base).format(**unit)) for unit in units(_base)],
+            PLAN.identify_logs(_base),
         benchmark:
-            bench_file(f"identify_{_base}")
+            PLAN.bench_file(f"identify_{_base}")
         threads: 1
         resources:
             runtime=20,

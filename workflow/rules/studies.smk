@@ -2,23 +2,23 @@
 # and the report show. They do not depend on a campaign's trials, so their files go to
 # <results_root>/studies/<study>/ (…/quick/ with studies_quick: true), whatever the campaign.
 # `snakemake study_<name>` runs one, `snakemake studies` all; a campaign's `all` target and
-# report include those its configuration lists under `studies:` (common.smk: study_targets).
+# report include those its configuration lists under `studies:` (campaign.pipeline.plan_parts.StudiesPlan).
 # The rendered table and figure the report shows are report() outputs of the rules below.
 
 
 rule space_structure_study:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("space_structure"),
+        PLAN.studies.outputs("space_structure"),
     params:
-        code=code_digest("studies/space_structure.py", "model/robot/*/*"),
+        code=PLAN.study_code("space_structure"),
         study="space_structure",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options={},
     log:
-        log_file("space_structure_study", root=study_dir("space_structure")),
+        PLAN.studies.log("space_structure", "space_structure_study"),
     resources:
         runtime=15,
         mem_mb=1000,
@@ -30,17 +30,17 @@ rule space_structure_study:
 
 rule flexible_validation_study:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("flexible_validation"),
+        PLAN.studies.outputs("flexible_validation"),
     params:
-        code=code_digest("studies/flexible_validation.py", "model/robot/*/*"),
+        code=PLAN.study_code("flexible_validation"),
         study="flexible_validation",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options={},
     log:
-        log_file("flexible_validation_study", root=study_dir("flexible_validation")),
+        PLAN.studies.log("flexible_validation", "flexible_validation_study"),
     resources:
         runtime=15,
         mem_mb=1000,
@@ -52,17 +52,17 @@ rule flexible_validation_study:
 
 rule plan_rig_check_study:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("plan_rig_check"),
+        PLAN.studies.outputs("plan_rig_check"),
     params:
-        code=code_digest("studies/plan_rig_check.py", "model/robot/*/*"),
+        code=PLAN.study_code("plan_rig_check"),
         study="plan_rig_check",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options={},
     log:
-        log_file("plan_rig_check_study", root=study_dir("plan_rig_check")),
+        PLAN.studies.log("plan_rig_check", "plan_rig_check_study"),
     resources:
         runtime=30,
         mem_mb=1000,
@@ -74,17 +74,17 @@ rule plan_rig_check_study:
 
 rule plan_nonlinear_twin_study:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("plan_nonlinear_twin"),
+        PLAN.studies.outputs("plan_nonlinear_twin"),
     params:
-        code=code_digest("studies/plan_nonlinear_twin.py", "model/robot/*/*"),
+        code=PLAN.study_code("plan_nonlinear_twin"),
         study="plan_nonlinear_twin",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options={},
     log:
-        log_file("plan_nonlinear_twin_study", root=study_dir("plan_nonlinear_twin")),
+        PLAN.studies.log("plan_nonlinear_twin", "plan_nonlinear_twin_study"),
     resources:
         runtime=30,
         mem_mb=1000,
@@ -96,17 +96,17 @@ rule plan_nonlinear_twin_study:
 
 rule identification_accuracy_study:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("identification_accuracy"),
+        PLAN.studies.outputs("identification_accuracy"),
     params:
-        code=code_digest("studies/identification_accuracy.py", "model/robot/*/*"),
+        code=PLAN.study_code("identification_accuracy"),
         study="identification_accuracy",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options={},
     log:
-        log_file("identification_accuracy_study", root=study_dir("identification_accuracy")),
+        PLAN.studies.log("identification_accuracy", "identification_accuracy_study"),
     resources:
         runtime=15,
         mem_mb=1000,
@@ -118,17 +118,17 @@ rule identification_accuracy_study:
 
 rule emulation_error_study:
     input:
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("emulation_error"),
+        PLAN.studies.outputs("emulation_error"),
     params:
-        code=code_digest("studies/emulation_error.py", "model/robot/*/*"),
+        code=PLAN.study_code("emulation_error"),
         study="emulation_error",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options={},
     log:
-        log_file("emulation_error_study", root=study_dir("emulation_error")),
+        PLAN.studies.log("emulation_error", "emulation_error_study"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -141,16 +141,16 @@ rule emulation_error_study:
 # on the designed campaign's trials: its identification tables (and the trial files they name)
 rule impact_resistance_study:
     input:
-        designed=lambda wc: designed_study_inputs(),
+        designed=lambda wc: PLAN.designed.study_inputs(),
     output:
-        study_outputs("impact_resistance"),
+        PLAN.studies.outputs("impact_resistance"),
     params:
-        code=code_digest("studies/impact_resistance.py", "model/robot/*/*"),
+        code=PLAN.study_code("impact_resistance"),
         study="impact_resistance",
-        quick=STUDIES_QUICK,
-        options={"designed": DESIGNED_RESULTS},
+        quick=PLAN.studies.quick,
+        options={"designed": PLAN.designed.results if PLAN.designed.settings else None},
     log:
-        log_file("impact_resistance_study", root=study_dir("impact_resistance")),
+        PLAN.studies.log("impact_resistance", "impact_resistance_study"),
     resources:
         runtime=10,
         mem_mb=1000,
@@ -165,18 +165,16 @@ rule impact_resistance_study:
 # ----------------------------------------------------------------------------------------
 rule table4_structures_table:
     input:
-        data=f"{study_dir('space_structure')}/table4_structures.csv",
-        paper=PAPER_FILE,
+        data=PLAN.studies.output("space_structure", "table4_structures.csv"),
+        paper=PLAN.paper_file,
     output:
-        csv=study_report_files("table4_structures")[0],
-        md=study_report_files("table4_structures")[1],
-        html=report(study_report_files("table4_structures")[2],
-                    caption="../report/table4_structures.rst", category="Flexible base", subcategory="Tables",
-                    labels={"table": "Table 4, both structures"}),
+        **outputs(PLAN.studies.report_outputs("table4_structures", caption="table4_structures",
+                                              category="Flexible base", subcategory="Tables",
+                                              labels={"table": "Table 4, both structures"})),
     params:
-        code=CODE_TABLES,
+        code=PLAN.stage_code("tables"),
     log:
-        log_file("table4_structures", root=study_dir("space_structure")),
+        PLAN.studies.log("space_structure", "table4_structures"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -188,17 +186,14 @@ rule table4_structures_table:
 
 rule eq8_validity_figure:
     input:
-        data=f"{study_dir('space_structure')}/eq8_validity.csv",
+        data=PLAN.studies.output("space_structure", "eq8_validity.csv"),
     output:
-        png=report(study_report_files("eq8_validity")[0], caption="../report/eq8_validity.rst",
-                   category="Flexible base", subcategory="Figures", labels={"figure": "eq 8 validity", "format": "PNG"}),
-        pdf=report(study_report_files("eq8_validity")[1], caption="../report/eq8_validity.rst",
-                   category="Flexible base", subcategory="Figures",
-                   labels={"figure": "eq 8 validity", "format": "vector PDF"}),
+        **outputs(PLAN.studies.report_outputs("eq8_validity", caption="eq8_validity", category="Flexible base",
+                                              subcategory="Figures", labels={"figure": "eq 8 validity"})),
     params:
-        code=figure_code("validity"),
+        code=PLAN.figure_code("validity"),
     log:
-        log_file("eq8_validity", root=study_dir("space_structure")),
+        PLAN.studies.log("space_structure", "eq8_validity"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -210,17 +205,15 @@ rule eq8_validity_figure:
 
 rule plan_rig_check_table:
     input:
-        data=f"{study_dir('plan_rig_check')}/plan_rig_check.csv",
+        data=PLAN.studies.output("plan_rig_check", "plan_rig_check.csv"),
     output:
-        csv=study_report_files("plan_rig_check")[0],
-        md=study_report_files("plan_rig_check")[1],
-        html=report(study_report_files("plan_rig_check")[2], caption="../report/plan_rig_check.rst",
-                    category="Impact planner", subcategory="Rig check",
-                    labels={"table": "The planner checked on the rig"}),
+        **outputs(PLAN.studies.report_outputs("plan_rig_check", caption="plan_rig_check", category="Impact planner",
+                                              subcategory="Rig check",
+                                              labels={"table": "The planner checked on the rig"})),
     params:
-        code=CODE_TABLES,
+        code=PLAN.stage_code("tables"),
     log:
-        log_file("plan_rig_check", root=study_dir("plan_rig_check")),
+        PLAN.studies.log("plan_rig_check", "plan_rig_check"),
     resources:
         runtime=5,
         mem_mb=1000,
@@ -233,18 +226,18 @@ rule plan_rig_check_table:
 # the shipped response model on held-out poses drawn with the study's own seeds
 rule response_model_study:
     input:
-        model=str(Path(PAPER_FILE).parent / "response_model.json"),
-        rig=RIG_FILE,
-        paper=PAPER_FILE,
+        model=PLAN.response_model,
+        rig=PLAN.rig_file,
+        paper=PLAN.paper_file,
     output:
-        study_outputs("response_model"),
+        PLAN.studies.outputs("response_model"),
     params:
-        code=code_digest("studies/response_model.py", "model/robot/*/*"),
+        code=PLAN.study_code("response_model"),
         study="response_model",
-        quick=STUDIES_QUICK,
+        quick=PLAN.studies.quick,
         options=lambda wc, input: {"model": input.model},
     log:
-        log_file("response_model_study", root=study_dir("response_model")),
+        PLAN.studies.log("response_model", "response_model_study"),
     resources:
         runtime=30,
         mem_mb=1000,
@@ -258,15 +251,15 @@ rule response_model_study:
 # named targets
 # ----------------------------------------------------------------------------------------
 # `snakemake study_<name>`: one study's files (with what the report shows of it)
-for _name in STUDY_NAMES:
+for _name in PLAN.studies.names:
 
     rule:
         name:
             f"study_{_name}"
         input:
-            study_files(_name),
+            PLAN.studies.files(_name),
 
 
 rule studies:
     input:
-        [f for name in STUDY_NAMES for f in study_files(name)],
+        PLAN.studies.all_files(),

@@ -9,82 +9,82 @@
 
 rule trials:
     input:
-        all_job_manifests(),
+        PLAN.all_job_manifests(),
 
 
-if SIMULATE:
+if PLAN.simulate:
 
     rule archive:
         input:
-            f"{ARCHIVE}/MANIFEST.sha256",
+            PLAN.archive_files()["manifest"],
             [config["identification_csv"]] if config.get("identification_csv") else [],
 
 
 rule identification:
     input:
-        [t for base in SWEEPS for t in ident_tables(base)],
+        PLAN.all_ident_tables(),
 
 
 rule fig4:
     input:
-        lambda wc: requires("fig4"),
+        lambda wc: PLAN.requires("fig4"),
 
 
 rule fig5:
     input:
-        lambda wc: requires("fig5"),
+        lambda wc: PLAN.requires("fig5"),
 
 
 rule fig6:
     input:
-        lambda wc: requires("fig6"),
+        lambda wc: PLAN.requires("fig6"),
 
 
 rule fig7:
     input:
-        lambda wc: requires("fig7"),
+        lambda wc: PLAN.requires("fig7"),
 
 
 rule fig8:
     input:
-        lambda wc: requires("fig8"),
+        lambda wc: PLAN.requires("fig8"),
 
 
 rule fig9:
     input:
-        lambda wc: requires("fig9"),
+        lambda wc: PLAN.requires("fig9"),
 
 
 rule plan_maps:
     input:
-        lambda wc: requires("plan_maps"),
+        lambda wc: PLAN.requires("plan_maps"),
 
 
 rule table2:
     input:
-        lambda wc: requires("table2"),
+        lambda wc: PLAN.requires("table2"),
 
 
 rule table3:
     input:
-        lambda wc: requires("table3"),
+        lambda wc: PLAN.requires("table3"),
 
 
 rule table4:
     input:
-        lambda wc: requires("table4"),
+        lambda wc: PLAN.requires("table4"),
 
 
 rule eq8_validity:
     input:
-        lambda wc: requires("eq8_validity"),
+        lambda wc: PLAN.requires("eq8_validity"),
 
 
 rule table4_structures:
     input:
-        lambda wc: requires("table4_structures"),
+        lambda wc: PLAN.requires("table4_structures"),
 
 
 rule plan_rig_check:
     input:
-        lambda wc: requires("plan_rig_check"),
+        lambda wc: PLAN.requires("plan_rig_check"),

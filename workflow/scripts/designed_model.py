@@ -1,7 +1,7 @@
 """Snakemake script of rule designed_model: fit the response model on the designed trials and save it."""
 
-from campaign.design.designed_model import fit_model
-from campaign.pipeline.joblog import job_log
+from campaign.design import fit_model
+from campaign.pipeline import job_log
 
 with job_log(snakemake.log[0], job="designed_model", exit_process=True):  # noqa: F821
     tables = list(snakemake.input.flexible)  # noqa: F821

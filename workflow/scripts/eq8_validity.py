@@ -1,6 +1,6 @@
 """Snakemake script of rule eq8_validity_figure: the validity map of eq 8 from the study's CSV."""
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 with job_log(snakemake.log[0], job="eq8_validity", exit_process=True) as timer:  # noqa: F821
     with timer.imports():

@@ -1,10 +1,10 @@
 """Snakemake script of rule fig9_base_motion: Figure 9 from four flexible-base trials."""
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 with job_log(snakemake.log[0], job="fig9", exit_process=True) as timer:  # noqa: F821
     with timer.imports():
-        from campaign.model.paper import load_paper
+        from campaign.model import load_paper
         from campaign.report.figures import fig9
     with timer("figure"):
         out = snakemake.output  # noqa: F821

@@ -1,15 +1,14 @@
 """Snakemake script of rule fixed_base: the lambda fits, Tables 2-3 and Figures 6-7 from the
 fixed-base identification, each product with its own log."""
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 p, out, log = snakemake.params, snakemake.output, snakemake.log  # noqa: F821 - provided by Snakemake
 tables = list(snakemake.input.tables)  # noqa: F821
 with job_log(log.job, job="fixed_base", exit_process=True) as timer:
     with timer.imports():
-        from campaign.model.paper import load_paper
-        from campaign.pipeline.fit import fit_lambda
-        from campaign.pipeline.tabulate import make_table
+        from campaign.model import load_paper
+        from campaign.pipeline import fit_lambda, make_table
     for product in p.products:
         with job_log(log[product], job=product, part_of="fixed_base") as part:
             if product.startswith("fit_"):

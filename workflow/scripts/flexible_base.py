@@ -1,7 +1,7 @@
 """Snakemake script of rule flexible_base: Table 4 and the calibration report, each product
 with its own log."""
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 p, inp, out, log = snakemake.params, snakemake.input, snakemake.output, snakemake.log  # noqa: F821
 with job_log(log.job, job="flexible_base", exit_process=True) as timer:
@@ -9,10 +9,9 @@ with job_log(log.job, job="flexible_base", exit_process=True) as timer:
         import csv
         import io
 
-        from campaign.core.files import write_atomic
-        from campaign.pipeline.calibration_report import campaign_report
-        from campaign.pipeline.tabulate import make_table
-        from campaign.report.html import markdown_page
+        from campaign.core import write_atomic
+        from campaign.pipeline import campaign_report, make_table
+        from campaign.report import markdown_page
     if "table4" in p.products:
         with job_log(log.table4, job="table4", part_of="flexible_base") as part:
             make_table("table4", out.table4_csv, out.table4_md, ident_tables=list(inp.tables),

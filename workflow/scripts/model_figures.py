@@ -1,7 +1,7 @@
 """Snakemake script of rule model_figures: Figure 4 from the robot model and Figure 8 from the
 rig parameters and the robot model, each with its own log."""
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 p, out, log = snakemake.params, snakemake.output, snakemake.log  # noqa: F821 - provided by Snakemake
 with job_log(log.job, job="model_figures", exit_process=True) as timer:

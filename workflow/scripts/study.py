@@ -5,7 +5,7 @@ campaign.studies (``params.study``) run into its folder, reduced with ``params.q
 import importlib
 from pathlib import Path
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 with job_log(snakemake.log[0], job=snakemake.rule, exit_process=True) as timer:  # noqa: F821
     with timer.imports():

@@ -7,7 +7,7 @@ in the log; an archive that was never finalized (no ``MANIFEST.sha256``) passes 
 
 import os
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 with job_log(snakemake.log[0], job="verify_archive", exit_process=True) as timer:  # noqa: F821
     with timer.imports():

@@ -16,6 +16,9 @@ fig7     observed restitution coefficient per configuration and gain         ide
 fig8     the flexible-base set-up: beam, platform, arm                       model + rig file
 fig9     base displacement after impact, configs 1 and 2, High vs Low        flexible trials
 =======  ==================================================================  ====================
+
+Beside them: :mod:`~campaign.report.figures.plan_maps` (the planner's workspace and direction
+maps) and :mod:`~campaign.report.figures.validity` (eq 8's validity map).
 """
 
-__all__ = ["fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "style"]
+__all__ = ["fig4", "fig5", "fig6", "fig7", "fig8", "fig9", "plan_maps", "validity", "style"]

@@ -13,13 +13,15 @@ import os
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from ...core import vocabulary
+from ...core.vocabulary import FIXED
 from ...identify.table import read_identification
 from . import style
 
 __all__ = ["draw", "make"]
 
 
-def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = "fixed"):
+def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = FIXED):
     """Draw Figure 6 from identification tables (:func:`campaign.identify.table.identify_trials`).
 
     Parameters
@@ -37,6 +39,10 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any],
     if not rows:
         raise ValueError(f"no {base}-base trial in the identification tables {list(map(str, ident_tables))}")
     table2 = paper["table2"]
+    # Table 2's experiment columns, each across the gain sets of its class (config/paper.yaml)
+    columns = {column: vocabulary.gain_classes()[cls] for column, cls in vocabulary.table2_columns().items()}
+    legend = "; ".join(f"{column}: {', '.join(style.GAIN_MARKER[g].strip('$') for g in gains)}"
+                       for column, gains in columns.items())
     fig, ax = style.new_figure(width=5.8, height=3.8)
     info = style.cell_scatter(ax, rows, "m_eff")
     first = True
@@ -45,9 +51,9 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any],
             continue
         off = style.GAIN_OFFSET
         kw = dict(color=style.PAPER_COLOR, lw=2.2)
-        ax.hlines(table2["m2"][c], c + off["zero"] - 0.09, c + off["low"] + 0.09, **kw,
-                  label=style.paper_label("Table 2 experiments (m2: Z, L; m3: H)") if first else None)
-        ax.hlines(table2["m3"][c], c + off["high"] - 0.09, c + off["high"] + 0.09, **kw)
+        for k, (column, gains) in enumerate(columns.items()):
+            ax.hlines(table2[column][c], c + off[gains[0]] - 0.09, c + off[gains[-1]] + 0.09, **kw,
+                      label=style.paper_label(f"Table 2 experiments ({legend})") if first and k == 0 else None)
         ax.hlines(table2["m1"][c], c - 0.45, c + 0.45, color=style.PAPER_COLOR, lw=0.9, ls="--",
                   label=style.paper_label("Table 2 link dynamics m1 (lambda = 0)") if first else None)
         first = False
@@ -60,6 +66,6 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any],
 
 
 def make(ident_tables: Sequence[str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None,
-         *, paper: Mapping[str, Any], base: str = "fixed"):
+         *, paper: Mapping[str, Any], base: str = FIXED):
     """Draw Figure 6 and save it as PNG (and PDF). Returns the files written."""
     return style.save(draw(ident_tables, paper=paper, base=base), png, pdf)

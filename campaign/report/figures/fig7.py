@@ -14,13 +14,14 @@ from typing import Any
 
 import numpy as np
 
+from ...core.vocabulary import FIXED
 from ...identify.table import read_identification
 from . import style
 
 __all__ = ["draw", "make"]
 
 
-def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = "fixed"):
+def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any], base: str = FIXED):
     """Draw Figure 7 from identification tables (:func:`campaign.identify.table.identify_trials`).
 
     Parameters
@@ -54,6 +55,6 @@ def draw(ident_tables: Sequence[str | os.PathLike], *, paper: Mapping[str, Any],
 
 
 def make(ident_tables: Sequence[str | os.PathLike], png: str | os.PathLike, pdf: str | os.PathLike | None = None,
-         *, paper: Mapping[str, Any], base: str = "fixed"):
+         *, paper: Mapping[str, Any], base: str = FIXED):
     """Draw Figure 7 and save it as PNG (and PDF). Returns the files written."""
     return style.save(draw(ident_tables, paper=paper, base=base), png, pdf)

@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 from matplotlib.patches import Rectangle
 
+from ...core.vocabulary import FLEXIBLE, LOW
 from ...model.paper import configuration_q, impact_direction, load_paper
 from ...model.robot import load_robot
 from ...rig.beam import Beam
@@ -60,7 +61,7 @@ def draw(*, rig: str | os.PathLike | None = None, params: Mapping[str, Any] | No
     matplotlib.figure.Figure
     """
     paper = load_paper()
-    scene = make_scene(base="flexible", config=CONFIGS[0], gain="low", speed=1.0, rig=rig, params=params)
+    scene = make_scene(base=FLEXIBLE, config=CONFIGS[0], gain=LOW, speed=1.0, rig=rig, params=params)
     beam = Beam.from_scene(scene)
     robot = load_robot(scene.p("robot"))
     n = impact_direction()

@@ -19,15 +19,20 @@ from typing import Any
 import numpy as np
 
 from ...archive import open_trial_arrays
+from ...core.vocabulary import figure_cells
 from ...identify import detect_contact
-from ...rig.simulate import structure_modes
+from ...rig.trial import structure_modes
 from ...scene.description import Scene, structure_of
 from . import style
 
-__all__ = ["GAINS", "series", "draw", "make"]
+__all__ = ["gains", "series", "draw", "make"]
 
-#: gain sets compared, in drawing order
-GAINS = ("low", "high")
+
+def gains() -> tuple[str, str]:
+    """The two gain sets Figure 9 compares, in drawing order, the lower first (its cells in
+    ``config/paper.yaml``)."""
+    low, high = dict.fromkeys(g for _, _, g in figure_cells("fig9"))
+    return low, high
 
 
 def series(trial: str | os.PathLike) -> dict:
@@ -75,8 +80,9 @@ def draw(trials: Mapping[str, str | os.PathLike], *, paper: Mapping[str, Any], t
     matplotlib.figure.Figure
     """
     configs = sorted({int(k.split("-")[0]) for k in trials})
+    low, high = gains()
     for c in configs:
-        for g in GAINS:
+        for g in (low, high):
             if f"{c}-{g}" not in trials:
                 raise ValueError(f"Figure 9 needs a trial for configuration {c}, {g} gains (key '{c}-{g}')")
     lo, hi = (float(v) for v in paper["figure9_low_vs_high_reduction"])
@@ -87,7 +93,7 @@ def draw(trials: Mapping[str, str | os.PathLike], *, paper: Mapping[str, Any], t
     periods = {}
     for ax, c in zip(axes[:, 0], configs, strict=True):
         amp = {}
-        for g in GAINS:
+        for g in (low, high):
             d = series(trials[f"{c}-{g}"])
             amp[g] = d["max_amplitude"]
             speeds.add(d["speed"])
@@ -96,7 +102,7 @@ def draw(trials: Mapping[str, str | os.PathLike], *, paper: Mapping[str, Any], t
             ax.plot(d["t"] / d["T1"], d["x"], color=style.GAIN_COLOR[g], lw=1.1,
                     label=f"{style.GAIN_LABEL[g]}: max |x| = {amp[g]:.2f} mm")
         ax.axvline(0.0, color=style.PAPER_COLOR, lw=0.6, ls=":")
-        reduction = 1.0 - amp["low"] / amp["high"] if amp["high"] > 0 else float("nan")
+        reduction = 1.0 - amp[low] / amp[high] if amp[high] > 0 else float("nan")
         ax.set_title(f"({chr(ord('a') + configs.index(c))}) configuration {c}", loc="left")
         ax.set_ylabel("base displacement x [mm]")
         ax.legend(loc="upper right", title=f"Low reduces the maximum amplitude by {100 * reduction:.0f} % "

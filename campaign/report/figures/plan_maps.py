@@ -18,12 +18,13 @@ import os
 
 import numpy as np
 
+from ...core.vocabulary import FLEXIBLE
 from ...model.paper import configuration_q, impact_direction, load_paper
 from ...model.robot.ik import impact_point
 from ...plan.factory import build_planner
 from ...plan.grid import grid_points
 from ...plan.maps import direction_map, workspace_map
-from ...rig.contact import Contact
+from ...rig.contact import ContactLaw
 from . import style
 
 __all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "paper_points"]
@@ -129,10 +130,10 @@ def draw_directions(d: dict, *, title: str = ""):
     return fig
 
 
-def _setup(*, lambdas, model=None, rig=None, base="flexible", speed=2.0):
+def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=2.0):
     planner = build_planner(base=base, lambdas=lambdas, model=model, speed=speed, rig=rig)
     e = planner.restitution if planner.contact_restitution is None else planner.contact_restitution
-    contact = Contact(planner.contact_stiffness, planner.contact_exponent, e)
+    contact = ContactLaw(planner.contact_stiffness, planner.contact_exponent, e)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
               restitution=planner.restitution, beam=planner.beam, arm=planner.arm, model=model,
               pendulum=planner.pendulum)
@@ -140,7 +141,7 @@ def _setup(*, lambdas, model=None, rig=None, base="flexible", speed=2.0):
 
 
 def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
-                   rig=None, resolution: float = 0.05, base: str = "flexible", y: float | None = None) -> str:
+                   rig=None, resolution: float = 0.05, base: str = FLEXIBLE, y: float | None = None) -> str:
     """Compute the workspace map (the paper's n and plane by default) with a response ``model`` or
     the gain classes' ``lambdas`` (:func:`campaign.plan.factory.planner_model`) and save it;
     returns a summary line. A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused
@@ -157,7 +158,7 @@ def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None,
 
 
 def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
-                    rig=None, config: int | None = 1, q=None, base: str = "flexible", count: int = 72) -> str:
+                    rig=None, config: int | None = 1, q=None, base: str = FLEXIBLE, count: int = 72) -> str:
     """Compute the direction map at a paper configuration (or DH pose ``q`` [rad]) with a
     response ``model`` or the gain classes' ``lambdas`` and save it; returns a summary line."""
     planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)

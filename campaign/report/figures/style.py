@@ -20,16 +20,16 @@ import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 import numpy as np
 
 from ...core.files import write_atomic
-from ...core.vocabulary import gain_sets
+from ...core.vocabulary import HIGH, LOW, ZERO, gain_sets
 
 __all__ = ["plt", "GAINS", "GAIN_LABEL", "GAIN_COLOR", "GAIN_MARKER", "PAPER_COLOR", "TRUTH_COLOR", "RC",
            "GAIN_OFFSET", "new_figure", "save", "paper_label", "cell_scatter"]
 
 #: gain sets in the paper's order and how every figure draws them (Z/L/H as in Figures 6-7)
 GAINS = gain_sets()
-GAIN_LABEL = {"zero": "Zero gains (Z)", "low": "Low gains (L)", "high": "High gains (H)"}
-GAIN_MARKER = {"zero": "$Z$", "low": "$L$", "high": "$H$"}
-GAIN_COLOR = {"zero": "#1b9e77", "low": "#7570b3", "high": "#d95f02"}
+GAIN_LABEL = {ZERO: "Zero gains (Z)", LOW: "Low gains (L)", HIGH: "High gains (H)"}
+GAIN_MARKER = {ZERO: "$Z$", LOW: "$L$", HIGH: "$H$"}
+GAIN_COLOR = {ZERO: "#1b9e77", LOW: "#7570b3", HIGH: "#d95f02"}
 PAPER_COLOR = "#444444"
 TRUTH_COLOR = "#999999"
 
@@ -84,11 +84,7 @@ def _lean_pdf_fonts():
     """
     try:
         from fontTools import subset as ft_subset
-        from matplotlib.backends import _backend_pdf_ps
     except ImportError:  # pragma: no cover - fontTools is a matplotlib dependency
-        yield
-        return
-    if getattr(_backend_pdf_ps, "subset", None) is not ft_subset:
         yield
         return
     base = ft_subset.Options
@@ -134,7 +130,7 @@ def save(fig, png: str | os.PathLike, pdf: str | os.PathLike | None = None) -> l
 
 
 #: horizontal offset of each gain set around its configuration in Figures 6-7
-GAIN_OFFSET = {"zero": -0.22, "low": 0.0, "high": 0.22}
+GAIN_OFFSET = {ZERO: -0.22, LOW: 0.0, HIGH: 0.22}
 
 
 def cell_scatter(ax, rows, column: str, *, configs=None) -> dict:

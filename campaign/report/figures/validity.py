@@ -19,14 +19,15 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
+from ...core.vocabulary import HIGH, LOW, ZERO
 from . import style
 
 __all__ = ["read_rows", "holds_below", "draw_validity", "make"]
 
 #: marker and colour per series: the four Table 4 cells, the passive arm (lambda = 0)
-_SERIES = {"1-low": ("o", style.GAIN_COLOR["low"]), "1-high": ("o", style.GAIN_COLOR["high"]),
-           "2-low": ("s", style.GAIN_COLOR["low"]), "2-high": ("s", style.GAIN_COLOR["high"]),
-           "passive 1": ("^", style.GAIN_COLOR["zero"]), "passive 2": ("v", style.GAIN_COLOR["zero"])}
+_SERIES = {"1-low": ("o", style.GAIN_COLOR[LOW]), "1-high": ("o", style.GAIN_COLOR[HIGH]),
+           "2-low": ("s", style.GAIN_COLOR[LOW]), "2-high": ("s", style.GAIN_COLOR[HIGH]),
+           "passive 1": ("^", style.GAIN_COLOR[ZERO]), "passive 2": ("v", style.GAIN_COLOR[ZERO])}
 
 
 def read_rows(path: str | os.PathLike) -> list[dict]:

@@ -17,13 +17,14 @@ import pinocchio as pin
 
 from ..core.errors import InputError, SimulationError
 from ..core.lazy import LazyModule
+from ..core.vocabulary import FIXED, FLEXIBLE
 from ..model.exiit import effective_mass
 from ..model.robot import load_robot
 from ..scene import schema
 from ..scene.description import Scene
 from ..scene.schema import ChannelArray, GroupArrays, TrialArrays
 from .beam import Beam
-from .contact import Contact, contact_duration_estimate
+from .contact import ContactLaw, contact_duration_estimate
 from .controller import PID, check_stability
 from .flexible import IdealCouplingPlant, VesLoopPlant
 from .integrate import integrate_trial
@@ -99,7 +100,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     if place is not None:
         place_pendulum(robot, q0, n, radius=pend.radius, release_angle=theta0,
                        what=f"pose {list(scene.q_paper_deg)} deg", **place)
-    contact = Contact.from_scene(scene)
+    contact = ContactLaw.from_scene(scene)
     _ = contact.damping  # solving for the damping refuses an unreachable restitution now
     friction = dict(coulomb_scale=float(p("arm.coulomb_scale")), viscous_scale=float(p("arm.viscous_scale")),
                     gravity=gravity)
@@ -114,7 +115,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
             "pushing the arm instead of rebounding")
     streams = noise_streams(scene.seed)
     t_contact = float(p("trial.pre_contact")) + float(p("trial.contact_jitter")) * streams["contact_time"].random()
-    if scene.base == "fixed":
+    if scene.base == FIXED:
         plant, freqs = FixedBasePlant(robot, q0, n, pend, contact, **friction), None
     else:
         plant, freqs, min_post, max_post = _flexible_plant(scene, robot, q0, n, pend, contact, friction,
@@ -122,9 +123,7 @@ def build(scene: Scene, *, integration: dict | None = None) -> Rig:
     pid, T = _servo(scene, robot, plant, q0)
     sub_c, sub_f = _substeps(scene, contact, pend, m1, freqs, servo_period=T, max_post=max_post,
                              integration=integration)
-    rig = Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
-    rig.m1 = m1
-    return rig
+    return Rig(scene, plant, pid, min_post, max_post, T, sub_c, sub_f, t_contact, streams)
 
 
 def _flexible_plant(scene: Scene, robot, q0, n, pend, contact, friction: dict, *, t_contact: float, min_post: float):
@@ -203,7 +202,7 @@ def _substeps(scene: Scene, contact, pend, m1: float, freqs, *, servo_period: fl
     structure the ideal coupling cannot resolve, and an override that leaves the contact
     (or the ideal coupling's structure) unresolved."""
     p, T = scene.p, servo_period
-    ideal = scene.base == "flexible" and p("ves.mode") == "ideal"
+    ideal = scene.base == FLEXIBLE and p("ves.mode") == "ideal"
     # contact step from the contact's own time scale (hammer against a wall bounds it)
     t_contact_scale = contact_duration_estimate(contact.stiffness, contact.exponent, pend.m_b, scene.speed)
     if t_contact_scale > max_post:
@@ -388,7 +387,7 @@ def record_arrays(rig: Rig, traj) -> TrialArrays:
     (:func:`record` without building xarray objects; :func:`to_tree` makes the tree)."""
     scene, plant = rig.scene, rig.plant
     p = scene.p
-    flexible = scene.base == "flexible"
+    flexible = scene.base == FLEXIBLE
     loop = flexible and hasattr(plant, "loop")
     clocks = _Clocks(p, StateSampler(plant, traj), traj.t_end)
     measured, coords, history = _measured(rig, traj, clocks, loop=loop)
@@ -522,7 +521,7 @@ def _truth(rig: Rig, traj, clocks: _Clocks, history):
         base_truth = np.column_stack([P_hist, V_hist])
     else:
         energy, tip_v = truth_terms(plant, Xt, pre, post)
-        if rig.scene.base == "flexible":
+        if rig.scene.base == FLEXIBLE:
             base_truth = plant.base_state(Xt)
     c0, c1, _ = traj.contacts[0]
     peak = float(np.max(clocks.sampler.contact_force(np.linspace(c0, c1, 2001))))

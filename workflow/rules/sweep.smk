@@ -15,34 +15,34 @@
 # seed, speeds, repeats and rig overrides (params), so editing one gain set's counts reruns
 # only that gain set's jobs.
 
-if SIMULATE:
-    for _base in SWEEPS:
+if PLAN.simulate:
+    for _base in PLAN.sweeps:
 
         rule:
             name:
                 f"simulate_{_base}"
             input:
-                rig=RIG_FILE,
-                paper=PAPER_FILE,
+                rig=PLAN.rig_file,
+                paper=PLAN.paper_file,
             output:
-                job_manifest(_base, {"gain": "{gain}", "config": "{config}"}),
+                PLAN.job_manifest_pattern(_base),
             params:
-                code=CODE_SIMULATE,
-                cells=lambda wc, base=_base: [list(c) for c in unit_cells(base, wc)],
-                speeds=SWEEPS[_base]["speeds"],
-                repeats=SWEEPS[_base]["repeats"],
+                code=PLAN.stage_code("simulate"),
+                cells=lambda wc, base=_base: [list(c) for c in PLAN.unit_cells(base, wildcard_values(wc))],
+                speeds=PLAN.sweeps[_base]["speeds"],
+                repeats=PLAN.sweeps[_base]["repeats"],
                 campaign_seed=config["campaign_seed"],
                 gain_counts=lambda wc: dict(config["gain_counts"].get(wc.gain, {})),
                 rig=config["rig"],
-                rig_params=sweep_params(_base),
-                archive=lambda wc: ARCHIVE,
+                rig_params=PLAN.sweep_params(_base),
+                archive=lambda wc: PLAN.archive,
             # scheduling: the fixed base's jobs unlock the longest chain after them (identification,
-            # the lambda fits, the planner's maps), so they start first (common.smk: PRIORITY)
+            # the lambda fits, the planner's maps), so they start first (plan_parts.PRIORITY)
             priority: PRIORITY[f"simulate_{_base}"]
             log:
-                log_file(f"simulate_{_base}", unit_name(_base)),
+                PLAN.log_file(f"simulate_{_base}", PLAN.unit_name(_base)),
             benchmark:
-                bench_file(f"simulate_{_base}", unit_name(_base))
+                PLAN.bench_file(f"simulate_{_base}", PLAN.unit_name(_base))
             threads: 1
             resources:
                 runtime=20 if _base == "fixed" else 60,
@@ -50,28 +50,26 @@ if SIMULATE:
             conda:
                 "../envs/campaign.yaml"
             script:
-                "../scripts/simulate.py"
+                "../scripts/sweep.py"
 
     rule simulate_trial:
         input:
-            rig=RIG_FILE,
-            paper=PAPER_FILE,
+            rig=PLAN.rig_file,
+            paper=PLAN.paper_file,
         output:
-            f"{ARCHIVE}/{{base}}/config{{config}}/{{gain}}/v{{speed}}/r{{repeat}}.nc",
+            PLAN.trial_pattern(),
         params:
-            code=CODE_SIMULATE,
-            trial=lambda wc: single_trial(wc),
+            code=PLAN.stage_code("simulate"),
+            trial=lambda wc: PLAN.single_trial(**wildcard_values(wc)),
             campaign_seed=config["campaign_seed"],
             gain_counts=lambda wc: dict(config["gain_counts"].get(wc.gain, {})),
             rig=config["rig"],
-            rig_params=lambda wc: sweep_params(wc.base),
-            archive=lambda wc: ARCHIVE,
+            rig_params=lambda wc: PLAN.sweep_params(wc.base),
+            archive=lambda wc: PLAN.archive,
         wildcard_constraints:
-            base="|".join(vocabulary.bases()),
-            speed=r"[0-9]+\.[0-9]{3}",
-            repeat=r"[0-9]{2}",
+            **vocabulary.trial_wildcards(),
         log:
-            log_file("simulate_trial", "{base}/config{config}/{gain}/v{speed}/r{repeat}"),
+            PLAN.trial_log_pattern(),
         threads: 1
         resources:
             runtime=5,
@@ -79,4 +77,4 @@ if SIMULATE:
         conda:
             "../envs/campaign.yaml"
         script:
-            "../scripts/simulate.py"
+            "../scripts/sweep.py"

@@ -1,4 +1,4 @@
-"""The joint-resistance models behind one estimator interface.
+"""The estimator interface of the joint-resistance models (:class:`ResponseModel`) and its eq 11 kinds.
 
 Every model takes a :class:`campaign.joints.setting.Setting` (the rig and robot it works
 on) and keyword-only options; ``fit(impacts)`` estimates its parameters from identified m*
@@ -30,7 +30,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..core.errors import InputError
-from ..core.vocabulary import gain_classes
+from ..core.vocabulary import FIXED, FLEXIBLE, gain_classes
 from ..model.paper import load_paper
 from .coulomb import CoulombLambdaFit
 from .impacts import Impacts
@@ -39,10 +39,7 @@ from .params import Params
 from .setting import Setting
 from .terms import arm_terms
 
-__all__ = ["ResponseModel", "Eq11Model", "LambdaModel", "CoulombModel", "class_of", "json_numbers", "Z95"]
-
-#: the standard normal's 97.5 % quantile: half-width of a 95 % interval in standard deviations
-Z95 = 1.959963984540054
+__all__ = ["ResponseModel", "Eq11Model", "LambdaModel", "CoulombModel", "class_of", "json_numbers"]
 
 
 def class_of(gain: str) -> str:
@@ -72,7 +69,7 @@ class ResponseModel(Params, ABC):
 
     kind: ClassVar[str] = ""
     #: the bases the model predicts on
-    supported_bases: ClassVar[tuple[str, ...]] = ("fixed", "flexible")
+    supported_bases: ClassVar[tuple[str, ...]] = (FIXED, FLEXIBLE)
     _PARAMS = ("setting",)
 
     def __init__(self, setting: Setting | None = None):
@@ -134,7 +131,7 @@ class ResponseModel(Params, ABC):
         """The residual scatter of ``ln m*`` the intervals carry: the fit's, or on the flexible
         base the one measured under the impacts' structure where the model has it
         (``structure_scatter_``)."""
-        if impacts.base == "flexible":
+        if impacts.base == FLEXIBLE:
             name = impacts.structure or self._the_setting().structure
             extra = getattr(self, "structure_scatter_", {})
             if name in extra:
@@ -171,7 +168,7 @@ def json_numbers(a):
 def _eq11(setting: Setting, impacts: Impacts, lam_of_gain) -> np.ndarray:
     """Eq 11 with each impact's lambda (diagonal): eq 7 on the fixed base, eq 8 on the flexible
     base (the arm on the structure's tip body, lambda added to its joints)."""
-    flexible = impacts.base == "flexible"
+    flexible = impacts.base == FLEXIBLE
     beam = setting.beam if impacts.structure is None or impacts.structure == setting.structure else \
         Setting.from_rig(setting.rig_file, structure=impacts.structure, robot=setting.robot).beam
     terms = arm_terms(setting.robot, impacts.q, beam=beam if flexible else None)
@@ -275,7 +272,7 @@ class LambdaModel(Eq11Model):
     def fit(self, impacts: Impacts) -> LambdaModel:
         """Fit lambda per gain class on the fixed-base ``impacts``."""
         impacts = self._check_impacts(impacts, fitting=True)
-        if impacts.base != "fixed":
+        if impacts.base != FIXED:
             raise InputError("LambdaModel fits on fixed-base impacts (eq 11 with eq 7)")
         setting = self._the_setting()
         classes = np.array([class_of(g) for g in impacts.gain])
@@ -321,16 +318,17 @@ class CoulombModel(ResponseModel):
     """
 
     kind = "lambda_coulomb"
-    supported_bases = ("fixed",)
+    supported_bases = (FIXED,)
 
     def fit(self, impacts: Impacts) -> CoulombModel:
         impacts = self._check_impacts(impacts, fitting=True)
         robot = self._the_setting().robot
         classes = np.array([class_of(g) for g in impacts.gain])
         self.fits_ = {}
+        e_paper = float(load_paper()["restitution_mean"])   # where the impacts carry no e
         for cls in sorted(set(classes)):
             sel = classes == cls
-            e = impacts.restitution[sel] if impacts.restitution is not None else np.full(sel.sum(), 0.55)
+            e = impacts.restitution[sel] if impacts.restitution is not None else np.full(sel.sum(), e_paper)
             self.fits_[cls] = CoulombLambdaFit(robot).fit(impacts.q[sel], impacts.direction[sel], impacts.m_eff[sel],
                                                           speed=impacts.speed[sel], e=e, m_b=self._masses(impacts)[sel])
         self._record_fit(impacts, self.predict(impacts), 2 * len(self.fits_) * robot.nv)

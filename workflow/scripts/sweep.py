@@ -1,13 +1,13 @@
 """Snakemake script of the simulate_<base> rules (one job's sweep cells, one file per trial and
 the job manifest listing them) and of simulate_trial (one trial of the sweep)."""
 
-from campaign.pipeline.joblog import job_log
+from campaign.pipeline import job_log
 
 p = snakemake.params  # noqa: F821 - provided by Snakemake
 with job_log(snakemake.log[0], job=f"{snakemake.rule} {dict(snakemake.wildcards)}",  # noqa: F821
              exit_process=True) as timer:
     with timer.imports():
-        from campaign.pipeline.simulate import run_cells, run_trial
+        from campaign.pipeline import run_cells, run_trial
     options = dict(campaign_seed=p.campaign_seed, rig=p.rig, params=p.rig_params, timer=timer)
     if snakemake.rule == "simulate_trial":  # noqa: F821
         t = p.trial
