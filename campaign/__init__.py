@@ -2,7 +2,7 @@
 "Impact Dynamics of Space Long Reach Manipulators", on a simulated MIT VES-II.
 
 One package per stage, each importing only from its own package and those listed before
-it (:data:`LAYERS`, bottom up; ``tests/test_layout.py`` enforces the order):
+it (:data:`LAYERS`, bottom up; ``tests/project/test_layout.py`` enforces the order):
 
 ``core``      errors, the vocabulary (bases, gain sets, trial paths), files, YAML, progress
 ``model``     the paper's conventions, the robot (URDF + drives -> Pinocchio), the Ex-IIT (eqs 5-14)

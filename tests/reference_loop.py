@@ -1,5 +1,5 @@
 """The trial loop as it was before the lean one (:mod:`campaign.rig.trial_run`): the
-reference that ``tests/test_lean_loop.py`` compares the lean loop with, to roundoff.
+reference that ``tests/rig/test_lean_loop.py`` compares the lean loop with, to roundoff.
 
 It steps the state as a NumPy array through the plant's own array methods
 (:meth:`campaign.rig.plant.FixedBasePlant.rhs`, ``evaluate``, ``holding``, ``gap``), with

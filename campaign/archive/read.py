@@ -55,7 +55,7 @@ from .fileformat import GROUPS, SCHEMA_MAJOR, STRUCTURAL_ATTRS, content_digest
 # it as well), none of which a trial file written by this archive or by xarray has: a variable
 # without a dimension scale on every axis (xarray needs ``phony_dims`` for it), a variable whose
 # length disagrees with its dimension's (h5netcdf would pad it), a multi-dimensional scale, and
-# data types other than numbers and strings. tests/test_archive.py checks the result against
+# data types other than numbers and strings. tests/archive/test_archive.py checks the result against
 # ``xr.open_dataset``/``xr.open_datatree`` (``assert_identical`` and equal encodings) on rig
 # trials of both bases and on a file xarray writes itself.
 

@@ -2,8 +2,8 @@
 
 The names come from ``config/paper.yaml`` (its ``bases``, the gain sets of its Table 1 and
 the gain classes of its Tables 2-3) and ``config/rig.yaml`` (its ``structures``); code names
-one of them through the constants below, never by a string of its own (``tests/test_layout.py``
-finds such strings, ``tests/test_vocabulary.py`` checks the constants against the files). The
+one of them through the constants below, never by a string of its own (``tests/project/test_layout.py``
+finds such strings, ``tests/core/test_vocabulary.py`` checks the constants against the files). The
 archive layout is spelled here once:
 
     <base>/<pose>/<gain>/v<speed m/s, 3 decimals>/r<repeat, 2 digits>.nc

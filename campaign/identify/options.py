@@ -135,7 +135,7 @@ class IdentifyOptions:
         drive file's per-joint, per-direction values, or one scale per joint. ``global``
         is a little quieter on the rig (whose friction is the drive file's times one
         scale: 1 kHz High worst 0.72 % against 0.86 %) but assumes those ratios; on the
-        synthetic trials of tests/test_identify.py, whose joints decelerate each at its
+        synthetic trials of tests/identify/test_identify.py, whose joints decelerate each at its
         own rate, it is off by 2.2-4.3 % where they decelerate, ``sign`` within 1 % (median
         0.3 %).
     base_window : float

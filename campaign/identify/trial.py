@@ -405,7 +405,7 @@ def _arm_window(measured, robot: Robot, ch: _Channels, c: ContactWindow, opt: Id
     rate = 1.0 / float(np.median(np.diff(tj)))
     # the joint model propagates the nominal arm dynamics over its window: dense samples
     # (<= auto_joint_interval) keep that window short; with 20 ms samples it spans 0.1 s,
-    # and on the lambda-recovery trials of tests/test_fit.py it moved lambda_3 by +2.7 %
+    # and on the lambda-recovery trials of tests/joints/test_fit.py it moved lambda_3 by +2.7 %
     # with a CI that missed: there the tip-space model serves. Measured since: that is not
     # the lambda the nominal model lacks (noise-free encoders, v'_a - v_a -0.33 % with
     # lambda, -0.32 % without; the per-joint impulses absorb it) but the model's gravity

@@ -7,7 +7,7 @@ list of floats, fills Pinocchio's inputs into preallocated arrays and does the r
 (joint torques, the contact force, the pendulum, the state derivative) in Python floats:
 operation for operation, in the same order, what the plant's array methods
 (:meth:`.plant.FixedBasePlant.rhs`, ``evaluate``, ``holding``, ``gap``) compute, so the
-numbers are the same bits (``tests/test_lean_loop.py`` compares them). A product
+numbers are the same bits (``tests/rig/test_lean_loop.py`` compares them). A product
 ``n^T J v`` of 3-9 terms is summed left to right from 0.0, the order of the BLAS ``ddot``
 NumPy calls for it. The per-evaluation comprehensions over the joint torque zip lists of
 the arm's length by construction without zip's length check (``strict=False``: the check

@@ -131,7 +131,7 @@ class StateSampler:
 # (0.5 v^T H v from the stack of mass matrices, n^T J v, the pendulum's and the contact's
 # energy). The values are the plant's own evaluations (FixedBasePlant.energy / tip_speed /
 # mount_wrench, IdealCouplingPlant.energy / tip_speed / mount_wrench, VesLoopPlant.energy_at /
-# arm_at) up to round-off; tests/test_rig.py checks them against plain per-sample Pinocchio.
+# arm_at) up to round-off; tests/rig/test_rig.py checks them against plain per-sample Pinocchio.
 
 def _kind(plant) -> str:
     """'fixed', 'ideal' (arm + structure integrated) or 'loop' (VES-prescribed platform)."""

@@ -390,7 +390,7 @@ archive.write_trial(tree, sys.argv[1])
 
 def test_writer_killed_mid_write_leaves_no_file_and_a_rerun_completes(tmp_path):
     final = tmp_path / "fixed/config1/zero/v1.500/r00.nc"
-    script = _KILL_SCRIPT.format(tests=str(Path(__file__).parent), duration=DURATION)
+    script = _KILL_SCRIPT.format(tests=str(Path(__file__).parents[1]), duration=DURATION)
     proc = subprocess.Popen([sys.executable, "-c", script, str(final)], stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout.readline().strip() == "writing"

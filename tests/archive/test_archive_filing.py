@@ -22,7 +22,7 @@ from campaign.identify import find_trials
 from campaign.identify.table import identify_trials
 from campaign.pipeline.paths import index_cells
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 HIGH = "fixed/config1/high/v1.500/r00.nc"
 LOW = "fixed/config1/low/v1.500/r00.nc"
 R00 = "fixed/config1/zero/v1.500/r00.nc"

@@ -31,7 +31,7 @@ from campaign.scene.description import Scene
 
 from synthetic import synthetic_trial
 
-REFERENCE = Path(__file__).resolve().parents[1] / "archive" / "reference"
+REFERENCE = Path(__file__).resolve().parents[2] / "archive" / "reference"
 #: a trial of the committed reference, written before trials recorded their platform
 OLD_TRIAL = "fixed/config1/zero/v1.500/r00.nc"
 DURATION = 0.3  # s: short synthetic recordings

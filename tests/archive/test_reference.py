@@ -28,7 +28,7 @@ from campaign.identify import identify_file
 from campaign.rig import simulate_arrays
 from campaign.scene.description import Scene
 
-ROOT = Path(__file__).resolve().parents[1] / "archive"
+ROOT = Path(__file__).resolve().parents[2] / "archive"
 REFERENCE = ROOT / "reference"
 STORED = ROOT / "reference.identification.csv"
 

@@ -7,7 +7,7 @@ exit status (2: bad input or usage, before any work), nothing written or changed
 scratch folder (FIFOs and device nodes included), and nothing left under a temporary name.
 The API must raise ``InputError`` (a ``ValueError``) naming the value; the workflow must fail
 its dry run naming it, before any job, without a traceback and without creating an archive
-or results folder. Full disks: ``tests/test_full_disk.py``.
+or results folder. Full disks: ``tests/workflow/test_full_disk.py``.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from campaign.scene.checks import check_speeds, pendulum_reach
 
 import snakemake_forks
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 REFERENCE = REPO / "archive" / "reference"
 TRIAL = REFERENCE / "fixed" / "config1" / "zero" / "v1.500" / "r00.nc"
 REF = str(REFERENCE)

@@ -12,7 +12,7 @@ from campaign.cli.args import join_negative_values, key_value, parse_vector
 from campaign.cli.main import build_parser
 from campaign.core.errors import InputError
 
-CLI = Path(__file__).resolve().parents[1] / "campaign" / "cli"
+CLI = Path(__file__).resolve().parents[2] / "campaign" / "cli"
 
 
 @pytest.mark.parametrize("argv, joined", [

@@ -45,7 +45,7 @@ def test_identify_shows_progress_only_when_asked(monkeypatch, capsys, tmp_path):
 
     from campaign.cli.main import main
 
-    trial = Path(__file__).resolve().parents[1] / "archive/reference/fixed/config1/zero/v1.500/r00.nc"
+    trial = Path(__file__).resolve().parents[2] / "archive/reference/fixed/config1/zero/v1.500/r00.nc"
     monkeypatch.setenv("CAMPAIGN_PROGRESS", "1")
     assert main(["identify", str(trial)]) == 0
     assert "identify" in capsys.readouterr().err

@@ -25,7 +25,7 @@ from campaign.scene.description import (
 
 import snakemake_forks
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +37,7 @@ def robot():
 def cli(monkeypatch, capsys):
     """``cli(*args, cwd=folder)``: ``campaign ARGS`` run by the command's entry point in this
     process, in ``folder``; returns its exit status, stdout and stderr. (The console script
-    in a process of its own: tests/test_bad_inputs.py.)"""
+    in a process of its own: tests/cli/test_bad_inputs.py.)"""
     from campaign.cli.main import main
 
     def run(*args, cwd):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from campaign import LAYERS
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def readme_layout() -> list[str]:

@@ -9,7 +9,7 @@ ls`` for a nested one) and each of its options and positional arguments with
 What runs where:
 
 * The console examples (``$ campaign ...`` in a console block of README.md or a page of
-  ``docs/``) run in ``tests/test_readme.py``, compared with the output they show.
+  ``docs/``) run in ``tests/docs/test_readme.py``, compared with the output they show.
 * A command the README or the guide shows elsewhere (inline code, a ``sh`` block) is either
   one of those console examples or a key of :data:`RUN_BY_TEST`, which names the test that
   runs it through the CLI and, where the test runs it at a test-sized setting, which
@@ -123,33 +123,33 @@ class RunBy:
 _SMALL_CALIBRATION = ("a set-up of 4 trials, one free parameter and one evaluation; the committed one sweeps 27 "
                       "trials per evaluation and its fit takes minutes")
 _CALIBRATE_REPORT = RunBy(
-    "tests/test_calibrate.py::test_calibrate_skip_fit_validate_reports_both_parts_and_writes_the_report",
+    "tests/pipeline/test_calibrate.py::test_calibrate_skip_fit_validate_reports_both_parts_and_writes_the_report",
     "calibrate --skip-fit --validate --report * --calibration *", {"--calibration": _SMALL_CALIBRATION})
 
 #: the documented commands a console example does not run, each with the test that does
 RUN_BY_TEST: dict[str, RunBy] = {
-    "campaign bench stress --reduced": RunBy("tests/test_stress.py::stress_run", "bench stress --reduced"),
+    "campaign bench stress --reduced": RunBy("tests/bench/test_stress.py::stress_run", "bench stress --reduced"),
     "campaign bench work-precision --quick --out bench/": RunBy(
-        "tests/test_cli_bench.py::test_work_precision_smoke_runs_to_the_end_and_writes_its_three_files",
+        "tests/bench/test_cli_bench.py::test_work_precision_smoke_runs_to_the_end_and_writes_its_three_files",
         "bench work-precision --smoke --out *",
         {"--quick": "--quick takes minutes", "--smoke": "the same command, end to end, in seconds"}),
     "campaign bench work-precision --smoke": RunBy(
-        "tests/test_cli_bench.py::test_work_precision_smoke_runs_to_the_end_and_writes_its_three_files",
+        "tests/bench/test_cli_bench.py::test_work_precision_smoke_runs_to_the_end_and_writes_its_three_files",
         "bench work-precision --smoke --out *", {"--out": "the test reads the files it writes"}),
     "campaign calibrate --skip-fit --validate --report calib/": _CALIBRATE_REPORT,
     "campaign calibrate --skip-fit --validate": dataclasses.replace(_CALIBRATE_REPORT, changes={
         "--calibration": _SMALL_CALIBRATION, "--report": "the test reads the report's files too"}),
     "campaign calibrate --no-write": RunBy(
-        "tests/test_calibrate.py::test_calibrate_no_write_fits_reports_and_leaves_the_rig_file_alone",
+        "tests/pipeline/test_calibrate.py::test_calibrate_no_write_fits_reports_and_leaves_the_rig_file_alone",
         "calibrate --no-write --calibration *", {"--calibration": _SMALL_CALIBRATION}),
     "campaign design --criterion E --candidates random --n-random 2000 --seed 0": RunBy(
-        "tests/test_design.py::test_design_e_optimal_on_random_candidates_improves_on_the_paper_for_both_classes",
+        "tests/design/test_design.py::test_design_e_optimal_on_random_candidates_improves_on_the_paper_for_both_classes",
         "design --criterion E --candidates random --n-random 2000 --seed 0"),
     "campaign design --prior high=2.34,3.55,3.19": RunBy(
-        "tests/test_design.py::test_design_at_a_fitted_prior_uses_it_for_its_class_only",
+        "tests/design/test_design.py::test_design_at_a_fitted_prior_uses_it_for_its_class_only",
         "design --prior high=2.34,3.55,3.19"),
     "campaign design --k 6 --repeat-information": RunBy(
-        "tests/test_design.py::test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n",
+        "tests/design/test_design.py::test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n",
         "design --k 6 --repeat-information"),
 }
 

@@ -3,9 +3,9 @@ impulsive limit) beside the default eq 10: the option, and on rig trials every t
 method scored against its own truth.
 
 Bounds are requirements (the F/T and tip-space methods' own accuracy is for
-tests/test_identify.py; here: the estimator adds no error of its own), not numbers copied
-from a run. The 1 kHz joint model and the lambda recovery: tests/test_identify_joint.py,
-tests/test_fit.py.
+tests/identify/test_identify.py; here: the estimator adds no error of its own), not numbers copied
+from a run. The 1 kHz joint model and the lambda recovery: tests/identify/test_identify_joint.py,
+tests/joints/test_fit.py.
 """
 
 from __future__ import annotations

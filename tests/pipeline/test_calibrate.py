@@ -267,10 +267,10 @@ def test_campaign_report_marks_the_held_out_rows(tmp_path):
 
     from campaign.pipeline.calibration_report import campaign_report
 
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     trials = {f"{c}-{g}": root / "archive" / "reference" / "flexible" / f"config{c}" / g / "v2.500" / "r00.nc"
               for c in (1, 2) for g in ("low", "high")}
-    # the reference archive is committed (tests/test_reference.py checks it): missing is a failure
+    # the reference archive is committed (tests/archive/test_reference.py checks it): missing is a failure
     missing = [str(p) for p in trials.values() if not p.is_file()]
     assert not missing, f"reference archive trials missing: {missing}"
     cells = _paper_cells({"2-high": 1.5})

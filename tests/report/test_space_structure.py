@@ -111,7 +111,7 @@ def test_the_reference_archives_flexible_scene_is_todays_space_class():
     from campaign.archive import open_trial_arrays
     from campaign.scene.description import Scene, make_scene
 
-    ref = Path(__file__).resolve().parents[1] / "archive" / "reference" / "flexible" / "config1" / "low"
+    ref = Path(__file__).resolve().parents[2] / "archive" / "reference" / "flexible" / "config1" / "low"
     trial = sorted(ref.glob("v2.500/r00.nc"))[0]
     stored = Scene.from_json(str(open_trial_arrays(trial, group="measured").attrs["scene_json"]))
     now = make_scene(base="flexible", config=1, gain="low", speed=2.5, repeat=0, campaign_seed=1996,
@@ -133,7 +133,7 @@ def test_structure_is_read_from_the_stored_scene():
         trial_structures,
     )
 
-    root = Path(__file__).resolve().parents[1] / "archive" / "reference"
+    root = Path(__file__).resolve().parents[2] / "archive" / "reference"
     trial = sorted((root / "flexible" / "config1" / "low").glob("v2.500/r00.nc"))[0]
     stored = Scene.from_json(str(open_trial_arrays(trial, group="measured").attrs["scene_json"]))
     assert structure_of(stored.param_dict) == "space_class"

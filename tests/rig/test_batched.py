@@ -19,7 +19,7 @@ from campaign.rig.batch import simulate_batch
 from campaign.rig.trial import build
 from campaign.scene.description import make_scene
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _assert_same(one, batched, label):

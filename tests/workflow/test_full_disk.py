@@ -33,7 +33,7 @@ from campaign.core import files
 from campaign.core.errors import WriteError
 from campaign.core.files import write_atomic
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 REFERENCE = REPO / "archive" / "reference"
 
 

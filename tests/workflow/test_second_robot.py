@@ -29,7 +29,7 @@ from campaign.model.robot import load_robot
 
 import snakemake_forks
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 CONFIG = REPO / "config" / "planar2.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 #: the paper's products a campaign of another robot skips

@@ -36,7 +36,7 @@ import snakemake_forks
 
 pytestmark = pytest.mark.slow
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 SNAKEFILE = REPO / "Snakefile"
 CI_CONFIG = REPO / "config" / "ci.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -92,7 +92,7 @@ def num(value: str) -> float:
 
 
 # ------------------------------------------------------------------------------------------
-# the reduced campaign, run once per test run (conftest.py: ci_campaign; read only, a test
+# the reduced campaign, run once per test run (tests/workflow/conftest.py: ci_campaign; read only, a test
 # that writes into it works on ci_campaign_copy)
 # ------------------------------------------------------------------------------------------
 @pytest.fixture
