@@ -1,5 +1,5 @@
 # The campaign: Yoshida, Mavroidis & Dubowsky's impact experiments re-done on a simulated
-# VES-II. Configuration: config/config.yaml (full) or --configfile config/ci.yaml (reduced),
+# VES-II. Configuration: config/config.yaml (full) or --configfile config/tests/ci.yaml (reduced),
 # checked against workflow/schemas/config.schema.yaml. Stage flow:
 #
 #   simulate -> identify -> fit -> tables, figures -> report

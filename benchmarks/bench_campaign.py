@@ -72,7 +72,7 @@ TARGETS = {"full": 25.0, "ci": 10.0}  # seconds with the report, 2-core machine
 STAGES = {"simulation": ("simulate", "write"), "identification": ("identify",), "fits": ("fit",),
           "tables": ("table",), "figures": ("figure",), "maps": ("maps",), "calibration report": ("report",),
           "finalize": ("finalize",), "start-up + imports": ("startup", "imports")}
-CONFIGS = {"full": REPO / "config" / "config.yaml", "ci": REPO / "config" / "ci.yaml"}
+CONFIGS = {"full": REPO / "config" / "config.yaml", "ci": REPO / "config" / "tests" / "ci.yaml"}
 
 
 def run(cmd: list[str], cwd: Path, *, tree: Path = REPO) -> tuple[float, float]:

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Wall time of the reduced campaign (config/ci.yaml) on a one-node SLURM cluster, by cluster
+# Wall time of the reduced campaign (config/tests/ci.yaml) on a one-node SLURM cluster, by cluster
 # profile: profiles/slurm as shipped (the small downstream jobs grouped into one SLURM job)
 # against the same profile without its groups (one SLURM job per rule job). Each run starts
 # from empty folders; the variants alternate so that a change in the machine's load hits both.
@@ -48,7 +48,7 @@ for rep in $(seq "$REPEATS"); do
         mkdir -p "$dir"
         t0=$(date +%s.%N)
         timeout --kill-after=20 900 "$SNAKEMAKE" -s "$REPO/Snakefile" --directory "$dir" \
-            --configfile "$REPO/config/ci.yaml" --workflow-profile "${PROFILE[$variant]}" > "$dir.log" 2>&1 \
+            --configfile "$REPO/config/tests/ci.yaml" --workflow-profile "${PROFILE[$variant]}" > "$dir.log" 2>&1 \
             || fail "$variant run $rep failed: $(tail -20 "$dir.log")"
         seconds=$(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN {printf "%.1f", b - a}')
         jobs=$(grep -c 'has been submitted with SLURM jobid' "$dir.log")

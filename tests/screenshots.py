@@ -2,7 +2,7 @@
 checked and photographed.
 
 ``make screenshots`` (or ``python tests/screenshots.py``) builds the reduced campaign
-(``snakemake --cores 2 --configfile config/ci.yaml``), its report (``--report``) and the guide
+(``snakemake --cores 2 --configfile config/tests/ci.yaml``), its report (``--report``) and the guide
 (as ``make docs``), then opens them in headless Chromium and
 
 * checks every category of the report: one row per figure or table, labelled (never by its
@@ -35,7 +35,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 OUT = REPO / "build" / "screenshots"
 #: the reduced campaign's configuration and the report built from it
-CONFIG = "config/ci.yaml"
+CONFIG = "config/tests/ci.yaml"
 #: how long the page's scripts may run before the picture is taken [ms of virtual time]
 BUDGET_MS = 8000
 

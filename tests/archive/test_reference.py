@@ -1,6 +1,6 @@
 """The committed reference archive as a regression baseline.
 
-``archive/reference`` is made by the project's own command (``config/reference.yaml``: the
+``archive/reference`` is made by the project's own command (``config/tests/reference.yaml``: the
 reduced campaign, see archive/README.md). On any machine, re-simulating its stored scenes
 must reproduce its channels and identification on it the results stored beside it, both
 within the tolerance policy (campaign.core.tolerance: another CPU or BLAS kernel moves them
@@ -94,9 +94,9 @@ REPO = ROOT.parent
 
 
 def _documented_command() -> list[str]:
-    """The regeneration command config/reference.yaml documents (its ``snakemake`` line)."""
-    lines = [line.strip("# ").split() for line in (REPO / "config" / "reference.yaml").read_text().splitlines()
-             if line.startswith("#   snakemake ")]
+    """The regeneration command config/tests/reference.yaml documents (its ``snakemake`` line)."""
+    text = (REPO / "config" / "tests" / "reference.yaml").read_text()
+    lines = [line.strip("# ").split() for line in text.splitlines() if line.startswith("#   snakemake ")]
     assert len(lines) == 1, lines
     return lines[0][1:]
 

@@ -442,7 +442,7 @@ def test_api_names_the_bad_value(tmp_path, index):
 # the workflow: every row's dry run, then each is checked
 # -------------------------------------------------------------------------------------------
 WORKFLOW_CASES = [
-    # (--config arguments, or a dict merged into config/ci.yaml; text the error must contain[;
+    # (--config arguments, or a dict merged into config/tests/ci.yaml; text the error must contain[;
     # environment variables])
     ({"rig_params": {"contact.stifness": 1200}}, "'contact.stifness'"),
     ({"speeds": [1.0, 9.0]}, "speed 9.0 m/s is beyond"),
@@ -465,7 +465,7 @@ WORKFLOW_CASES = [
 @pytest.fixture(scope="module")
 def workflow_runs(tmp_path_factory):
     """Each row's dry run in its own folder (through :mod:`snakemake_forks`): (folder, output, status)."""
-    base = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
+    base = yaml.safe_load((REPO / "config" / "tests" / "ci.yaml").read_text())
     runs = []
     for i, (change, _, *env) in enumerate(WORKFLOW_CASES):
         work = tmp_path_factory.mktemp(f"wf{i}")
@@ -512,7 +512,7 @@ def test_config_values_typed_on_the_command_line_parse():
     assert parse_typed_strings({"simulate": "no"}, schema)["simulate"] == "no"
     assert parse_typed_strings({"simulate": "TRUE"}, schema)["simulate"] is True
     with pytest.raises(InputError, match="configuration key simulate: 'maybe'"):
-        ci = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
+        ci = yaml.safe_load((REPO / "config" / "tests" / "ci.yaml").read_text())
         check_schema(parse_typed_strings({**ci, "simulate": "maybe"}, schema), schema)
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The reduced campaign (config/ci.yaml) through a real one-node SLURM cluster and the shipped
+# The reduced campaign (config/tests/ci.yaml) through a real one-node SLURM cluster and the shipped
 # profile (profiles/slurm), checked against a local run of the same configuration.
 #
 # As root on Debian (12): installs munge and Slurm when they are missing and starts a private
@@ -88,7 +88,7 @@ run_campaign() {  # run_campaign <folder> <log> [snakemake options...]
     shift 2
     mkdir -p "$dir"
     timeout --kill-after=20 "$CAMPAIGN_TIMEOUT" "$SNAKEMAKE" -s "$REPO/Snakefile" --directory "$dir" \
-        --configfile "$REPO/config/ci.yaml" "$@" > "$log" 2>&1
+        --configfile "$REPO/config/tests/ci.yaml" "$@" > "$log" 2>&1
 }
 
 say "reduced campaign, local (profiles/default)"
@@ -123,7 +123,7 @@ printf 'this is not an identification table\n' > "$bad"
 t0=$SECONDS
 rc=0
 timeout --kill-after=10 60 "$SNAKEMAKE" -s "$REPO/Snakefile" --directory "$WORK/cluster" \
-    --configfile "$REPO/config/ci.yaml" --workflow-profile "$REPO/profiles/slurm" table2 \
+    --configfile "$REPO/config/tests/ci.yaml" --workflow-profile "$REPO/profiles/slurm" table2 \
     > "$WORK/failing.log" 2>&1 || rc=$?
 FAIL_SECONDS=$((SECONDS - t0))
 [ "$rc" != 124 ] && [ "$rc" != 137 ] || fail "Snakemake still waited after 60 s for a failed SLURM job (log $WORK/failing.log)"

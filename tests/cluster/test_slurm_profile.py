@@ -28,7 +28,7 @@ NOT_GROUPED = re.compile(r"simulate_\w+|\w+_study|study_\w+|studies|calibrate|al
 
 def workflow_rules(work: Path, *config: str) -> set[str]:
     proc = snakemake_forks.run(["-s", str(REPO / "Snakefile"), "--directory", str(work), "--configfile",
-                                str(REPO / "config" / "ci.yaml"), "--list-rules",
+                                str(REPO / "config" / "tests" / "ci.yaml"), "--list-rules",
                                 *(["--config", *config] if config else [])], cwd=work, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return set(proc.stdout.split())

@@ -23,14 +23,14 @@ from campaign.pipeline.plan_parts import FIGURES, PRIORITY, STUDY_PRODUCTS, TABL
 
 REPO = Path(__file__).resolve().parents[2]
 SCHEMA = yaml.safe_load((REPO / "workflow" / "schemas" / "config.schema.yaml").read_text())
-CI = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
+CI = yaml.safe_load((REPO / "config" / "tests" / "ci.yaml").read_text())
 PUMA = "configuration key bases.fixed.configurations"
 FIT_TEXT = "bases.fixed with configurations 1-3, gain high and zero or low"
 OTHER_ARM = "needs the paper's robot puma560 (its configurations and published values; this campaign simulates planar2)"
 
 
 def config(tmp_path: Path, **changes) -> dict:
-    """config/ci.yaml into tmp_path's folders, the schema's top-level defaults filled in, the figures'
+    """config/tests/ci.yaml into tmp_path's folders, the schema's top-level defaults filled in, the figures'
     default trials (the highest speed), ``changes`` applied."""
     cfg = {k: copy.deepcopy(v["default"]) for k, v in SCHEMA["properties"].items() if "default" in v}
     cfg.update(copy.deepcopy(CI), archive_root=str(tmp_path / "archive"), results_root=str(tmp_path / "results"),

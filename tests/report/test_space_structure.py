@@ -105,7 +105,7 @@ def test_base_fit_residuals_are_eq8_on_the_space_class_base_over_the_paper():
 
 
 def test_the_reference_archives_flexible_scene_is_todays_space_class():
-    """The committed reference campaign (config/reference.yaml) struck the space-class
+    """The committed reference campaign (config/tests/reference.yaml) struck the space-class
     structure: selecting it gives that trial's scene, every rig value and the seed, so its
     trials are today's."""
     from campaign.archive import open_trial_arrays

@@ -61,7 +61,7 @@ def _check_batch(scenes, integration=None):
 
 
 def test_every_trial_of_the_reduced_campaign_equals_its_one_trial_result():
-    scenes = _campaign_scenes("config/ci.yaml")
+    scenes = _campaign_scenes("config/tests/ci.yaml")
     assert {s.base for s in scenes} == {"fixed", "flexible"}
     assert {s.gain for s in scenes} == {"zero", "low", "high"}
     _check_batch(scenes)

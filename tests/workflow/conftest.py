@@ -34,7 +34,7 @@ def _run_lock(tmp_path_factory, name: str):
 
 @pytest.fixture(scope="session")
 def ci_campaign(tmp_path_factory) -> Path:
-    """The working folder of the reduced campaign (config/ci.yaml), run once per test run with
+    """The working folder of the reduced campaign (config/tests/ci.yaml), run once per test run with
     the repository's Snakefile (``snakemake --directory <folder>``, profiles/default).
     Read only: a test that writes into it works on :func:`ci_campaign_copy`."""
     with _run_lock(tmp_path_factory, "ci_campaign") as root:
@@ -44,7 +44,7 @@ def ci_campaign(tmp_path_factory) -> Path:
             work.mkdir()
             t0 = time.perf_counter()
             proc = subprocess.run([SNAKEMAKE, "-s", str(REPO / "Snakefile"), "--directory", str(work),
-                                   "--configfile", str(REPO / "config" / "ci.yaml")],
+                                   "--configfile", str(REPO / "config" / "tests" / "ci.yaml")],
                                   cwd=work, capture_output=True, text=True, timeout=900)
             assert proc.returncode == 0, f"the reduced campaign failed:\n{proc.stdout[-4000:]}\n{proc.stderr[-6000:]}"
             done.write_text(f"{time.perf_counter() - t0:.1f} s\n")

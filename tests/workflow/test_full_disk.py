@@ -228,7 +228,7 @@ def test_a_workflow_job_on_a_disk_that_fills_leaves_no_partial_output(tmp_path):
     (hook / "sitecustomize.py").write_text(SITECUSTOMIZE)
     work = tmp_path / "work"
     work.mkdir()
-    cfg = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
+    cfg = yaml.safe_load((REPO / "config" / "tests" / "ci.yaml").read_text())
     cfg.update(campaign="full_disk", bases={"fixed": {"configurations": [1, 2, 3], "gains": ["zero"]}})
     (work / "c.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
     archive_dir = work / "archive" / "full_disk"
@@ -258,7 +258,7 @@ def test_a_workflow_job_on_a_disk_that_fills_leaves_no_partial_output(tmp_path):
 def test_a_workflow_job_on_a_real_small_filesystem_leaves_no_partial_output(tmp_path):
     work = tmp_path / "work"
     work.mkdir()
-    cfg = yaml.safe_load((REPO / "config" / "ci.yaml").read_text())
+    cfg = yaml.safe_load((REPO / "config" / "tests" / "ci.yaml").read_text())
     cfg.update(campaign="full_disk", bases={"fixed": {"configurations": [1, 2, 3], "gains": ["zero"]}})
     (work / "c.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
     snakemake = Path(sys.executable).parent / "snakemake"

@@ -1,5 +1,5 @@
 """A second robot end to end: planar2 (two links, vertical joint axes) on the rig, through the
-CLI and through its own reduced campaign (config/planar2.yaml).
+CLI and through its own reduced campaign (config/tests/planar2.yaml).
 
 The campaign runs once for the module (about 20 s of CPU): 18 fixed-base trials, their
 identification, the lambda fit of each gain class and Figure 7; the paper's products are
@@ -30,7 +30,7 @@ from campaign.model.robot import load_robot
 import snakemake_forks
 
 REPO = Path(__file__).resolve().parents[2]
-CONFIG = REPO / "config" / "planar2.yaml"
+CONFIG = REPO / "config" / "tests" / "planar2.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 #: the paper's products a campaign of another robot skips
 PAPER_PRODUCTS = ("fig4", "fig5", "fig6", "fig8", "fig9", "plan_maps", "table2", "table3", "table4")

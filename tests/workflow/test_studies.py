@@ -69,7 +69,7 @@ def test_a_study_product_not_listed_is_refused_naming_the_key(tmp_path):
 def test_the_schema_names_every_study_and_each_has_a_module():
     schema = yaml.safe_load((REPO / "workflow" / "schemas" / "config.schema.yaml").read_text())
     assert tuple(schema["properties"]["studies"]["items"]["enum"]) == studies.NAMES
-    for config in ("config.yaml", "ci.yaml"):
+    for config in ("config.yaml", "tests/ci.yaml"):
         assert yaml.safe_load((REPO / "config" / config).read_text())["studies"] == []
     for name in studies.NAMES:
         assert (REPO / "campaign" / "studies" / f"{name}.py").is_file()

@@ -1,4 +1,4 @@
-"""End-to-end tests of the Snakemake workflow: the reduced campaign (config/ci.yaml) runs
+"""End-to-end tests of the Snakemake workflow: the reduced campaign (config/tests/ci.yaml) runs
 through Snakemake in a temporary directory and its tables hold physically sensible numbers.
 
 Also: ``snakemake --lint`` has no findings, a bad configuration stops with a message naming
@@ -38,7 +38,7 @@ pytestmark = pytest.mark.slow
 
 REPO = Path(__file__).resolve().parents[2]
 SNAKEFILE = REPO / "Snakefile"
-CI_CONFIG = REPO / "config" / "ci.yaml"
+CI_CONFIG = REPO / "config" / "tests" / "ci.yaml"
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
 TIMEOUT = 900
 
@@ -75,7 +75,7 @@ def planned_jobs(output: str) -> list[tuple[str, dict]]:
 
 
 def write_config(path: Path, **changes) -> Path:
-    """config/ci.yaml with top-level keys replaced."""
+    """config/tests/ci.yaml with top-level keys replaced."""
     cfg = yaml.safe_load(CI_CONFIG.read_text())
     cfg.update(changes)
     path.write_text(yaml.safe_dump(cfg, sort_keys=False))

@@ -27,7 +27,7 @@ if PLAN.simulate:
             "../scripts/finalize_archive.py"
 
     # the campaign's identification as one CSV, every trial in path order: where the
-    # configuration key identification_csv says (then part of `all`; config/reference.yaml:
+    # configuration key identification_csv says (then part of `all`; config/tests/reference.yaml:
     # archive/reference.identification.csv), else results/<campaign>/identification.csv on demand.
     # update(): Snakemake leaves the existing file in place for the job, which keeps each row
     # the tolerance policy calls the same identification (campaign.pipeline.stages.export_identification)
