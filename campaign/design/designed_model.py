@@ -10,8 +10,9 @@ samples leave the tip-space velocity model), and saves it as a model file
 (:mod:`campaign.joints.modelfile`) with a Markdown summary. The workflow writes it to
 ``results/designed/model/response_model.json``; the repository ships the same file as
 ``config/response_model.json`` (the model the CLI and the planner use by default, beside
-the rig file it was fitted for), which ``snakemake designed`` reproduces bit for bit and
-checks (:func:`compare_shipped`).
+the rig file it was fitted for), which ``snakemake designed`` reproduces (bit for bit on the
+machine that fitted it, within the tolerance policy on another) and checks
+(:func:`compare_shipped`, :func:`model_differences`).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import write_atomic
+from ..core.tolerance import IDENTIFY_RTOL, Difference, compare
 from ..core.vocabulary import FLEXIBLE
 from ..identify.table import read_identification
 from ..joints.impacts import Impacts
@@ -32,7 +34,7 @@ from ..joints.impedance_model import JointImpedance
 from ..joints.modelfile import save_model, shipped_model_path
 from ..joints.setting import Setting, display_path
 
-__all__ = ["fit_model", "model_markdown", "compare_shipped"]
+__all__ = ["fit_model", "model_markdown", "compare_shipped", "model_differences"]
 
 
 def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, Sequence], *, archive, out_json,
@@ -89,10 +91,50 @@ def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _leaves(value, path: str = "") -> dict:
+    """``{path: value}`` of a model file's content: a dict opened key by key, a list of
+    numbers (or of lists of numbers) kept whole as one array."""
+    if isinstance(value, Mapping):
+        out = {}
+        for key, item in value.items():
+            out.update(_leaves(item, f"{path}/{key}"))
+        return out
+    return {path: value}
+
+
+def model_differences(fitted: Mapping, shipped: Mapping) -> list[Difference]:
+    """How a model refitted elsewhere differs from another, under the tolerance policy.
+
+    Text, keys and shapes must be the same; numbers agree within
+    :data:`campaign.core.tolerance.IDENTIFY_RTOL` (the refit reads identified m*, which moves
+    by that much across machines): residuals and scatters, logarithms of m* ratios, on the
+    unit scale (their difference is a relative difference of m*), every other number on
+    its own magnitude (an array on its largest element).
+
+    Parameters
+    ----------
+    fitted, shipped : mapping
+        Two model files' content (JSON).
+
+    Returns
+    -------
+    list of Difference
+        One per quantity, in the files' order.
+    """
+    a, b = _leaves(fitted), _leaves(shipped)
+    found = [Difference(k, math.inf, 0.0, 0.0, note="only in one of the two") for k in sorted(set(a) ^ set(b))]
+    for key in (k for k in a if k in b):
+        log_ratio = any(word in key for word in ("residual", "scatter"))
+        found.append(compare(a[key], b[key], name=key.lstrip("/"), rtol=IDENTIFY_RTOL,
+                             scale=1.0 if log_ratio else None))
+    return found
+
+
 def compare_shipped(fitted_json, out_txt, *, shipped=None) -> bool:
-    """Whether the model the campaign just fitted is byte for byte the shipped one; writes
-    the finding (a stale shipped model is reported, not an error: a changed campaign fits
-    its own)."""
+    """Whether the model the campaign just fitted is the shipped one: byte for byte, or, when
+    the bytes differ, the same numbers within the tolerance policy (:func:`model_differences`:
+    a refit on another machine); writes the finding (a stale shipped model is reported, not an
+    error: a changed campaign fits its own)."""
     shipped = shipped_model_path() if shipped is None else Path(shipped)
     a = Path(fitted_json).read_bytes()
     b = shipped.read_bytes() if shipped.is_file() else None
@@ -102,9 +144,19 @@ def compare_shipped(fitted_json, out_txt, *, shipped=None) -> bool:
     elif b is None:
         text = f"differs: there is no shipped model {display_path(shipped)}\n"
     else:
-        text = (f"differs: {display_path(fitted_json)} is not the shipped {display_path(shipped)}; a campaign "
-                f"with the shipped settings reproduces it, so the rig, the robot, the code or the designed "
-                f"settings changed (copy the new file there to ship it)\n")
+        found = model_differences(json.loads(a), json.loads(b))
+        beyond = [d for d in found if not d.ok]
+        if not beyond:
+            same = True
+            closest = max(found, key=lambda d: d.largest / d.allowed if d.allowed > 0 else 0.0)
+            text = (f"the same model: {display_path(fitted_json)} agrees with the shipped {display_path(shipped)} "
+                    f"within the tolerance policy (its bytes differ: computed on another platform); largest: "
+                    f"{closest}\n")
+        else:
+            text = (f"differs: {display_path(fitted_json)} is not the shipped {display_path(shipped)}; a campaign "
+                    f"with the shipped settings reproduces it, so the rig, the robot, the code or the designed "
+                    f"settings changed (copy the new file there to ship it); {len(beyond)} quantities beyond the "
+                    f"tolerance policy, e.g. {beyond[0]}\n")
     write_atomic(out_txt, text)
     print(text, end="")
     return same
