@@ -45,7 +45,7 @@ if PLAN.simulate:
                 PLAN.bench_file(f"simulate_{_base}", PLAN.unit_name(_base))
             threads: 1
             resources:
-                runtime=20 if _base == "fixed" else 60,
+                runtime=20 if _base == vocabulary.FIXED else 60,
                 mem_mb=1000,
             conda:
                 "../envs/campaign.yaml"
