@@ -12,6 +12,7 @@ small package of their own and check that the rule finds it.
 from __future__ import annotations
 
 import ast
+import re
 import textwrap
 from pathlib import Path
 
@@ -287,6 +288,33 @@ def test_no_package_re_exports_a_private_name():
 
 def test_no_base_gain_or_structure_name_is_spelled_outside_the_vocabulary():
     assert vocabulary_literals(PACKAGE, NAMES) == []
+
+
+def workflow_literals(root: Path, names) -> list[str]:
+    """Quoted base, gain or structure names in the workflow's rule files, Snakefile and
+    scripts (read as text: a rule file is not Python), comment lines aside."""
+    alternatives = "|".join(sorted(map(re.escape, names)))
+    quoted = re.compile(rf"[\"']({alternatives})[\"']")
+    found = []
+    files = [root / "Snakefile", *sorted((root / "workflow").rglob("*.smk")),
+             *sorted((root / "workflow").rglob("*.py"))]
+    for path in (f for f in files if f.is_file()):
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if not line.lstrip().startswith("#") and (hit := quoted.search(line)):
+                found.append(f"{path.relative_to(root).as_posix()} line {number}: {hit.group(0)}")
+    return found
+
+
+def test_no_base_gain_or_structure_name_is_spelled_in_the_workflow():
+    assert workflow_literals(PACKAGE.parent, NAMES) == []
+
+
+def test_a_workflow_literal_is_found(tmp_path):
+    (tmp_path / "workflow" / "rules").mkdir(parents=True)
+    (tmp_path / "Snakefile").write_text('include: "workflow/rules/a.smk"\n')
+    (tmp_path / "workflow" / "rules" / "a.smk").write_text(
+        '# the "high" gains\nrule a:\n    params: gain="high", base=vocabulary.FIXED\n')
+    assert workflow_literals(tmp_path, {"high", "fixed"}) == ["workflow/rules/a.smk line 3: \"high\""]
 
 
 def test_no_module_takes_a_private_name_from_another():
