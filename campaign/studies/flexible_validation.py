@@ -28,7 +28,7 @@ import numpy as np
 import pinocchio as pin
 import scipy.linalg as sla
 
-from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO
+from ..core.vocabulary import FIXED, FLEXIBLE, HIGH, LOW, ZERO, table2_column
 from ..model import exiit
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
@@ -223,7 +223,7 @@ def _paper_lambda(trials: dict, iv: int) -> list[dict]:
         rows.append({"cell": f"{c}-{g}", "eq7_kg": eq7(robot, rec, lam_paper[g]), "eq8_kg": eq8(robot, rec, lam_paper[g]),
                      "paper_eq8_kg": paper["table4"][f"{c}-{g}"]["predicted"],
                      "paper_experiment_kg": paper["table4"][f"{c}-{g}"]["experiment"],
-                     "paper_fixed_kg": paper["table2"]["m3" if g == HIGH else "m2"][c]})
+                     "paper_fixed_kg": paper["table2"][table2_column(g)][c]})
     return rows
 
 
