@@ -11,7 +11,7 @@ from ..core.lazy import lazy_exports
 
 __all__ = [
     "ExperimentDesign", "ErrorModel", "grid_candidates", "random_candidates", "paper_design", "feasible",
-    "run_design", "write_design", "fit_model", "compare_shipped",
+    "run_design", "write_design", "fit_model", "compare_shipped", "model_differences",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -19,5 +19,5 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "error_model": ("ErrorModel",),
     "candidates": ("grid_candidates", "random_candidates", "paper_design", "feasible"),
     "run": ("run_design", "write_design"),
-    "designed_model": ("fit_model", "compare_shipped"),
+    "designed_model": ("fit_model", "compare_shipped", "model_differences"),
 })
