@@ -23,6 +23,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import h5py
 
+from ..core.files import not_regular
 from ..core.vocabulary import misfiled, pose_folder
 
 __all__ = ["CELL_FIELDS", "filing_problems", "group_digests"]
@@ -43,7 +44,10 @@ def _same(key: str, a: Any, b: Any) -> bool:
 
 
 def group_digests(file: Path, groups: Sequence[str] = ("measured", "truth")) -> tuple[str, ...] | None:
-    """The stored ``content_sha256`` of each group (None if a group or its digest is missing)."""
+    """The stored ``content_sha256`` of each group (None if a group or its digest is missing,
+    or ``file`` is not a regular file)."""
+    if not_regular(file):
+        return None
     try:
         with h5py.File(file, "r") as f:
             out = []

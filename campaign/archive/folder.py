@@ -14,6 +14,7 @@ import h5py
 import numpy as np
 
 from ..core.errors import InputError, TrialFileError
+from ..core.files import check_regular_file
 from ..core.lazy import LazyModule
 from ..core.progress import progress
 from ..core.vocabulary import bases, gain_sets
@@ -164,13 +165,32 @@ def trial_files(campaign_dir: str | os.PathLike) -> list[Path]:
     if index.is_file():
         try:
             with open(index, newline="", encoding="utf-8") as fh:
-                return [root / row["path"] for row in csv.DictReader(fh)]
+                return _readable_trials([root / row["path"] for row in csv.DictReader(fh)], listed=True)
         except (KeyError, csv.Error, UnicodeDecodeError) as exc:
             raise TrialFileError(f"{index}: unreadable ({exc})") from None
     at_layout = list(layout_trial_files(root))
     if at_layout:
-        return at_layout
-    return sorted(p for p in root.rglob(f"*{TRIAL_SUFFIX}") if p.is_file())
+        return _readable_trials(at_layout)
+    return _readable_trials(sorted(p for p in root.rglob(f"*{TRIAL_SUFFIX}") if not p.is_dir()))
+
+
+def _readable_trials(files: list[Path], *, listed: bool = False) -> list[Path]:
+    """``files``, each a regular file (a FIFO, socket or device is never opened: that would
+    wait for a writer) that is not a symbolic link out of its own folder (a trial that
+    points at another cell's file would be counted twice).
+
+    Raises
+    ------
+    TrialFileError
+        Naming the first file that is not so; with ``listed`` (the index's trials) a missing
+        file passes here and is reported by the reader that opens it.
+    """
+    for file in files:
+        check_regular_file(file, error=TrialFileError, missing_ok=listed)
+        if file.is_symlink() and file.resolve().parent != file.parent.resolve():
+            raise TrialFileError(f"{file}: is a symbolic link to {file.resolve()}, outside its own folder; "
+                                 "a trial is a file of its own cell (replace the link by the trial)")
+    return files
 
 
 def relative_name(campaign: Path, file: Path) -> str:
@@ -179,6 +199,7 @@ def relative_name(campaign: Path, file: Path) -> str:
 
 def read_record(campaign: Path, file: Path) -> TrialRecord:
     """A trial's record from its root attributes (h5py: a few ms, no data read)."""
+    check_regular_file(file, error=TrialFileError)
     try:
         with h5py.File(file, "r") as f:
             attrs = {k: plain_value(f.attrs[k]) for k in f.attrs.keys() if k not in STRUCTURAL_ATTRS}

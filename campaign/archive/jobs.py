@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import InputError, TrialFileError
-from ..core.files import sha256_file
+from ..core.files import check_regular_file, not_regular, open_regular, sha256_file
 from ..core.tolerance import Difference, worst
 from ..core.vocabulary import repeat_file, speed_folder
 from ..scene.schema import CLOCKS, TrialArrays
@@ -96,7 +96,7 @@ def intact_trials(paths: Sequence[str | os.PathLike]) -> list[bool]:
     """For each path: an existing trial file that passes every check of ``archive verify``
     (schema, channels, content digests), read in a child process (a corrupt file may crash
     the HDF5 library). A missing file is False."""
-    present = [Path(p) for p in paths if Path(p).is_file()]
+    present = [Path(p) for p in paths if not not_regular(p)]
     found = dict(zip(present, inspect_isolated_many(present), strict=True))
     return [Path(p) in found and not found[Path(p)] for p in paths]
 
@@ -105,6 +105,7 @@ def _stored_content(path: Path) -> tuple[dict[str, Any], tuple[str, ...]]:
     """Root attributes and the groups' stored content digests of an intact trial file."""
     import h5py  # the writer has loaded it already; here only for the attributes
 
+    check_regular_file(path, error=TrialFileError)
     with h5py.File(path, "r") as f:
         root = {k: f.attrs[k] for k in f.attrs.keys() if k not in STRUCTURAL_ATTRS}
         content = tuple(str(f[g].attrs["content_sha256"]) for g in GROUPS)
@@ -183,7 +184,7 @@ def read_job_manifests(paths: Iterable[str | os.PathLike]) -> list[TrialEntry]:
     out: list[TrialEntry] = []
     for p in paths:
         try:
-            with open(p, encoding="utf-8") as fh:
+            with open_regular(p, "r", encoding="utf-8", error=TrialFileError) as fh:
                 body = json.load(fh)
             if body.get("format") != JOB_MANIFEST_FORMAT:
                 raise ValueError(f"format {body.get('format')!r}, expected {JOB_MANIFEST_FORMAT!r}")
@@ -252,8 +253,10 @@ def entry_problems(campaign: Path, entries: Sequence[TrialEntry], *,
         else:
             by_content.setdefault(e.content, e.path)
         file = campaign / e.path
-        if not file.is_file():
-            problems.append((e.path, "missing: its simulation job wrote it, and it was deleted since"))
+        kind = not_regular(file)
+        if kind:
+            problems.append((e.path, "missing: its simulation job wrote it, and it was deleted since"
+                             if kind == "does not exist" else kind))
             continue
         hashes[e.path] = sha256_file(file)
         if hashes[e.path] != e.sha256:

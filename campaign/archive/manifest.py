@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 from ..core.errors import InputError, TrialFileError
-from ..core.files import sha256_file
+from ..core.files import not_regular, sha256_file
 from ..core.progress import progress
 from ..core.vocabulary import bases
 from ..scene.schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
@@ -367,8 +367,9 @@ def verify_report(campaign_dir: str | os.PathLike) -> Verification:
             listed[rel] = m.group(1)
         for rel, digest in progress(listed.items(), desc="sha256", unit="file"):
             file = campaign / rel
-            if not file.is_file():
-                problems.append(Problem(rel, f"listed in {MANIFEST} but missing"))
+            kind = not_regular(file)
+            if kind:
+                problems.append(Problem(rel, f"listed in {MANIFEST} but missing" if kind == "does not exist" else kind))
             elif sha256_file(file) != digest:
                 problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
     on_disk = {relative_name(campaign, f) for f in _all_files(campaign)}

@@ -14,6 +14,7 @@ import numpy as np
 from h5py import h5d, h5ds, h5i, h5o, h5r
 
 from ..core.errors import TrialFileError
+from ..core.files import not_regular
 from ..core.progress import progress
 from ..core.vocabulary import bases
 from ..scene.schema import CLOCKS, COORDS, SCHEMA_VERSION, variables
@@ -248,8 +249,9 @@ def _read_trial(path: Path, *, groups: Sequence[str] = GROUPS, want: Mapping[str
     """
     out = _Read({}, [], {}, {})
     problems = out.problems
-    if not path.is_file():
-        problems.append("file does not exist")
+    kind = not_regular(path)  # never opened otherwise: opening a FIFO waits for a writer
+    if kind:
+        problems.append("file does not exist" if kind == "does not exist" else kind)
         return out
     try:
         f = h5py.File(path, "r")

@@ -27,9 +27,9 @@ import stat
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from .errors import InputError, WriteError
+from .errors import InputError, TrialFileError, WriteError
 
-__all__ = ["sha256_file", "write_atomic", "replace_atomically", "write_file", "check_output_file", "check_output_dir", "free_bytes",
+__all__ = ["sha256_file", "not_regular", "check_regular_file", "open_regular", "write_atomic", "replace_atomically", "write_file", "check_output_file", "check_output_dir", "free_bytes",
            "format_bytes", "source_date_epoch", "MIN_FREE_BYTES"]
 
 #: the free space any output needs before work starts (a table, a JSON file, a figure); an
@@ -94,6 +94,62 @@ def _special(path: Path) -> str | None:
     if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
         return None
     return _kind(mode)
+
+
+def not_regular(path: str | os.PathLike) -> str | None:
+    """Why a reader must not open ``path``: ``"is a FIFO, not a regular file"`` (a folder, a
+    device, a socket alike), ``"does not exist"``; None for a regular file. A symbolic link is
+    followed; nothing is opened (opening a FIFO waits for a writer)."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return "does not exist"
+    except OSError as exc:
+        return f"cannot be read ({exc.strerror or exc})"
+    if stat.S_ISREG(mode):
+        return None
+    return f"is {'a folder' if stat.S_ISDIR(mode) else _kind(mode)}, not a regular file"
+
+
+def check_regular_file(path: str | os.PathLike, *, what: str = "", error: type[Exception] = InputError,
+                       missing_ok: bool = False) -> Path:
+    """``path`` as a :class:`~pathlib.Path` when it is a regular file a reader may open.
+
+    Raises
+    ------
+    InputError
+        (or ``error``) One line, ``"<what> <path>: is a FIFO, not a regular file"``: a folder,
+        FIFO, socket or device, or (unless ``missing_ok``) a missing file.
+    """
+    problem = not_regular(path)
+    if problem and not (missing_ok and problem == "does not exist"):
+        raise error(f"{what + ' ' if what else ''}{path}: {problem}")
+    return Path(path)
+
+
+def open_regular(path: str | os.PathLike, mode: str = "rb", *, what: str = "",
+                 error: type[Exception] = InputError, missing_ok: bool = False, **kwargs):
+    """``open(path, mode)`` for reading, refusing (as :func:`check_regular_file`) anything but
+    a regular file without ever blocking: the file is opened non-blocking and its type is
+    checked on the open descriptor, so a FIFO put in its place after a check cannot hang it.
+    With ``missing_ok`` a missing file raises :class:`FileNotFoundError`, as :func:`open` does."""
+    check_regular_file(path, what=what, error=error, missing_ok=missing_ok)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError as exc:
+        if missing_ok and isinstance(exc, FileNotFoundError):
+            raise
+        raise error(f"{what + ' ' if what else ''}{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        st_mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(st_mode):
+            raise error(f"{what + ' ' if what else ''}{path}: is {_kind(st_mode)}, not a regular file")
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        return os.fdopen(fd, mode, **kwargs)
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 # ---------------------------------------------------------------------------------------
@@ -318,9 +374,15 @@ def source_date_epoch() -> _dt.datetime | None:
 
 
 def sha256_file(path: str | os.PathLike) -> str:
-    """sha256 of a file's bytes (hex), read in 1 MiB blocks."""
+    """sha256 of a file's bytes (hex), read in 1 MiB blocks.
+
+    Raises
+    ------
+    TrialFileError
+        ``path`` is not a regular file (a FIFO, a socket, a device, a folder) or is missing.
+    """
     h = hashlib.sha256()
-    with open(path, "rb") as fh:
+    with open_regular(path, "rb", error=TrialFileError) as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
             h.update(block)
     return h.hexdigest()

@@ -14,6 +14,7 @@ from pathlib import Path
 import yaml
 
 from .errors import InputError
+from .files import open_regular
 
 __all__ = ["PROJECT_DIR", "yaml_load", "parse_yaml_bytes", "read_yaml", "copy_tree", "config_dir", "config_file"]
 
@@ -87,7 +88,7 @@ def read_yaml(path, *, copy: bool = True):
     file system's clock with the same size, where its mtime would not change. With
     ``copy=False`` the cached tree itself is returned: the caller must not modify it."""
     path = str(path)
-    with open(path, "rb") as fh:
+    with open_regular(path, "rb", missing_ok=True) as fh:  # a FIFO or a device is refused, never waited on
         content = fh.read()
     tree = parse_yaml_bytes(path, content)
     return copy_tree(tree) if copy else tree

@@ -7,7 +7,9 @@ from pathlib import Path
 
 from ..archive import trial_files
 from ..core.errors import InputError, TrialFileError
+from ..core.files import not_regular
 from ..core.lazy import LazyModule
+from ..core.vocabulary import misfiled
 from ..model.robot import load_robot
 from ..scene.schema import GroupArrays
 from .options import IdentifyOptions
@@ -52,8 +54,9 @@ def load_trial(path, *, arrays: bool = False) -> tuple[xr.Dataset | GroupArrays,
         missing channel, a corrupt group), naming the file.
     """
     path = Path(path)
-    if not path.is_file():
-        raise TrialFileError(f"{path}: no such trial file")
+    kind = not_regular(path)  # a FIFO is never opened: that would wait for a writer
+    if kind:
+        raise TrialFileError(f"{path}: no such trial file" if kind == "does not exist" else f"{path}: {kind}")
     try:
         from ..archive import open_trial, open_trial_arrays
     except ImportError:  # pragma: no cover - the archive stage is part of the package
@@ -65,6 +68,9 @@ def load_trial(path, *, arrays: bool = False) -> tuple[xr.Dataset | GroupArrays,
             raise
         except (OSError, ValueError, KeyError) as exc:
             raise TrialFileError(f"{path}: not a trial file ({exc})") from None
+        wrong_cell = misfiled(path, measured.attrs)  # e.g. a link to another cell's trial: counted twice
+        if wrong_cell:
+            raise TrialFileError(wrong_cell)
         return measured, dict(measured.attrs)
     measured = _open_group(path, "measured")
     attrs = dict(_open_group(path, None).attrs)

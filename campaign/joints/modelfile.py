@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import __version__
 from ..core.errors import InputError
-from ..core.files import write_atomic
+from ..core.files import open_regular, write_atomic
 from ..core.yamlfile import config_file
 from .coulomb import CoulombLambdaFit
 from .estimator import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
@@ -219,7 +219,9 @@ def load_model(path, *, setting: Setting | None = None, rig=None) -> ResponseMod
     (``setting``, or :meth:`Setting.from_rig` of ``rig``); ModelFileError names the problem."""
     where = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        with open_regular(path, "r", encoding="utf-8", what="model file", error=ModelFileError,
+                          missing_ok=True) as fh:
+            text = fh.read()  # a FIFO, socket or device is refused, never waited on
     except FileNotFoundError:
         raise ModelFileError(f"{where}: no such model file") from None
     except (OSError, UnicodeDecodeError) as exc:

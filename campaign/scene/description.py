@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import InputError, allowed_names
+from ..core.files import check_regular_file
 from ..core.vocabulary import (
     FIXED,
     SPEED_DECIMALS,
@@ -85,8 +86,9 @@ def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
 
 def _read_rig(path):
     path = Path(path) if path is not None else config_dir() / "rig.yaml"
-    if not path.is_file():
+    if not path.exists():
         raise InputError(f"rig parameter file {path} does not exist")
+    check_regular_file(path, what="rig parameter file")  # a FIFO or a folder, named as what it is
     tree = read_yaml(path)      # parsed once per file content; a fresh copy to modify
     if not isinstance(tree, dict):
         raise InputError(f"rig parameter file {path}: expected a mapping of parameters, got {type(tree).__name__}")

@@ -257,6 +257,13 @@ FURTHER_CASES = [
     (["calibrate", "--rig", "rig.yaml/"], "--rig rig.yaml/: ends with a slash"),
     (["bench", "work-precision", "--out", "bench_in_the_way"], "bench_in_the_way/work_precision.png is a folder"),
     ([], "the following arguments are required: COMMAND"),
+    # readers open regular files only: a FIFO or a folder is named as what it is, never waited on
+    (["identify", "fifo"], "fifo: is a FIFO, not a regular file"),
+    (["identify", "folder"], "folder: is a folder, not a regular file"),
+    (["meff", "--config", "1", "--gain", "zero", "--speed", "1.5", "--model", "fifo"],
+     "model file fifo: is a FIFO, not a regular file"),
+    (["trial", "--speed", "1.5", "--rig", "fifo", "--out", "t.nc"], "rig parameter file fifo: is a FIFO"),
+    (["trial", "--speed", "1.5", "--rig", "folder", "--out", "t.nc"], "rig parameter file folder: is a folder"),
 ]
 
 CLI_CASES = ITEM_CASES + EARLIER_CASES + FURTHER_CASES
