@@ -23,6 +23,7 @@ import h5py
 import numpy as np
 
 from ..core.tolerance import CROSS_MACHINE_RTOL, Difference, compare, differences
+from ..scene.description import Scene
 from ..scene.schema import TrialArrays
 from .fileformat import GROUPS, STRUCTURAL_ATTRS, GroupPlan, canonical_bytes, content_digest, plan_trial, provenance
 
@@ -69,7 +70,6 @@ def _attr_differences(group: str, stored: Mapping[str, Any], new: Mapping[str, A
 def plan_differences(path: Path, root: Mapping[str, Any], groups: Mapping[str, GroupPlan]) -> list[Difference]:
     """:func:`trial_differences` of a trial already planned for writing (``fileformat.plan_trial``)."""
     from ..rig.sensors import measured_quanta  # the rig, only where two trials are compared
-    from ..scene.description import Scene
 
     found: list[Difference] = []
     with h5py.File(path, "r") as f:

@@ -18,6 +18,7 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 from ..core.errors import InputError
+from ..core.yamlfile import yaml_load
 
 __all__ = ["NEGATIVE_VALUE", "OneLineParser", "join_negative_values", "parse_vector", "parse_named_lambdas",
            "key_value"]
@@ -112,7 +113,6 @@ def parse_named_lambdas(texts: Iterable[str], *, nv: int) -> dict[str, list[floa
 
 def key_value(text: str) -> tuple[str, Any]:
     """A ``--set KEY=VALUE`` option as ``(KEY, VALUE)``, the value read as YAML (an argparse ``type``)."""
-    from ..core.yamlfile import yaml_load
 
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--set expects KEY=VALUE, got {text!r}")

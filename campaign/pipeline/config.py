@@ -18,6 +18,7 @@ import yaml
 
 from ..core.errors import InputError
 from ..core.files import source_date_epoch
+from ..core.vocabulary import figure_cells
 
 __all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_paths", "check_workflow_config",
            "trial_pick_problem", "check_products"]
@@ -159,7 +160,6 @@ def check_products(settings: Mapping[str, Any], *, sweeps: Mapping[str, Mapping[
     campaign makes: ``wanted``), and the planner's maps (``plan_maps.config`` a paper
     configuration, ``plan_maps.resolution`` a grid the map can sample)."""
     # the paper's tables and the map's grid limit: standard library and PyYAML only
-    from ..core.vocabulary import figure_cells
     from ..core.yamlfile import config_file, read_yaml
     from ..plan.grid import grid_points
 
