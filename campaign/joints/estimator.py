@@ -33,6 +33,7 @@ from ..core.errors import InputError
 from ..core.vocabulary import FIXED, FLEXIBLE, gain_classes
 from ..model.paper import load_paper
 from .coulomb import CoulombLambdaFit
+from .domain import Domain
 from .impacts import Impacts
 from .lambda_fit import IdentifiabilityWarning, LambdaFit
 from .params import Params
@@ -109,6 +110,8 @@ class ResponseModel(Params, ABC):
         self.rms_log_residual_ = float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else math.nan
         dof = max(int(ok.sum()) - int(n_parameters), 1)
         self.residual_scatter_ = float(np.sqrt(np.sum(r[ok] ** 2) / dof)) if ok.any() else math.nan
+        structure = impacts.structure or (self._the_setting().structure if impacts.base == FLEXIBLE else None)
+        self.domain_ = Domain.from_impacts(impacts, masses=self._masses(impacts), structure=structure)
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "residuals_"):
