@@ -108,7 +108,9 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
     state, m, lo, hi, extra = _respond(model, impacts)
     if state == "finite":
         outside += model.domain_.check(m_eff=m, extrapolate=args.extrapolate, hint=HINT)
-        lo, hi = (float(x) for x in widen_interval(m, lo, hi, widening(outside)))
+        if outside:
+            extra["interval_95_in_domain"] = [lo, hi]      # the model's own, before the widening
+            lo, hi = (float(x) for x in widen_interval(m, lo, hi, widening(outside)))
     warn(outside)
     coupling = ("VES loop" if setting.loop is not None else "ideal coupling") if base == FLEXIBLE else None
     if args.json:
