@@ -67,11 +67,12 @@ def _fmt(values, spec: str = "g") -> str:
     return "[" + ", ".join(format(float(v) + 0.0, spec) for v in values) + "]"
 
 
-def warn(excursions) -> None:
+def warn(excursions, *, widened: bool) -> None:
     """One warning line on stderr: what lies outside the model's domain."""
     if excursions:
         print("campaign meff: warning: extrapolating outside the model's domain: "
-              + "; ".join(x.message for x in excursions) + "; the interval is widened for it", file=sys.stderr)
+              + "; ".join(x.message for x in excursions) + ("; the interval is widened for it" if widened else ""),
+              file=sys.stderr)
 
 
 def _respond(model, impacts):
@@ -111,7 +112,7 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
         if outside:
             extra["interval_95_in_domain"] = [lo, hi]      # the model's own, before the widening
             lo, hi = (float(x) for x in widen_interval(m, lo, hi, widening(outside)))
-    warn(outside)
+    warn(outside, widened=state == "finite")
     coupling = ("VES loop" if setting.loop is not None else "ideal coupling") if base == FLEXIBLE else None
     if args.json:
         print(json.dumps({

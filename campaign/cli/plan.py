@@ -208,6 +208,13 @@ def run(args) -> int:
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
                                    rig=args.rig, nv=nv)
+    if model is None and args.extrapolate:
+        raise InputError("--extrapolate goes with a response model (the default, or --model); eq 7/8 with lambdas "
+                         "has no domain")
+    planner = build_planner(base=args.base, lambdas=lambdas, model=model, mass=args.mass, speed=args.speed,
+                            restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig,
+                            structure=args.structure)
+    check_object(mass=planner.mass, speed=planner.speed, restitution=planner.restitution)
     if model is not None:
         outside = check_model_domain(model, base=args.base, speed=args.speed, mass=args.mass, directions=dirs,
                                      structure=args.structure, rig=args.rig, extrapolate=args.extrapolate,
@@ -215,13 +222,6 @@ def run(args) -> int:
         if outside:
             print("campaign plan: warning: extrapolating outside the model's domain: "
                   + "; ".join(x.message for x in outside) + "; its predictions there are unchecked", file=sys.stderr)
-    elif args.extrapolate:
-        raise InputError("--extrapolate goes with a response model (the default, or --model); eq 7/8 with lambdas "
-                         "has no domain")
-    planner = build_planner(base=args.base, lambdas=lambdas, model=model, mass=args.mass, speed=args.speed,
-                            restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig,
-                            structure=args.structure)
-    check_object(mass=planner.mass, speed=planner.speed, restitution=planner.restitution)
     planner.fit(point, dirs)
     rows = planner.rows()
     if args.json:

@@ -29,7 +29,7 @@ __all__ = ["Domain", "Excursion", "OutsideDomain", "WIDENING", "widening", "wide
 
 #: extra standard deviation of ln m* per unit of distance outside the domain, added in
 #: quadrature to the interval's own: speed, object mass and m* per unit of ln(value / bound)
-#: on each side, direction per radian of elevation beyond the bound. Measured on 440
+#: on each side, direction per radian of elevation beyond the bound. Measured on 276
 #: held-out fixed-base trials outside the domain (seeds 35001 and 35101: speeds 0.3, 0.5, 3.5
 #: and 4.2 m/s; hammers of 0.38-1.43 kg against a free object of that mass), each rate the
 #: one that makes 95 % of its trials' intervals cover; where the trials needed none (above
@@ -141,6 +141,8 @@ class Domain:
     # -- the check ----------------------------------------------------------------------
     def _range(self, quantity: str, value: float, span: tuple[float, float]) -> Excursion | None:
         lo, hi = span
+        if not (math.isfinite(value) and value > 0):
+            raise InputError(f"{_WHAT[quantity]} {value:g} {_UNITS[quantity]} must be finite and > 0")
         if lo * (1 - SLACK) <= value <= hi * (1 + SLACK):
             return None
         side, bound = ("below", lo) if value < lo else ("above", hi)
