@@ -73,9 +73,9 @@ class Domain:
     speed : (low, high) object speed [m/s].
     gain_sets : the gain sets.
     mass : (low, high) object mass [kg].
-    max_abs_nz : the largest |n_z| of the impact directions (0: horizontal only).
+    max_abs_nz : the largest absolute vertical component of the impact directions (0: horizontal only).
     m_eff : (low, high) identified m* [kg].
-    bases : the bases (``fixed``, ``flexible``).
+    base_names : the bases (``fixed``, ``flexible``).
     structures : the flexible base's named structures.
     """
 
@@ -84,7 +84,7 @@ class Domain:
     mass: tuple[float, float]
     max_abs_nz: float
     m_eff: tuple[float, float]
-    bases: tuple[str, ...]
+    base_names: tuple[str, ...]
     structures: tuple[str, ...] = ()
 
     @classmethod
@@ -94,7 +94,7 @@ class Domain:
         structures = (str(structure),) if impacts.base == FLEXIBLE and structure else ()
         return cls(speed=_span(impacts.speed), gain_sets=tuple(sorted(set(impacts.gain))), mass=_span(masses),
                    max_abs_nz=float(np.max(np.abs(impacts.direction[:, 2]))), m_eff=_span(impacts.m_eff),
-                   bases=(impacts.base,), structures=structures)
+                   base_names=(impacts.base,), structures=structures)
 
     def with_structure(self, name: str, impacts, *, masses) -> Domain:
         """This domain and the trials ``impacts`` on the flexible base under the structure ``name``."""
@@ -104,13 +104,13 @@ class Domain:
                       mass=(min(self.mass[0], other.mass[0]), max(self.mass[1], other.mass[1])),
                       max_abs_nz=max(self.max_abs_nz, other.max_abs_nz),
                       m_eff=(min(self.m_eff[0], other.m_eff[0]), max(self.m_eff[1], other.m_eff[1])),
-                      bases=tuple(sorted(set(self.bases) | {FLEXIBLE})),
+                      base_names=tuple(sorted(set(self.base_names) | {FLEXIBLE})),
                       structures=tuple(sorted(set(self.structures) | {str(name)})))
 
     # -- the file -----------------------------------------------------------------------
     def to_json(self) -> dict:
         return {"speed_m_s": list(self.speed), "gain_sets": list(self.gain_sets), "object_mass_kg": list(self.mass),
-                "max_abs_direction_z": self.max_abs_nz, "m_eff_kg": list(self.m_eff), "bases": list(self.bases),
+                "max_abs_direction_z": self.max_abs_nz, "m_eff_kg": list(self.m_eff), "bases": list(self.base_names),
                 "structures": list(self.structures)}
 
     @classmethod
@@ -136,7 +136,7 @@ class Domain:
                 raise InputError(f"{where}: domain.{key} names {bad[0]!r}, not one of {sorted(known)}")
             names[key] = tuple(v)
         return cls(speed=spans["speed_m_s"], gain_sets=names["gain_sets"], mass=spans["object_mass_kg"],
-                   max_abs_nz=float(nz), m_eff=spans["m_eff_kg"], bases=names["bases"], structures=names["structures"])
+                   max_abs_nz=float(nz), m_eff=spans["m_eff_kg"], base_names=names["bases"], structures=names["structures"])
 
     # -- the check ----------------------------------------------------------------------
     def _range(self, quantity: str, value: float, span: tuple[float, float]) -> Excursion | None:
@@ -155,9 +155,9 @@ class Domain:
                    m_eff=None) -> list[Excursion]:
         """What of a prediction lies outside the domain (nothing is checked for a None)."""
         out: list[Excursion | None] = []
-        if base is not None and base not in self.bases:
+        if base is not None and base not in self.base_names:
             out.append(Excursion("base", f"the {base} base is outside the model's domain (fitted on the "
-                                         f"{' and '.join(self.bases)} base)", None))
+                                         f"{' and '.join(self.base_names)} base)", None))
         if base == FLEXIBLE and structure is not None and structure not in self.structures:
             shown = ", ".join(self.structures) or "none"
             out.append(Excursion("structure", f"structure {structure!r} is outside the model's domain (checked on "

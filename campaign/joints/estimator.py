@@ -173,7 +173,7 @@ def _eq11(setting: Setting, impacts: Impacts, lam_of_gain) -> np.ndarray:
     base (the arm on the structure's tip body, lambda added to its joints)."""
     flexible = impacts.base == FLEXIBLE
     beam = setting.beam if impacts.structure is None or impacts.structure == setting.structure else \
-        Setting.from_rig(setting.rig_file, structure=impacts.structure, robot=setting.robot).beam
+        Setting.from_rig(setting.rig_path(), structure=impacts.structure, robot=setting.robot).beam
     terms = arm_terms(setting.robot, impacts.q, beam=beam if flexible else None)
     lam = np.array([np.asarray(lam_of_gain(g), float) for g in impacts.gain])          # (N, nv)
     nv = lam.shape[1]

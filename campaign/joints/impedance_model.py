@@ -94,7 +94,7 @@ class JointImpedance(ResponseModel):
         if structure is None or structure == setting.structure:
             return setting
         if structure not in self._structures:
-            self._structures[structure] = Setting.from_rig(setting.rig_file, structure=structure, robot=setting.robot)
+            self._structures[structure] = Setting.from_rig(setting.rig_path(), structure=structure, robot=setting.robot)
         return self._structures[structure]
 
     def respond_terms(self, terms, gains, directions, *, speed, mass, pendulum: bool = True, theta=None,

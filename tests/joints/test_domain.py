@@ -38,7 +38,7 @@ def impacts():
 def test_the_fit_records_the_domain_of_its_trials(setting, impacts, tmp_path):
     model = Eq11Model(setting).fit(impacts)
     d = model.domain_
-    assert d.speed == (1.2, 2.8) and d.gain_sets == ("high", "low") and d.bases == ("fixed",)
+    assert d.speed == (1.2, 2.8) and d.gain_sets == ("high", "low") and d.base_names == ("fixed",)
     assert d.mass == (setting.hammer_mass, setting.hammer_mass) and d.max_abs_nz == 0.0
     assert d.m_eff == (10.0, 40.0) and d.structures == ()
     again = load_model(save_model(model, tmp_path / "m.json"), setting=setting)
@@ -81,7 +81,7 @@ def test_extrapolating_returns_the_distances_and_widens_the_interval(setting, im
 
 def test_the_domain_in_a_model_file_is_checked(setting):
     good = Domain(speed=(1.5, 2.5), gain_sets=("low",), mass=(0.7, 0.7), max_abs_nz=0.0, m_eff=(8.0, 120.0),
-                  bases=("fixed", "flexible"), structures=("stiff_mast",))
+                  base_names=("fixed", "flexible"), structures=("stiff_mast",))
     doc = good.to_json()
     assert Domain.from_json(json.loads(json.dumps(doc)), where="f", gain_sets=gain_sets(), bases=bases()) == good
     for key, value, words in (("speed_m_s", [0.0, 1.0], "0 < low <= high"), ("m_eff_kg", [1.0, math.inf], "finite"),
@@ -94,7 +94,7 @@ def test_the_domain_in_a_model_file_is_checked(setting):
 def test_the_shipped_model_holds_where_its_trials_were(setting):
     doc = json.loads(shipped_model_path().read_text(encoding="utf-8"))
     d = load_model(shipped_model_path(), setting=setting).domain_
-    assert set(d.structures) == set(doc["fit"]["structure_scatter"]) and set(d.bases) == set(bases())
+    assert set(d.structures) == set(doc["fit"]["structure_scatter"]) and set(d.base_names) == set(bases())
     assert set(d.gain_sets) == set(gain_sets()) and d.max_abs_nz == 0.0
     speeds = {float(k.split("/v")[1].split("/")[0]) for k in doc["fit"]["residuals"]}
     assert d.speed == (min(speeds), max(speeds))
