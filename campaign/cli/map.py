@@ -6,6 +6,7 @@ Examples
 
     campaign map workspace --out map.png
     campaign map directions --config 2 --out dirs.png --fit results/full/fit/lambda_high.json
+    campaign map directions --config 2 --structure stiff_mast --out dirs.png
 """
 
 from __future__ import annotations
@@ -17,13 +18,14 @@ from ..core.errors import InputError
 from ..core.files import check_output_file
 from ..core.vocabulary import FLEXIBLE, bases
 from ..model.conventions import angle_count
-from ..model.paper import load_paper
+from ..model.paper import impact_direction, load_paper
 from ..model.robot import load_robot
-from ..plan.factory import planner_model
+from ..plan.factory import check_model_domain, planner_model
 from ..report.figures import plan_maps
 from ..scene.description import rig_values
 from .args import parse_named_lambdas, parse_vector
 from .commands import HELP
+from .plan import check_structure
 
 __all__ = ["register", "run"]
 
@@ -42,7 +44,9 @@ peak base displacement against the horizontal impact direction, on polar axes.
 Units: metres, kg, degrees (paper convention for --q, as in campaign meff). The predictions
 as in campaign plan: the shipped response model (config/response_model.json; --model FILE
 another) for the gain sets zero, low and high, or eq 7/8 with the gain classes' lambda of
---fit and --lambda.
+--fit and --lambda. --structure NAME maps the flexible base on a named structure of the rig
+file (default the file's own); a model maps only the structures of its domain (those it
+was checked on), with the rig's hammer at 2 m/s along horizontal directions.
 """
 
 
@@ -64,6 +68,8 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--config", default="1", help="paper configuration of the direction map (default 1)")
     p.add_argument("--q", metavar="Q1,Q2,Q3", default=None,
                    help="pose of the direction map, paper angles [deg] (instead of --config)")
+    p.add_argument("--structure", metavar="NAME", default=None,
+                   help="a named structure of the rig file (flexible base; default the file's own)")
     p.add_argument("--rig", metavar="YAML", default=None, help="rig parameter file (default config/rig.yaml)")
     p.set_defaults(func=run)
     return p
@@ -79,12 +85,16 @@ def run(args) -> int:
     check_output_file(pdf, option="--out's PDF")
     if not (args.resolution > 0):
         raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")
+    check_structure(args)
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
                                    rig=args.rig, nv=nv)
+    if model is not None:
+        check_model_domain(model, base=args.base, speed=plan_maps.MAP_SPEED, directions=impact_direction()[None],
+                           structure=args.structure, rig=args.rig)
     if args.kind == "workspace":
         line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, model=model, rig=args.rig, resolution=args.resolution,
-                                        base=args.base, y=args.y)
+                                        base=args.base, y=args.y, structure=args.structure)
     else:
         q = None
         config = None
@@ -96,6 +106,7 @@ def run(args) -> int:
             if not args.config.isdigit() or int(args.config) not in table:
                 raise InputError(f"--config {args.config}: unknown configuration; known: {sorted(table)}")
             config = int(args.config)
-        line = plan_maps.make_directions(out, pdf, lambdas=lambdas, model=model, rig=args.rig, config=config, q=q, base=args.base)
+        line = plan_maps.make_directions(out, pdf, lambdas=lambdas, model=model, rig=args.rig, config=config, q=q,
+                                         base=args.base, structure=args.structure)
     print(f"wrote {out} and {pdf}: {line}")
     return 0

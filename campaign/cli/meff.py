@@ -77,10 +77,17 @@ repository ships, config/response_model.json, fitted by the designed campaign: t
 friction over the contact law's pulse, the servo's gains of --gain): m* as eq 10 measures it
 for an object of --speed (the rig's hammer, or a free object of --mass), with its 95 %
 interval; on the flexible base the named --structure (default the rig file's) through the
-VES-II loop, and the structure's peak base displacement.
+VES-II loop, and the structure's peak base displacement. The model holds where it was
+fitted: a speed, gain set, object mass, direction (horizontal on this rig), structure or
+predicted m* outside its domain (the model file's "domain") is refused with one line naming
+the bound and the value, unless --extrapolate is given: then a warning on stderr and an
+interval widened for the distance outside (user guide, The response model). Where m* has no
+value it says which: the tip recoils (moves backward at the contact's end: "m_eff_state":
+"recoil") or does not move along n ("unbounded", "m_eff_is_infinite": true).
 
 exit status: 0 on success, 2 on bad input (one line on stderr naming the value), including a
-model file that is corrupted, malformed or fitted for another robot or rig file.
+model file that is corrupted, malformed, out of range, edited after its fit or fitted for
+another robot or rig file, and a prediction outside the model's domain.
 """
 
 def register(subparsers) -> argparse.ArgumentParser:
@@ -118,6 +125,8 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="a free object's mass [kg] (with --model; default the rig's pendulum hammer)")
     p.add_argument("--structure", default=None,
                    help="the flexible base's named structure of config/rig.yaml (with --model --base flexible)")
+    p.add_argument("--extrapolate", action="store_true",
+                   help="predict outside the model's domain (with --model): a warning and a wider interval")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     p.set_defaults(func=run)
     return p

@@ -6,6 +6,7 @@ Examples
 
     campaign plan --point -0.6,-0.15,-0.15 --speed 2
     campaign plan --point -0.6,-0.15,-0.15 --horizontal 12 --base flexible --objective displacement
+    campaign plan --point -0.6,-0.15,-0.15 --horizontal 8 --base flexible --structure stiff_mast
     campaign plan --point 0.5,0.3,0.2 --cone -1,0,0,30 --count 9 --fit results/full/fit/lambda_high.json --json
     campaign plan --point -0.6,-0.15,-0.15 --lambda zero_low=19.82,4.62,0.80 --lambda high=53.18,8.66,2.83
 """
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 
 import numpy as np
 
@@ -25,9 +27,9 @@ from ..joints.setting import display_path
 from ..model.conventions import angle_count
 from ..model.paper import impact_direction
 from ..plan.directions import cone_directions, horizontal_directions
-from ..plan.factory import build_planner, planner_model
+from ..plan.factory import build_planner, check_model_domain, planner_model
 from ..plan.prediction import check_object
-from ..scene.description import rig_values
+from ..scene.description import load_structures, rig_values
 from .args import parse_named_lambdas, parse_vector
 from .commands import HELP
 
@@ -59,7 +61,11 @@ campaign (results/<campaign>/fit/lambda_<class>.json, keys gain_class, lambda); 
 NAME=L1,L2,L3 names one directly (the paper's Table 3: zero_low=19.82,4.62,0.80 and
 high=53.18,8.66,2.83). --fit and --lambda may repeat and replace the model. A model plans the
 paper's gain sets zero, low and high (its eq 14 restitution the fitted trials' mean unless
---restitution is given; the object the rig's pendulum hammer unless --mass is given).
+--restitution is given; the object the rig's pendulum hammer unless --mass is given). A
+model plans only inside its domain (the model file's "domain": the speeds, object masses,
+directions, gain sets and structures it was fitted on; horizontal directions on this rig):
+a --speed, --mass, direction or --structure outside it is refused with one line naming the
+bound and the value, unless --extrapolate is given (then a warning on stderr).
 
 contact and structure: the contact law F = k delta^p (1 + d ddelta/v0) with k, p from
 config/rig.yaml (contact.stiffness, contact.exponent) and d solved for its restitution; its
@@ -71,7 +77,8 @@ config/rig.yaml) and the joints' damping have built up the resistance m* sums ov
 contact. The flexible base is the rig's cantilever (flexible.* of config/rig.yaml). With a
 model its peak displacement (x_b) is the structure's over one period of its first mode,
 driven by the arm's response to the pulse (through the VES-II loop as the rig emulates it);
-with lambdas, that of the linearised arm on the structure pushed by eq 14's impulse spread
+--structure NAME plans on a named structure of the rig file (its structures: section; with
+--base flexible). With lambdas, that of the linearised arm on the structure pushed by eq 14's impulse spread
 over the contact's pulse under the servo, the joints' viscous friction and gravity, and
 --json also gives structure_peak_release (the structure's modes released with eq 8's base
 velocity change alone); the paper's pooled class zero_low is planned as its gain sets zero
@@ -106,6 +113,11 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="restitution e (default: contact.restitution of config/rig.yaml)")
     p.add_argument("--base", choices=bases(), default=FIXED,
                    help="fixed: ground-fixed arm (eq 7); flexible: on the rig's cantilever (eq 8)")
+    p.add_argument("--structure", metavar="NAME", default=None,
+                   help="a named structure of the rig file (with --base flexible; default the file's own)")
+    p.add_argument("--extrapolate", action="store_true",
+                   help="plan with the model outside its domain (speed, mass, directions): a warning instead of "
+                        "a refusal")
     p.add_argument("--model", metavar="FILE", default=None,
                    help="a saved response model (default: the shipped config/response_model.json)")
     p.add_argument("--fit", action="append", metavar="JSON", default=[],
@@ -147,6 +159,24 @@ def _directions(args):
     return impact_direction()[None]
 
 
+def check_structure(args) -> None:
+    """--structure names one of the rig file's structures, on the flexible base."""
+    if args.structure is None:
+        return
+    if args.base != FLEXIBLE:
+        raise InputError(f"--structure {args.structure}: names the flexible base's structure; give --base flexible too")
+    known = load_structures(args.rig)
+    if args.structure not in known:
+        raise InputError(f"--structure {args.structure}: not a structure of the rig file; it names {', '.join(sorted(known))}")
+
+
+def structure_name(args) -> str | None:
+    """The flexible base's structure (--structure, or the rig file's own); None on the fixed base."""
+    if args.base != FLEXIBLE:
+        return None
+    return args.structure or str(rig_values(rig=args.rig)["flexible.structure"])
+
+
 def _model_file(args) -> str:
     return args.model if args.model is not None else display_path(shipped_model_path())
 
@@ -174,17 +204,30 @@ def run(args) -> int:
     weights = parse_vector(args.weights, option="--weights", size=3)
     if args.objective == "displacement" and args.base != FLEXIBLE:
         raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
+    check_structure(args)
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
                                    rig=args.rig, nv=nv)
+    if model is None and args.extrapolate:
+        raise InputError("--extrapolate goes with a response model (the default, or --model); eq 7/8 with lambdas "
+                         "has no domain")
     planner = build_planner(base=args.base, lambdas=lambdas, model=model, mass=args.mass, speed=args.speed,
-                            restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig)
+                            restitution=args.restitution, objective=args.objective, weights=weights, rig=args.rig,
+                            structure=args.structure)
     check_object(mass=planner.mass, speed=planner.speed, restitution=planner.restitution)
+    if model is not None:
+        outside = check_model_domain(model, base=args.base, speed=args.speed, mass=args.mass, directions=dirs,
+                                     structure=args.structure, rig=args.rig, extrapolate=args.extrapolate,
+                                     hint=" (--extrapolate plans anyway, with a warning)")
+        if outside:
+            print("campaign plan: warning: extrapolating outside the model's domain: "
+                  + "; ".join(x.message for x in outside) + "; its predictions there are unchecked", file=sys.stderr)
     planner.fit(point, dirs)
     rows = planner.rows()
     if args.json:
         print(json.dumps({
-            "point": point, "base": args.base, "objective": args.objective, "weights": weights,
+            "point": point, "base": args.base, "structure": structure_name(args), "objective": args.objective,
+            "weights": weights,
             "object_mass": planner.mass, "speed": planner.speed, "restitution": planner.restitution,
             **_predictor(args, model, planner), "branches_dh_deg": np.degrees(planner.q_).tolist(),
             "structure_frequency_hz": None if planner.frequency_ is None else planner.frequency_.tolist(),
@@ -197,7 +240,8 @@ def run(args) -> int:
         return 0
     flex = args.base == FLEXIBLE
     how = f"(eq {'8' if flex else '7'})" if model is None else "(response model)"
-    print(f"point      = {_fmt(point, '.4g')} m, base {args.base} {how}")
+    where = f" ({structure_name(args)})" if flex else ""
+    print(f"point      = {_fmt(point, '.4g')} m, base {args.base}{where} {how}")
     print(f"object     = {planner.mass:.4g} kg at {planner.speed:.4g} m/s, e = {planner.restitution:.4g}")
     if model is not None:
         print(f"model      = {model.kind}, {_model_file(args)}; gain sets {', '.join(planner.lambdas)}")

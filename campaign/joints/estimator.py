@@ -33,6 +33,7 @@ from ..core.errors import InputError
 from ..core.vocabulary import FIXED, FLEXIBLE, gain_classes
 from ..model.paper import load_paper
 from .coulomb import CoulombLambdaFit
+from .domain import Domain
 from .impacts import Impacts
 from .lambda_fit import IdentifiabilityWarning, LambdaFit
 from .params import Params
@@ -109,6 +110,8 @@ class ResponseModel(Params, ABC):
         self.rms_log_residual_ = float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else math.nan
         dof = max(int(ok.sum()) - int(n_parameters), 1)
         self.residual_scatter_ = float(np.sqrt(np.sum(r[ok] ** 2) / dof)) if ok.any() else math.nan
+        structure = impacts.structure or (self._the_setting().structure if impacts.base == FLEXIBLE else None)
+        self.domain_ = Domain.from_impacts(impacts, masses=self._masses(impacts), structure=structure)
 
     def _check_fitted(self) -> None:
         if not hasattr(self, "residuals_"):
@@ -170,7 +173,7 @@ def _eq11(setting: Setting, impacts: Impacts, lam_of_gain) -> np.ndarray:
     base (the arm on the structure's tip body, lambda added to its joints)."""
     flexible = impacts.base == FLEXIBLE
     beam = setting.beam if impacts.structure is None or impacts.structure == setting.structure else \
-        Setting.from_rig(setting.rig_file, structure=impacts.structure, robot=setting.robot).beam
+        Setting.from_rig(setting.rig_path(), structure=impacts.structure, robot=setting.robot).beam
     terms = arm_terms(setting.robot, impacts.q, beam=beam if flexible else None)
     lam = np.array([np.asarray(lam_of_gain(g), float) for g in impacts.gain])          # (N, nv)
     nv = lam.shape[1]

@@ -94,7 +94,7 @@ class JointImpedance(ResponseModel):
         if structure is None or structure == setting.structure:
             return setting
         if structure not in self._structures:
-            self._structures[structure] = Setting.from_rig(setting.rig_file, structure=structure, robot=setting.robot)
+            self._structures[structure] = Setting.from_rig(setting.rig_path(), structure=structure, robot=setting.robot)
         return self._structures[structure]
 
     def respond_terms(self, terms, gains, directions, *, speed, mass, pendulum: bool = True, theta=None,
@@ -144,17 +144,20 @@ class JointImpedance(ResponseModel):
         return self.respond(impacts, window=False).m_eff[:, 0]
 
     def parameter_sd(self, impacts: Impacts) -> np.ndarray:
-        """``sqrt(g^T cov g)`` with ``g = d ln m* / d [ln beta, ln s]`` per impact (finite differences)."""
+        """``sqrt(g^T cov g)`` with ``g = d ln m* / d [ln beta, ln s]`` per impact (finite differences;
+        0 where m* has no finite value)."""
         impacts = self._check_impacts(impacts)
         setting = self.setting_for(impacts.structure)
         terms = arm_terms(setting.robot, impacts.q, beam=setting.beam if impacts.base == FLEXIBLE else None)
         th = self._theta()
         base = np.log(self.respond(impacts, theta=th, window=False, terms=terms).m_eff[:, 0])
-        G = np.empty((len(impacts), th.size))
+        G = np.zeros((len(impacts), th.size))
         for j in range(th.size):
             t = th.copy()
             t[j] += DIFF_STEP
-            G[:, j] = (np.log(self.respond(impacts, theta=t, window=False, terms=terms).m_eff[:, 0]) - base) / DIFF_STEP
+            moved = np.log(self.respond(impacts, theta=t, window=False, terms=terms).m_eff[:, 0])
+            ok = np.isfinite(base) & np.isfinite(moved)      # m* without a value has no gradient (sd 0)
+            G[ok, j] = (moved[ok] - base[ok]) / DIFF_STEP
         return np.sqrt(np.clip(np.einsum("ni,ij,nj->n", G, self.covariance_, G), 0.0, None))
 
     # -- the fit ---------------------------------------------------------------------------

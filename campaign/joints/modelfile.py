@@ -11,13 +11,20 @@ The file (schema :data:`SCHEMA`, version :data:`SCHEMA_VERSION`) holds:
   sorted list, the residual of each (``ln m*_model - ln m*_identified``, keyed by trial),
   their rms and scatter (the intervals' part), and per flexible-base structure where the
   model was checked there the residuals and their scatter;
-* ``package_version``.
+* ``domain``: where the model holds, the speeds, gain sets, object masses, impact directions,
+  m* and structures of the trials it was fitted and checked on
+  (:class:`campaign.joints.domain.Domain`);
+* ``package_version``;
+* ``digest``: the sha256 of the content and of each entry, written by the fit
+  (:func:`campaign.joints.modelcheck.content_digest`).
 
 No pickles: numbers are JSON numbers written with Python's shortest round-trip repr, so a
 loaded model predicts bit for bit what the saved one did. :func:`load_model` refuses, with
 one line naming the problem (:class:`ModelFileError`, an InputError: exit status 2 in the
 CLI), a file that is not JSON, of another schema or version, of an unknown kind, missing a
-key or with a value of the wrong type, or fitted for another robot, rig file or paper table.
+key or with a value of the wrong type or outside its valid range
+(:func:`campaign.joints.modelcheck.check_values`), fitted for another robot, rig file or
+paper table, or edited after its fit (its content no longer matches its digest).
 """
 
 from __future__ import annotations
@@ -33,10 +40,13 @@ import numpy as np
 from .. import __version__
 from ..core.errors import InputError
 from ..core.files import open_regular, write_atomic
+from ..core.vocabulary import bases, gain_sets
 from ..core.yamlfile import config_file
 from .coulomb import CoulombLambdaFit
+from .domain import Domain
 from .estimator import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
 from .impedance_model import JointImpedance
+from .modelcheck import check_digest, check_values, content_digest
 from .setting import Setting, display_path
 
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "KINDS", "SHIPPED_MODEL", "ModelFileError", "model_document", "save_model",
@@ -45,12 +55,12 @@ __all__ = ["SCHEMA", "SCHEMA_VERSION", "KINDS", "SHIPPED_MODEL", "ModelFileError
 SCHEMA = "campaign.response_model"
 #: the shipped model's file name in the configuration folder (fitted by the designed campaign)
 SHIPPED_MODEL = "response_model.json"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: the model kinds a file may hold
 KINDS = {"eq11": Eq11Model, "lambda": LambdaModel, "lambda_coulomb": CoulombModel, "joint_impedance": JointImpedance}
 #: the top-level keys and their JSON types
 _KEYS = {"schema": str, "schema_version": int, "kind": str, "options": dict, "parameters": dict, "robot": dict,
-         "rig": dict, "paper": dict, "fit": dict, "package_version": str}
+         "rig": dict, "paper": dict, "fit": dict, "domain": dict, "package_version": str, "digest": dict}
 _FIT_KEYS = {"archive": (str, type(None)), "n_trials": int, "trial_list_sha256": str, "residuals": dict,
              "rms_log_residual": (float, int, type(None)), "residual_scatter": (float, int, type(None)),
              "structure_scatter": dict, "structure_residuals": dict}
@@ -92,7 +102,7 @@ def model_document(model: ResponseModel, *, archive: str | None = None) -> dict[
     s = model._the_setting()
     keys = list(model.keys_)
     residuals = {k: (float(r) if math.isfinite(r) else None) for k, r in zip(keys, model.residuals_, strict=True)}
-    return {
+    doc = {
         "schema": SCHEMA, "schema_version": SCHEMA_VERSION, "kind": model.kind, "options": _options(model),
         "parameters": model.parameters(),
         "robot": {"name": s.robot.name, "files": dict(s.digests["robot"])},
@@ -104,8 +114,11 @@ def model_document(model: ResponseModel, *, archive: str | None = None) -> dict[
                 "residual_scatter": json_numbers(model.residual_scatter_),
                 "structure_scatter": {k: float(v) for k, v in getattr(model, "structure_scatter_", {}).items()},
                 "structure_residuals": {k: dict(v) for k, v in getattr(model, "structure_residuals_", {}).items()}},
+        "domain": model.domain_.to_json(),
         "package_version": __version__,
     }
+    doc["digest"] = content_digest(doc)
+    return doc
 
 
 def save_model(model: ResponseModel, path, *, archive: str | None = None) -> Path:
@@ -209,6 +222,7 @@ def _restore(doc: dict, setting: Setting, where: str) -> ResponseModel:
                                       for k, v in doc["fit"]["structure_residuals"].items()}
     except (AttributeError, TypeError, ValueError) as exc:
         raise ModelFileError(f"{where}: fit.structure_scatter or fit.structure_residuals is malformed ({exc})") from None
+    model.domain_ = Domain.from_json(doc["domain"], where=where, gain_sets=gain_sets(), bases=bases())
     model.provenance_ = {k: doc[k] for k in ("robot", "rig", "paper", "package_version")}
     model.provenance_["archive"] = doc["fit"]["archive"]
     return model
@@ -231,6 +245,17 @@ def load_model(path, *, setting: Setting | None = None, rig=None) -> ResponseMod
     except ValueError as exc:
         raise ModelFileError(f"{where}: not valid JSON (corrupted?): {exc}") from None
     _check_types(doc, where)
+    try:
+        check_values(doc, where)
+    except InputError as exc:
+        raise ModelFileError(str(exc)) from None
     setting = Setting.from_rig(rig) if setting is None else setting
     _check_provenance(doc, setting, where)
-    return _restore(doc, setting, where)
+    try:
+        model = _restore(doc, setting, where)
+        check_digest(doc, where)
+    except ModelFileError:
+        raise
+    except InputError as exc:
+        raise ModelFileError(str(exc)) from None
+    return model

@@ -136,6 +136,12 @@ class Setting:
                    gains=gains, structure=str(values["flexible.structure"]), beam=Beam.from_values(values), loop=loop,
                    rig_file=display_path(rig_path), paper_file=display_path(paper_path), digests=digests)
 
+    def rig_path(self) -> Path:
+        """The rig file as a path to open: :attr:`rig_file` is shown relative to the project
+        folder, whatever the working folder."""
+        p = Path(self.rig_file)
+        return p if p.is_absolute() or not (PROJECT_DIR / p).is_file() else PROJECT_DIR / p
+
     def servo(self, gain_sets) -> tuple[np.ndarray, np.ndarray]:
         """``(Kp, Kd)`` of each named gain set, shape (N, nv) each; InputError for an unknown one."""
         kp, kd = [], []

@@ -11,14 +11,14 @@ from __future__ import annotations
 from ..core.lazy import lazy_exports
 
 __all__ = [
-    "ImpactPlanner", "build_planner", "planner_model", "planner_lambdas", "horizontal_directions",
+    "ImpactPlanner", "build_planner", "planner_model", "planner_lambdas", "check_model_domain", "horizontal_directions",
     "cone_directions", "pose_terms", "predict", "check_object", "predict_model", "workspace_map", "direction_map",
     "grid_points", "check_scene_stroke",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
     "planner": ("ImpactPlanner",),
-    "factory": ("build_planner", "planner_model", "planner_lambdas"),
+    "factory": ("build_planner", "planner_model", "planner_lambdas", "check_model_domain"),
     "directions": ("horizontal_directions", "cone_directions"),
     "prediction": ("pose_terms", "predict", "check_object"),
     "model_prediction": ("predict_model",),

@@ -31,7 +31,7 @@ from .planner import ImpactPlanner
 from .post_contact import ArmAfterImpact
 
 __all__ = ["planner_lambdas", "planner_model", "object_defaults", "lambdas_per_gain_set", "arm_after_impact",
-           "build_planner"]
+           "build_planner", "check_model_domain"]
 
 
 def planner_lambdas(*, fits: Sequence[str | Path] = (), named: Mapping[str, Sequence[float]] | None = None,
@@ -74,6 +74,20 @@ def planner_model(*, model=None, fits: Sequence[str | Path] = (), named: Mapping
             raise InputError("give either a response model (--model) or lambdas (--fit, --lambda), not both")
         return None, planner_lambdas(fits=fits, named=named, nv=nv)
     return load_model(shipped_model_path() if model is None else model, rig=rig), None
+
+
+def check_model_domain(model, *, base: str, speed: float, directions, mass: float | None = None,
+                       structure: str | None = None, rig=None, extrapolate: bool = False, hint: str = "") -> list:
+    """Refuse (:class:`campaign.joints.domain.OutsideDomain`, one line naming the bound and the
+    value, then ``hint``) planning with a response ``model`` outside its domain: the object's
+    ``speed`` and ``mass`` (default the rig's hammer), the ``directions``, the base and its
+    named ``structure`` (default the rig file's), the gain sets of the paper's Table 1; with
+    ``extrapolate`` return what lies outside instead (:meth:`campaign.joints.domain.Domain.check`)."""
+    values = rig_values(rig=rig, params={"flexible.structure": structure} if structure else None)
+    name = str(values["flexible.structure"]) if base == FLEXIBLE else None
+    m = object_defaults(values)["mass"] if mass is None else float(mass)
+    return model.domain_.check(speed=float(speed), mass=m, direction=directions, base=base, structure=name,
+                               gain=[str(g) for g in load_paper()["gains"]], extrapolate=extrapolate, hint=hint)
 
 
 def object_defaults(values: Mapping[str, Any]) -> dict[str, float]:

@@ -27,7 +27,10 @@ from ...plan.maps import direction_map, workspace_map
 from ...rig.contact import ContactLaw
 from . import style
 
-__all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "paper_points"]
+__all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "paper_points", "MAP_SPEED"]
+
+#: the object's speed of the maps [m/s]
+MAP_SPEED = 2.0
 
 _CLASS_COLOR = ("#7570b3", "#d95f02", "#1b9e77", "#e7298a")
 
@@ -130,8 +133,8 @@ def draw_directions(d: dict, *, title: str = ""):
     return fig
 
 
-def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=2.0):
-    planner = build_planner(base=base, lambdas=lambdas, model=model, speed=speed, rig=rig)
+def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=MAP_SPEED, structure=None):
+    planner = build_planner(base=base, lambdas=lambdas, model=model, speed=speed, rig=rig, structure=structure)
     e = planner.restitution if planner.contact_restitution is None else planner.contact_restitution
     contact = ContactLaw(planner.contact_stiffness, planner.contact_exponent, e)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
@@ -141,13 +144,14 @@ def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=2.0):
 
 
 def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
-                   rig=None, resolution: float = 0.05, base: str = FLEXIBLE, y: float | None = None) -> str:
+                   rig=None, resolution: float = 0.05, base: str = FLEXIBLE, y: float | None = None,
+                   structure: str | None = None) -> str:
     """Compute the workspace map (the paper's n and plane by default) with a response ``model`` or
     the gain classes' ``lambdas`` (:func:`campaign.plan.factory.planner_model`) and save it;
     returns a summary line. A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused
     first (InputError)."""
     grid_points(resolution)
-    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base, structure=structure)
     marks = paper_points(planner.robot)
     y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)
     m = workspace_map(planner.robot, direction=impact_direction(), y=y, resolution=resolution, **kw)
@@ -158,10 +162,11 @@ def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None,
 
 
 def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
-                    rig=None, config: int | None = 1, q=None, base: str = FLEXIBLE, count: int = 72) -> str:
+                    rig=None, config: int | None = 1, q=None, base: str = FLEXIBLE, count: int = 72,
+                    structure: str | None = None) -> str:
     """Compute the direction map at a paper configuration (or DH pose ``q`` [rad]) with a
     response ``model`` or the gain classes' ``lambdas`` and save it; returns a summary line."""
-    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base, structure=structure)
     title = f"Configuration {config}: " if q is None else ""
     q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
     d = direction_map(planner.robot, q, count=count, **kw)
