@@ -12,7 +12,7 @@ from ..core.lazy import lazy_exports
 __all__ = [
     "ExperimentDesign", "ErrorModel", "grid_candidates", "random_candidates", "paper_design", "feasible",
     "run_design", "write_design", "fit_model", "compare_shipped", "model_differences", "HitRows", "read_hit_rows",
-    "log_sensitivity", "identifiability", "prediction_range", "transfer",
+    "log_sensitivity", "identifiability", "prediction_range", "subspace_fit", "transfer",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -21,5 +21,5 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "candidates": ("grid_candidates", "random_candidates", "paper_design", "feasible"),
     "run": ("run_design", "write_design"),
     "designed_model": ("fit_model", "compare_shipped", "model_differences"),
-    "recorded": ("HitRows", "read_hit_rows", "log_sensitivity", "identifiability", "prediction_range", "transfer"),
+    "recorded": ("HitRows", "read_hit_rows", "log_sensitivity", "identifiability", "prediction_range", "subspace_fit", "transfer"),
 })

@@ -19,9 +19,9 @@ only some combinations of lambda; :func:`prediction_range` searches every diagon
 ``[0, lambda_max]`` that reproduces the fit session's mean ``ln m*`` (within 1.96 standard
 errors of the hits' scatter) for the least and the greatest m* it predicts for the other
 session. A narrow range means the other session's m* is determined whatever the split of
-lambda among the joints; a wide one that these poses cannot determine it. The least-squares
-fit of :class:`campaign.joints.LambdaFit` (eq 11, 15) on the fit session, its
-identifiability findings and its prediction are reported beside the range.
+lambda among the joints; a wide one that these poses cannot determine it. Beside the range,
+:func:`subspace_fit` fits the combinations the fit session determines and holds the others
+at zero, and its prediction is reported.
 """
 
 from __future__ import annotations
@@ -29,18 +29,17 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
-import warnings
 
 import numpy as np
 
 from ..core.errors import InputError
 from ..core.files import open_regular
-from ..joints.lambda_fit import IdentifiabilityWarning, LambdaFit, design_arrays
+from ..joints.lambda_fit import design_arrays
 
 # scipy.optimize is imported by the searches that use it, not with the module (start-up cost)
 
 __all__ = ["HIT_COLUMNS", "HitRows", "read_hit_rows", "log_sensitivity", "identifiability",
-           "prediction_range", "transfer", "log_sigma", "USABLE_FLAGS"]
+           "prediction_range", "subspace_fit", "transfer", "log_sigma", "USABLE_FLAGS"]
 
 #: the columns of a per-hit row before and after the joint angles q_1..q_nv
 HIT_COLUMNS = (("hit", "session", "object_mass", "n_x", "n_y", "n_z"),
@@ -167,7 +166,7 @@ def log_sensitivity(robot, Q, directions, lam=None):
     return x**2 / s[:, None], 1.0 / s
 
 
-def identifiability(S, *, rtol: float = 0.01, sigma: float | None = None) -> dict:
+def identifiability(S, *, rtol: float = 0.1, sigma: float | None = None) -> dict:
     """Which combinations of lambda the rows of ``S`` determine.
 
     Returns a dict: ``singular_values`` (of ``S`` [1/(kg m^2)]), ``rank`` (those above
@@ -254,18 +253,48 @@ def prediction_range(robot, fit_rows: HitRows, predict_rows: HitRows, *, targets
     return {k: (None if v is None else (float(math.exp(v[0])), v[1].tolist())) for k, v in best.items()}
 
 
+def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1):
+    """Fit lambda along the combinations the rows determine (:func:`identifiability` at
+    lambda = 0), the others held at zero: ``lambda = V_r^T c`` >= 0 (eq 15) with ``c`` from
+    least squares on ``ln m*`` (eq 11).
+
+    Returns ``(lambda, rms log residual, rank)``.
+    """
+    from scipy.optimize import minimize
+
+    S, _ = log_sensitivity(robot, rows.Q, rows.directions)
+    ident = identifiability(S, rtol=rtol)
+    r = ident["rank"]
+    V = np.asarray(ident["combinations"])[:r]
+    H, Jn = design_arrays(robot, rows.Q, rows.directions)
+    y = np.log(rows.m_eff)
+
+    def cost(c):
+        x, s = _solve(H, Jn, np.clip(c @ V, 0.0, None))
+        res = -np.log(s) - y
+        return float(res @ res), 2.0 * (res @ (x**2 / s[:, None])) @ V.T
+
+    c = np.zeros(r)
+    if r:
+        c = minimize(cost, c, jac=True, method="SLSQP", options={"maxiter": 500, "ftol": 1e-15},
+                     constraints=[{"type": "ineq", "fun": lambda c: c @ V, "jac": lambda c: V.T}]).x
+    lam = np.clip(c @ V, 0.0, None) if r else np.zeros(robot.nv)
+    return lam, float(np.sqrt(cost(c)[0] / y.size)), r
+
+
 def _geomean(m) -> float:
     return float(np.exp(np.mean(np.log(m))))
 
 
-def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.01, n_bootstrap: int = 0,
-             seed: int = 0, lambda_max: float = LAMBDA_MAX) -> dict:
+def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.1,
+             lambda_max: float = LAMBDA_MAX) -> dict:
     """Fit lambda on session ``fit`` and predict session ``predict`` (see the module).
 
     Returns a JSON-safe dict: per session the rigid-body m* (eq 7) and the identified and
     logged m* (geometric means over the hits), the identifiability of each session and of
-    both together, the single-joint lambdas of the fit session and the range of their
-    predictions, and the least-squares fit with its prediction.
+    both together, the fit of the fit session's determined combinations (:func:`subspace_fit`) with its
+    prediction, and the range of predictions of every lambda that reproduces the fit session
+    (:func:`prediction_range`).
     """
     if fit == predict:
         raise InputError(f"the fit and the predicted session are both {fit!r}: name two sessions")
@@ -286,18 +315,13 @@ def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.01
                       for f in dataclasses.fields(A) if f.name != "n_flagged"}, n_flagged=0)
     out["both"] = identifiability(S_all, rtol=rtol, sigma=log_sigma(both))
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", IdentifiabilityWarning)
-        est = LambdaFit(robot, n_bootstrap=n_bootstrap, random_state=seed, lambda_max=lambda_max, warn=False)
-        est.fit(A.Q, A.m_eff, directions=A.directions)
-    pred = est.predict(B.Q, directions=B.directions)
-    out["least_squares"] = {"lambda": est.lambda_.tolist(), "identifiable": [bool(v) for v in est.identifiable_],
-                            "identifiability": list(est.identifiability_),
-                            "rms_log_residual": est.rms_log_residual_, "predicted": _geomean(pred)}
+    lam, rms, r = subspace_fit(robot, A, rtol=rtol)
+    _, m_pred = log_sensitivity(robot, B.Q, B.directions, lam)
+    out["fit_lambda"] = {"lambda": lam.tolist(), "rank": r, "rms_log_residual": rms, "predicted": _geomean(m_pred)}
     # the fit session's mean ln m* and its standard error (the hits' scatter)
     y = np.log(A.m_eff)
     se = float(np.std(y, ddof=1) / math.sqrt(y.size)) if y.size > 1 else 0.0
     rng = prediction_range(robot, A, B, targets=[float(y.mean()) - 1.96 * se, float(y.mean()) + 1.96 * se],
-                           starts=[est.lambda_], lambda_max=lambda_max)
+                           starts=[np.clip(lam, 0.0, None)], lambda_max=lambda_max)
     out["prediction_range"] = {"low": rng["low"], "high": rng["high"], "fit_log_se": se}
     return out
