@@ -85,7 +85,7 @@ class HitRows:
         """The rows of one session; raises InputError naming the sessions there are."""
         keep = self.session == session
         if not keep.any():
-            raise InputError(f"session {session!r} has no usable hit; sessions: {sorted(set(self.session))}")
+            raise InputError(f"session {session!r} has no usable hit; sessions: {sorted(str(s) for s in set(self.session))}")
         fields = {f.name: getattr(self, f.name)[keep] for f in dataclasses.fields(self) if f.name != "n_flagged"}
         return HitRows(**fields, n_flagged=0)
 
@@ -260,7 +260,7 @@ def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1):
 
     Returns ``(lambda, rms log residual, rank)``.
     """
-    from scipy.optimize import minimize
+    from scipy.optimize import least_squares, minimize
 
     S, _ = log_sensitivity(robot, rows.Q, rows.directions)
     ident = identifiability(S, rtol=rtol)
@@ -269,17 +269,33 @@ def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1):
     H, Jn = design_arrays(robot, rows.Q, rows.directions)
     y = np.log(rows.m_eff)
 
-    def cost(c):
+    def resid(c):
+        _, s = _solve(H, Jn, np.clip(c @ V, 0.0, None))
+        return -np.log(s) - y
+
+    def jac(c):
         x, s = _solve(H, Jn, np.clip(c @ V, 0.0, None))
-        res = -np.log(s) - y
-        return float(res @ res), 2.0 * (res @ (x**2 / s[:, None])) @ V.T
+        return (x**2 / s[:, None]) @ V.T
+
+    def cost(c):
+        res = resid(c)
+        return float(res @ res), 2.0 * res @ jac(c)
 
     c = np.zeros(r)
-    if r:
-        c = minimize(cost, c, jac=True, method="SLSQP", options={"maxiter": 500, "ftol": 1e-15},
-                     constraints=[{"type": "ineq", "fun": lambda c: c @ V, "jac": lambda c: V.T}]).x
+    if r == robot.nv:
+        # every combination determined: lambda itself, bounded below by 0 (a basis change of V)
+        c = least_squares(lambda lam: resid(lam @ V.T), np.zeros(r), jac=lambda lam: jac(lam @ V.T) @ V,
+                          bounds=(0.0, np.inf), method="trf", x_scale="jac", xtol=1e-15, ftol=1e-15,
+                          gtol=1e-15, max_nfev=2000).x @ V.T
+    elif r:
+        # Levenberg-Marquardt along the determined combinations; where it leaves lambda >= 0,
+        # the constrained minimum (SLSQP) instead
+        c = least_squares(resid, c, jac=jac, method="lm", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        if np.min(c @ V) < -1e-12 * max(1.0, float(np.max(np.abs(c @ V)))):
+            c = minimize(cost, np.zeros(r), jac=True, method="SLSQP", options={"maxiter": 500, "ftol": 1e-15},
+                         constraints=[{"type": "ineq", "fun": lambda c: c @ V, "jac": lambda c: V.T}]).x
     lam = np.clip(c @ V, 0.0, None) if r else np.zeros(robot.nv)
-    return lam, float(np.sqrt(cost(c)[0] / y.size)), r
+    return lam, float(np.sqrt(np.mean(resid(c) ** 2))), r
 
 
 def _geomean(m) -> float:
