@@ -37,15 +37,28 @@ def register(sub) -> None:
     p.add_argument("--lambda-max", type=float, default=LAMBDA_MAX, metavar="KGM2",
                    help=f"upper bound of each lambda component [kg m^2] for the fit and the range "
                    f"(default {LAMBDA_MAX:g}: no bound in practice)")
+    p.add_argument("--at", metavar="LAMBDA", default=None,
+                   help="the lambda [kg m^2] the sensitivity is linearised at and the fit starts from, one value "
+                   "per joint, comma-separated (default all zero: the rigid-body model)")
     p.add_argument("--json", action="store_true", help="print the report as JSON (non-finite numbers as null)")
     p.set_defaults(func=run_recorded_lambda)
 
 
-def _check(args) -> None:
+def _check(args, nv: int):
+    """The checked options; returns ``--at`` as an array (None when not given)."""
+    at = None
+    if args.at is not None:
+        try:
+            at = [float(v) for v in args.at.split(",")]
+        except ValueError:
+            raise InputError(f"--at {args.at}: expected {nv} comma-separated values [kg m^2]") from None
+        if len(at) != nv or not all(math.isfinite(v) and v >= 0 for v in at):
+            raise InputError(f"--at {args.at}: expected {nv} comma-separated values >= 0 [kg m^2], one per joint")
     if not (math.isfinite(args.rtol) and 0 < args.rtol < 1):
         raise InputError(f"--rtol {args.rtol:g}: must be in (0, 1)")
     if not (math.isfinite(args.lambda_max) and args.lambda_max > 0):
         raise InputError(f"--lambda-max {args.lambda_max:g}: must be > 0 kg m^2")
+    return at
 
 
 def _vec(values, spec: str = ".3g") -> str:
@@ -72,7 +85,8 @@ def format_report(rep: dict, nv: int) -> list[str]:
     for name in (fit, pred):
         lines += _session_lines(name, rep["sessions"][name])
     rtol = rep["both"]["rtol"]
-    lines.append(f"identifiability (d ln m*/d lambda at lambda = 0; determined: singular value > {rtol:g} x the "
+    at = "0" if not any(rep["at"]) else _vec(rep["at"]) + " kg m^2"
+    lines.append(f"identifiability (d ln m*/d lambda at lambda = {at}; determined: singular value > {rtol:g} x the "
                  f"largest):")
     lines += _ident_lines(fit, rep["sessions"][fit]["identifiability"], nv)
     lines += _ident_lines(pred, rep["sessions"][pred]["identifiability"], nv)
@@ -85,7 +99,7 @@ def format_report(rep: dict, nv: int) -> list[str]:
         sd = "" if se is None else f" +- {se:.3g} kg m^2"
         lines.append(f"    {_vec(v, '+.2f')}{sd}  {state}")
     fl = rep["fit_lambda"]
-    lines.append(f"lambda fitted on {fit} along its {fl['rank']} determined combinations (the others 0): "
+    lines.append(f"lambda fitted on {fit} along its {fl['rank']} determined combinations (the others at --at): "
                  f"{_vec(fl['lambda'])} kg m^2, rms log residual {fl['rms_log_residual']:.3g}")
     lines.append(f"  predicts {pred}: m* = {fl['predicted']:.4g} kg (identified {rep['sessions'][pred]['m_eff']:.4g} kg)")
     rng = rep["prediction_range"]
@@ -109,13 +123,14 @@ def _json_safe(value):
 
 
 def run_recorded_lambda(args) -> int:
-    _check(args)
     try:
         robot = load_robot(args.robot)
     except ValueError as exc:
         raise InputError(f"--robot {args.robot}: {exc}") from None
+    at = _check(args, robot.nv)
     rows = read_hit_rows(args.hits, robot.nv)
-    rep = transfer(robot, rows, fit=args.fit, predict=args.predict, rtol=args.rtol, lambda_max=args.lambda_max)
+    rep = transfer(robot, rows, fit=args.fit, predict=args.predict, rtol=args.rtol, lambda_max=args.lambda_max,
+                   lam0=at)
     rep["lambda_max"] = args.lambda_max
     rep["n_flagged"] = rows.n_flagged
     if args.json:

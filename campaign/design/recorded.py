@@ -253,16 +253,17 @@ def prediction_range(robot, fit_rows: HitRows, predict_rows: HitRows, *, targets
     return {k: (None if v is None else (float(math.exp(v[0])), v[1].tolist())) for k, v in best.items()}
 
 
-def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1):
+def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1, lam0=None):
     """Fit lambda along the combinations the rows determine (:func:`identifiability` at
-    lambda = 0), the others held at zero: ``lambda = V_r^T c`` >= 0 (eq 15) with ``c`` from
-    least squares on ``ln m*`` (eq 11).
+    ``lam0``, default zero), the others held at ``lam0``: ``lambda = lam0 + V_r^T c`` >= 0
+    (eq 15) with ``c`` from least squares on ``ln m*`` (eq 11).
 
     Returns ``(lambda, rms log residual, rank)``.
     """
     from scipy.optimize import least_squares, minimize
 
-    S, _ = log_sensitivity(robot, rows.Q, rows.directions)
+    lam0 = np.zeros(robot.nv) if lam0 is None else np.asarray(lam0, float)
+    S, _ = log_sensitivity(robot, rows.Q, rows.directions, lam0)
     ident = identifiability(S, rtol=rtol)
     r = ident["rank"]
     V = np.asarray(ident["combinations"])[:r]
@@ -270,11 +271,11 @@ def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1):
     y = np.log(rows.m_eff)
 
     def resid(c):
-        _, s = _solve(H, Jn, np.clip(c @ V, 0.0, None))
+        _, s = _solve(H, Jn, np.clip(lam0 + c @ V, 0.0, None))
         return -np.log(s) - y
 
     def jac(c):
-        x, s = _solve(H, Jn, np.clip(c @ V, 0.0, None))
+        x, s = _solve(H, Jn, np.clip(lam0 + c @ V, 0.0, None))
         return (x**2 / s[:, None]) @ V.T
 
     def cost(c):
@@ -284,17 +285,18 @@ def subspace_fit(robot, rows: HitRows, *, rtol: float = 0.1):
     c = np.zeros(r)
     if r == robot.nv:
         # every combination determined: lambda itself, bounded below by 0 (a basis change of V)
-        c = least_squares(lambda lam: resid(lam @ V.T), np.zeros(r), jac=lambda lam: jac(lam @ V.T) @ V,
+        c = least_squares(lambda lam: resid((lam - lam0) @ V.T), lam0.copy(), jac=lambda lam: jac((lam - lam0) @ V.T) @ V,
                           bounds=(0.0, np.inf), method="trf", x_scale="jac", xtol=1e-15, ftol=1e-15,
-                          gtol=1e-15, max_nfev=2000).x @ V.T
+                          gtol=1e-15, max_nfev=2000).x
+        c = (c - lam0) @ V.T
     elif r:
         # Levenberg-Marquardt along the determined combinations; where it leaves lambda >= 0,
         # the constrained minimum (SLSQP) instead
         c = least_squares(resid, c, jac=jac, method="lm", x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15).x
-        if np.min(c @ V) < -1e-12 * max(1.0, float(np.max(np.abs(c @ V)))):
+        if np.min(lam0 + c @ V) < -1e-12 * max(1.0, float(np.max(np.abs(lam0 + c @ V)))):
             c = minimize(cost, np.zeros(r), jac=True, method="SLSQP", options={"maxiter": 500, "ftol": 1e-15},
-                         constraints=[{"type": "ineq", "fun": lambda c: c @ V, "jac": lambda c: V.T}]).x
-    lam = np.clip(c @ V, 0.0, None) if r else np.zeros(robot.nv)
+                         constraints=[{"type": "ineq", "fun": lambda c: lam0 + c @ V, "jac": lambda c: V.T}]).x
+    lam = np.clip(lam0 + c @ V, 0.0, None) if r else lam0.copy()
     return lam, float(np.sqrt(np.mean(resid(c) ** 2))), r
 
 
@@ -303,7 +305,7 @@ def _geomean(m) -> float:
 
 
 def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.1,
-             lambda_max: float = LAMBDA_MAX) -> dict:
+             lambda_max: float = LAMBDA_MAX, lam0=None) -> dict:
     """Fit lambda on session ``fit`` and predict session ``predict`` (see the module).
 
     Returns a JSON-safe dict: per session the rigid-body m* (eq 7) and the identified and
@@ -315,9 +317,11 @@ def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.1,
     if fit == predict:
         raise InputError(f"the fit and the predicted session are both {fit!r}: name two sessions")
     A, B = rows.select(fit), rows.select(predict)
-    out: dict = {"robot": robot.name, "fit": fit, "predict": predict, "sessions": {}}
+    lam0 = np.zeros(robot.nv) if lam0 is None else np.asarray(lam0, float)
+    out: dict = {"robot": robot.name, "fit": fit, "predict": predict, "at": lam0.tolist(), "sessions": {}}
     for name, r in ((fit, A), (predict, B)):
-        S, m0 = log_sensitivity(robot, r.Q, r.directions)
+        S, _ = log_sensitivity(robot, r.Q, r.directions, lam0)
+        _, m0 = log_sensitivity(robot, r.Q, r.directions)
         sigma = log_sigma(r)
         logged = r.m_eff_logged[np.isfinite(r.m_eff_logged)]
         out["sessions"][name] = {
@@ -326,12 +330,12 @@ def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.1,
             "m_rigid": _geomean(m0), "m_logged": _geomean(logged) if logged.size else None,
             "ratio_to_rigid": _geomean(r.m_eff / m0), "log_sigma": sigma,
             "identifiability": identifiability(S, rtol=rtol, sigma=sigma)}
-    S_all, _ = log_sensitivity(robot, np.vstack([A.Q, B.Q]), np.vstack([A.directions, B.directions]))
+    S_all, _ = log_sensitivity(robot, np.vstack([A.Q, B.Q]), np.vstack([A.directions, B.directions]), lam0)
     both = HitRows(**{f.name: np.concatenate([getattr(A, f.name), getattr(B, f.name)])
                       for f in dataclasses.fields(A) if f.name != "n_flagged"}, n_flagged=0)
     out["both"] = identifiability(S_all, rtol=rtol, sigma=log_sigma(both))
 
-    lam, rms, r = subspace_fit(robot, A, rtol=rtol)
+    lam, rms, r = subspace_fit(robot, A, rtol=rtol, lam0=lam0)
     _, m_pred = log_sensitivity(robot, B.Q, B.directions, lam)
     out["fit_lambda"] = {"lambda": lam.tolist(), "rank": r, "rms_log_residual": rms, "predicted": _geomean(m_pred)}
     # the fit session's mean ln m* and its standard error (the hits' scatter)
