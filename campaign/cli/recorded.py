@@ -103,10 +103,10 @@ def format_report(rep: dict, nv: int) -> list[str]:
                  f"{_vec(fl['lambda'])} kg m^2, rms log residual {fl['rms_log_residual']:.3g}")
     lines.append(f"  predicts {pred}: m* = {fl['predicted']:.4g} kg (identified {rep['sessions'][pred]['m_eff']:.4g} kg)")
     rng = rep["prediction_range"]
-    if rng["low"] is None:
+    if rng["least"] is None:
         lines.append(f"no lambda in [0, {rep['lambda_max']:g}] kg m^2 reproduces {fit}'s m*")
     else:
-        lo, hi = rng["low"][0], rng["high"][0]
+        lo, hi = rng["least"][0], rng["greatest"][0]
         lines.append(f"every lambda in [0, {rep['lambda_max']:g}] kg m^2 reproducing {fit}'s m* (+-1.96 standard "
                      f"errors) predicts {pred} between {lo:.4g} and {hi:.4g} kg (spread {100 * (hi / lo - 1):.3g} %)")
     return lines

@@ -214,7 +214,7 @@ def prediction_range(robot, fit_rows: HitRows, predict_rows: HitRows, *, targets
     lambda in ``[0, lambda_max]`` [kg m^2] with which eq 11 reproduces the mean ``ln m_eff`` of
     ``fit_rows`` (each of ``targets``, default that mean alone).
 
-    Returns ``{"low": (m*, lambda), "high": (m*, lambda)}`` with m* the geometric mean [kg],
+    Returns ``{"least": (m*, lambda), "greatest": (m*, lambda)}`` with m* the geometric mean [kg],
     or ``None`` for both where no lambda reproduces the fit rows (their m* below the
     rigid-body model's, or above the arm with every joint locked).
     """
@@ -228,7 +228,7 @@ def prediction_range(robot, fit_rows: HitRows, predict_rows: HitRows, *, targets
     lo_all = _mean_log_m(Ha, Ja, np.zeros(nv))
     hi_all = _mean_log_m(Ha, Ja, np.full(nv, lambda_max))
     scale = 0.1                                  # kg m^2: the optimiser's unit of lambda
-    best = {"low": None, "high": None}
+    best = {"least": None, "greatest": None}
     for target in targets:
         if not lo_all <= target <= hi_all:
             continue
@@ -237,7 +237,7 @@ def prediction_range(robot, fit_rows: HitRows, predict_rows: HitRows, *, targets
         x0s = [np.full(nv, c)] + [np.clip(np.asarray(s0, float), 0, lambda_max) for s0 in starts]
         cons = {"type": "eq", "fun": lambda u, t=target: _mean_log_grad(Ha, Ja, u * scale)[0] - t,
                 "jac": lambda u: _mean_log_grad(Ha, Ja, u * scale)[1] * scale}
-        for key, sign in (("low", 1.0), ("high", -1.0)):
+        for key, sign in (("least", 1.0), ("greatest", -1.0)):
             def fun(u, sign=sign):
                 f, g = _mean_log_grad(Hb, Jb, u * scale)
                 return sign * f, sign * g * scale
@@ -343,5 +343,5 @@ def transfer(robot, rows: HitRows, *, fit: str, predict: str, rtol: float = 0.1,
     se = float(np.std(y, ddof=1) / math.sqrt(y.size)) if y.size > 1 else 0.0
     rng = prediction_range(robot, A, B, targets=[float(y.mean()) - 1.96 * se, float(y.mean()) + 1.96 * se],
                            starts=[np.clip(lam, 0.0, None)], lambda_max=lambda_max)
-    out["prediction_range"] = {"low": rng["low"], "high": rng["high"], "fit_log_se": se}
+    out["prediction_range"] = {"least": rng["least"], "greatest": rng["greatest"], "fit_log_se": se}
     return out

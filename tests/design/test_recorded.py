@@ -111,7 +111,7 @@ def test_one_session_does_not_determine_the_other_and_the_range_says_so(arm, hit
     assert rep["both"]["rank"] >= max(s1["identifiability"]["rank"], s2["identifiability"]["rank"])
     # the fit reproduces its own session within the hits' scatter
     assert rep["fit_lambda"]["rms_log_residual"] < 0.03
-    lo, hi = rep["prediction_range"]["low"][0], rep["prediction_range"]["high"][0]
+    lo, hi = rep["prediction_range"]["least"][0], rep["prediction_range"]["greatest"][0]
     truth = float(np.exp(np.mean(np.log(effective_mass_batch(robot, rows.select("config_2").Q, (0, 1, 0), LAM)))))
     assert lo <= truth <= hi
     assert hi / lo > 1.5                                                # not determined by config_1's m*
@@ -124,12 +124,12 @@ def test_a_bounded_lambda_narrows_the_range_and_still_holds_the_truth(arm, hits_
     A, B = rows.select("config_1"), rows.select("config_2")
     wide = prediction_range(robot, A, B)
     narrow = prediction_range(robot, A, B, lambda_max=0.5)
-    assert narrow["high"][0] < wide["high"][0]
-    assert narrow["low"][0] >= wide["low"][0] - 1e-9
-    assert max(narrow["high"][1]) <= 0.5 + 1e-12
+    assert narrow["greatest"][0] < wide["greatest"][0]
+    assert narrow["least"][0] >= wide["least"][0] - 1e-9
+    assert max(narrow["greatest"][1]) <= 0.5 + 1e-12
     truth = float(np.exp(np.mean(np.log(effective_mass_batch(robot, B.Q, (0, 1, 0), LAM)))))
     # the truth's lambda (<= 0.3) is one of the bounded ones, up to the fit session's scatter
-    assert narrow["low"][0] * 0.97 <= truth <= narrow["high"][0] * 1.03
+    assert narrow["least"][0] * 0.97 <= truth <= narrow["greatest"][0] * 1.03
 
 
 def test_a_session_lighter_than_the_rigid_arm_has_no_consistent_lambda(arm, tmp_path):
@@ -140,7 +140,7 @@ def test_a_session_lighter_than_the_rigid_arm_has_no_consistent_lambda(arm, tmp_
             r["m_eff"], r["m_eff_lo"], r["m_eff_hi"] = 1.0, 0.9, 1.1
     rows = read_hit_rows(write_rows(tmp_path / "h.csv", rows), robot.nv)
     rng = prediction_range(robot, rows.select("config_1"), rows.select("config_2"))
-    assert rng == {"low": None, "high": None}
+    assert rng == {"least": None, "greatest": None}
 
 
 @pytest.mark.parametrize("edit, names", [
@@ -188,4 +188,4 @@ def test_recorded_lambda_cli_reports_and_writes_json(arm, hits_csv, capsys):
                  "--predict", "config_1", "--json", "--lambda-max", "1"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["fit"] == "config_2" and rep["lambda_max"] == 1.0
-    assert max(rep["prediction_range"]["high"][1]) <= 1.0 + 1e-12
+    assert max(rep["prediction_range"]["greatest"][1]) <= 1.0 + 1e-12
