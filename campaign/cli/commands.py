@@ -11,7 +11,8 @@ __all__ = ["COMMANDS", "HELP"]
 #: subcommand -> the module of campaign.cli that registers it, in the order --help lists them
 COMMANDS = {
     "meff": "meff", "plan": "plan", "map": "map", "trial": "trial", "sweep": "sweep", "design": "design",
-    "archive": "archive", "identify": "identify", "fit-lambda": "identify", "tables": "identify",
+    "archive": "archive", "identify": "identify", "fit-lambda": "identify", "recorded-lambda": "recorded",
+    "tables": "identify",
     "calibrate": "calibrate", "bench": "bench",
 }
 
@@ -26,6 +27,7 @@ HELP = {
     "archive": "verify, finalize and list a campaign folder of trial files",
     "identify": "identify m* (eq 10) and e (eq 12) of trial files from their measured channels",
     "fit-lambda": "fit the Virtual Rotor Inertia lambda per gain class over an archive's fixed-base trials",
+    "recorded-lambda": "what recorded hits' poses determine of lambda, and one session's fit predicting another",
     "tables": "write Tables 2-4 (CSV and Markdown) from an archive, beside the paper's values",
     "calibrate": "fit unpublished rig parameters to the paper's fixed-base observations",
     "bench": "work-precision / per-trial cost benchmark and the numerical stress suite",

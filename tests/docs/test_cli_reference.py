@@ -148,6 +148,10 @@ RUN_BY_TEST: dict[str, RunBy] = {
     "campaign design --prior high=2.34,3.55,3.19": RunBy(
         "tests/design/test_design.py::test_design_at_a_fitted_prior_uses_it_for_its_class_only",
         "design --prior high=2.34,3.55,3.19"),
+    "campaign recorded-lambda hits.csv --robot seven_axis --fit config_1 --predict config_2": RunBy(
+        "tests/design/test_recorded.py::test_recorded_lambda_cli_reports_and_writes_json",
+        "recorded-lambda * --robot * --fit config_1 --predict config_2",
+        {"hits": "the test writes synthetic per-hit rows of a seven-axis test arm with a known lambda"}),
     "campaign design --k 6 --repeat-information": RunBy(
         "tests/design/test_design.py::test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n",
         "design --k 6 --repeat-information"),
