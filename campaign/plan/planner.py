@@ -130,7 +130,7 @@ class ImpactPlanner:
         p = np.asarray(point, dtype=float)
         ik = position_branches(self.robot, p)
         if ik.n_branches == 0:
-            where = ", ".join(f"{x:.4g}" for x in np.ravel(p))
+            where = ", ".join(f"{x + 0.0:.4g}" for x in np.ravel(p))     # + 0.0: never "-0"
             if ik.reached_outside_limits:
                 raise InputError(f"point ({where}) m is reached only outside the joint limits")
             raise InputError(f"point ({where}) m is out of the arm's reach")
