@@ -84,10 +84,10 @@ def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], li
 
 def _check_listed_trial(path: Path, relpath: str, index: Path) -> None:
     """A trial ``index`` lists must be a regular file of its own cell: ValueError naming a FIFO,
-    socket, device, folder or missing file, or a link to another cell's trial (which would be
-    counted twice). Nothing is opened."""
+    socket, device or folder, or a link to another cell's trial (which would be counted
+    twice). Nothing is opened; a missing file is left to the archive's verification."""
     kind = not_regular(path)
-    if kind:
+    if kind and kind != "does not exist":
         raise ValueError(f"{path}: {kind} ({index} lists it as a trial)")
     if path.is_symlink():
         target = Path(os.path.realpath(path))
