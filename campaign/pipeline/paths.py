@@ -89,11 +89,10 @@ def _check_listed_trial(path: Path, relpath: str, index: Path) -> None:
     kind = not_regular(path)
     if kind and kind != "does not exist":
         raise ValueError(f"{path}: {kind} ({index} lists it as a trial)")
-    if path.is_symlink():
-        target = Path(os.path.realpath(path))
-        if target.parts[-len(Path(relpath).parts):] != Path(relpath).parts:
-            raise ValueError(f"{path}: is a symbolic link to {target}, another cell's trial "
-                             f"({index} lists it as {relpath})")
+    target = Path(os.path.realpath(path))     # the file itself or a folder above it may be a link
+    if not kind and target.parts[-len(Path(relpath).parts):] != Path(relpath).parts:
+        raise ValueError(f"{path}: resolves through a symbolic link to {target}, another cell's trial "
+                         f"({index} lists it as {relpath})")
 
 
 def reuse_results(results_root: str | os.PathLike, archive_dir: str | os.PathLike) -> str:

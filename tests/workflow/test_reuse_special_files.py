@@ -1,5 +1,5 @@
 """A reuse campaign (``simulate: false``) whose archive holds a FIFO, a socket or a symbolic
-link to another cell's trial in place of a trial its index lists: the workflow stops at
+link to another cell's trial (or folder) in place of a trial its index lists: the workflow stops at
 start-up within seconds, naming the file in one line, before any job, and writes nothing (no
 results folder; the archive as it was). A FIFO would hang a reader; the link would count the
 other cell's trial twice."""
@@ -25,6 +25,10 @@ TWIN = Path("fixed/config1/zero/v1.500/r00.nc")
 
 
 def _make(path: Path, kind: str) -> None:
+    if kind == "linked folder":          # the speed's folder a link to the other speed's
+        shutil.rmtree(path.parent)
+        path.parent.symlink_to(TWIN.parent.name)
+        return
     path.unlink()
     if kind == "fifo":
         os.mkfifo(path)
@@ -46,7 +50,7 @@ def _tree(root: Path) -> dict[str, tuple]:
             for p in sorted(root.rglob("*"))}
 
 
-@pytest.mark.parametrize("kind", ["fifo", "socket", "symlink"])
+@pytest.mark.parametrize("kind", ["fifo", "socket", "symlink", "linked folder"])
 def test_a_reuse_archive_with_a_node_or_a_link_stops_at_start_up(tmp_path, kind):
     (tmp_path / "config").symlink_to(REPO / "config")
     archive = tmp_path / "archive" / "old"
@@ -63,8 +67,9 @@ def test_a_reuse_archive_with_a_node_or_a_link_stops_at_start_up(tmp_path, kind)
     victim = f"archive/old/{VICTIM}"
     lines = [line for line in said.splitlines() if line.startswith("configuration key reuse_archive:")]
     assert len(lines) == 1 and victim in lines[0], said
+    linked = f"resolves through a symbolic link to {(archive / TWIN).resolve()}, another cell's trial"
     expected = {"fifo": "is a FIFO, not a regular file", "socket": "is a socket, not a regular file",
-                "symlink": f"is a symbolic link to {(archive / TWIN).resolve()}, another cell's trial"}[kind]
+                "symlink": linked, "linked folder": linked}[kind]
     assert expected in lines[0], lines[0]
     assert "Traceback" not in said and "rule " not in said, said      # before any job
     assert _tree(tmp_path / "archive") == before
