@@ -224,3 +224,36 @@ def test_finalize_refuses_a_node_where_it_writes_before_writing(own_file, capsys
     assert all(not (root / other).exists() for other in others)
     assert (root / "README.md").stat().st_mtime_ns == readme
     assert not_regular(root / name) == EXPECTED[kind]   # left as it was
+
+
+@pytest.mark.parametrize("command", [["fit-lambda", "--bootstrap", "2"], ["tables", "--bootstrap", "2", "--out", "t"],
+                                     ["archive", "ls"]])
+@pytest.mark.parametrize("kind", ["fifo", "socket"])
+def test_a_node_in_place_of_the_index_is_named_by_every_reader(tmp_path, monkeypatch, capsys, alarm, command, kind):
+    """Not taken for a campaign not finalized (whose trials would then be read at the layout)."""
+    name, root = "index.csv", Path("arch")
+    shutil.copytree(REFERENCE, tmp_path / root)
+    make_special(tmp_path / root / name, kind)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    status, out, err = _run([*command, root], capsys)
+    assert status == 2 and out == "", (out, err)
+    assert err.splitlines() == [f"campaign {command[0]}: error: {root / name}: {EXPECTED[kind]}; "
+                                "a campaign's index must be a regular file"], err
+    assert not Path("t").exists()
+
+
+@pytest.mark.parametrize("command", [["fit-lambda", "--bootstrap", "2"], ["tables", "--bootstrap", "2", "--out", "t"]])
+def test_a_linked_speed_folder_is_not_counted_twice(tmp_path, monkeypatch, capsys, alarm, command):
+    """``v2.500`` a link to the ``v1.500`` folder: its trial is the other speed's, misfiled."""
+    root = tmp_path / "arch"
+    shutil.copytree(REFERENCE, root)
+    shutil.rmtree(root / VICTIM.parent)
+    (root / VICTIM.parent).symlink_to(TWIN.parent.name)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    status, out, err = _run([*command, "arch"], capsys)
+    assert status == 2 and out == "", (out, err)
+    assert err.splitlines() == [f"campaign {command[0]}: error: arch/{VICTIM}: misfiled: its attributes place it "
+                                f"at arch/{TWIN} (speed: v2.500 in the path, v1.500 in the file)"], err
+    assert not Path("t").exists()
