@@ -20,6 +20,8 @@ import pytest
 from test_bad_inputs import TRIAL, refused  # noqa: F401  (refused: the shared fixture)
 
 from campaign.cli.main import main
+from campaign.core.errors import InputError
+from campaign.plan.grid import grid_points
 
 POINT = "-0.6,-0.15,-0.15"       # a point the arm reaches with two branches
 
@@ -168,3 +170,14 @@ def test_the_weights_are_taken_with_the_weighted_objective(capsys):
     assert doc["weights"] == [1.0, 0.0, 0.0]
     impulses = [r["impulse"] for r in doc["candidates"]]
     assert impulses == sorted(impulses)          # weight on the impulse alone: ranked by it
+
+
+def test_a_coarse_map_grid_is_refused_by_the_key_that_set_it():
+    """The workflow's start-up check of plan_maps.resolution names its key, as --resolution."""
+    with pytest.raises(InputError, match=r"^configuration key plan_maps.resolution = 0.6 m gives a workspace grid "
+                                         r"of 4 x 4 points, fewer than the 5 a side this map samples at least "
+                                         r"\(a step of at most 0.5 m"):
+        grid_points(0.6, key="configuration key plan_maps.resolution")
+    assert grid_points(0.5) == 25            # the coarsest step the map takes: 5 x 5
+    with pytest.raises(InputError, match="fewer than the 5 a side"):
+        grid_points(0.1, (0.0, 0.3), (0.0, 1.0))    # a narrow range: 4 points along x
