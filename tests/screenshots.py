@@ -9,8 +9,10 @@ checked and photographed.
   file's path), the format a toggle and not a column, and the item a row opens by default an
   image or a page, never a PDF (Chromium shows a PDF in the report's frame as a blank pane);
   the workflow description and the captions run no sentence into the next ("ci.The");
-* checks every table page at a narrow width: a table wider than the frame scrolls in its own
-  box, the page itself is not wider than the frame;
+* checks every table page of the report's campaign (the pages beside the report:
+  ``results/full/*/*.html`` for ``--report results/full/report.html``; ``results/ci`` for the
+  report it builds) at a narrow width: a table wider than the frame scrolls in its own box,
+  the page itself is not wider than the frame;
 * checks the guide pages it shows for a heading underline left as text;
 * saves a PNG of each view into ``build/screenshots/`` (git-ignored), for a person to look at.
 
@@ -206,18 +208,27 @@ def check_report(browser: str, report: Path, out: Path) -> list[tuple[str, bool,
     return results
 
 
-def check_tables(browser: str, out: Path) -> list[tuple[str, bool, str]]:
-    """Each table page of the reduced campaign at a narrow width: no page wider than its frame."""
+def table_pages(report: Path | None) -> tuple[Path, list[Path]]:
+    """(folder, its table pages): those of the campaign whose report is ``report``, the pages
+    beside it (``results/<campaign>/*/*.html`` for ``results/<campaign>/report.html``), or,
+    with no report given, those of the reduced campaign this script builds (``results/ci``)."""
+    folder = REPO / "results" / "ci" if report is None else Path(report).resolve().parent
+    return folder, sorted(folder.glob("*/*.html"))
+
+
+def check_tables(browser: str, out: Path, report: Path | None = None) -> list[tuple[str, bool, str]]:
+    """Each table page of the campaign of ``report`` (default the reduced campaign) at a narrow
+    width: no page wider than its frame."""
     results = []
-    pages = sorted((REPO / "results" / "ci").glob("*/*.html"))
+    folder, pages = table_pages(report)
     for page in pages:
-        copy = _with_script(page, _TABLE_JS, out / f"check-{page.stem}.html")
+        copy = _with_script(page, _TABLE_JS, out / f"check-{page.parent.name}-{page.stem}.html")
         found = _checks_in(chromium(browser, copy.as_uri(), size=(600, 800)))
         m = found[0] if found else {}
         ok = bool(m) and m["scroll"] <= m["width"] and m["boxes"] == m["tables"]
-        results.append((f"a wide table scrolls in its own box: {page.relative_to(REPO)}", ok, json.dumps(m)))
+        results.append((f"a wide table scrolls in its own box: {page}", ok, json.dumps(m)))
     if not pages:
-        results.append(("table pages found", False, "no results/ci/*/*.html"))
+        results.append(("table pages found", False, f"no {folder}/*/*.html"))
     return results
 
 
@@ -256,7 +267,7 @@ def main(argv: list[str] | None = None) -> int:
     report = args.report.resolve() if args.report else args.out / "report.html"
     if not (args.skip_build or args.report):
         build(report=report)
-    results = (check_report(browser, report, args.out) + check_tables(browser, args.out)
+    results = (check_report(browser, report, args.out) + check_tables(browser, args.out, args.report)
                + photograph(browser, report, REPO / "docs" / "_build" / "html", args.out))
     for name, ok, detail in results:
         print(f"{'ok  ' if ok else 'FAIL'} {name}" + ("" if ok or not detail else f": {detail}"))

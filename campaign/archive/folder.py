@@ -14,7 +14,7 @@ import h5py
 import numpy as np
 
 from ..core.errors import InputError, TrialFileError
-from ..core.files import check_regular_file
+from ..core.files import check_regular_file, not_regular, open_regular
 from ..core.lazy import LazyModule
 from ..core.progress import progress
 from ..core.vocabulary import bases, gain_sets
@@ -162,9 +162,12 @@ def trial_files(campaign_dir: str | os.PathLike) -> list[Path]:
     if not root.is_dir():
         raise TrialFileError(f"{root}: not an archive folder")
     index = root / INDEX
-    if index.is_file():
+    kind = not_regular(index)
+    if kind and kind != "does not exist":     # never taken for "not finalized": say what it is
+        raise TrialFileError(f"{index}: {kind}; a campaign's index must be a regular file")
+    if not kind:
         try:
-            with open(index, newline="", encoding="utf-8") as fh:
+            with open_regular(index, "r", error=TrialFileError, newline="", encoding="utf-8") as fh:
                 return _readable_trials([root / row["path"] for row in csv.DictReader(fh)], listed=True)
         except (KeyError, csv.Error, UnicodeDecodeError) as exc:
             raise TrialFileError(f"{index}: unreadable ({exc})") from None

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, Iterable, Sequence
 
 from ..core.errors import InputError, TrialFileError
-from ..core.files import not_regular, sha256_file
+from ..core.files import not_regular, open_regular, sha256_file
 from ..core.progress import progress
 from ..core.vocabulary import bases
 from ..scene.schema import CLOCKS, COORDS, MEASURED, SCHEMA_VERSION, TRUTH
@@ -278,9 +278,14 @@ def finalize_campaign(campaign_dir: str | os.PathLike, *,
         same content, or (with job manifests) a file changed since its job wrote it or no
         job wrote it; every such file is named.
     InputError
-        Not a campaign folder, or a leftover temporary file of an interrupted write.
+        Not a campaign folder, a leftover temporary file of an interrupted write, or a
+        folder, FIFO, socket or device where the index, README or manifest goes.
     """
     campaign = campaign_folder(campaign_dir)
+    for name in (INDEX, README, MANIFEST):
+        kind = not_regular(campaign / name)
+        if kind and kind != "does not exist":     # refused before any file is written
+            raise InputError(f"{campaign / name}: {kind}; finalizing writes a file there")
     for file in _all_files(campaign):
         if TEMP_FILE_RE.match(file.name):
             raise InputError(f"{file} is a temporary file of an interrupted write: delete it "
@@ -349,34 +354,13 @@ def verify_report(campaign_dir: str | os.PathLike) -> Verification:
         Not a campaign folder.
     """
     campaign = campaign_folder(campaign_dir)
-    problems: list[Problem] = []
-    listed: dict[str, str] = {}
-    manifest = campaign / MANIFEST
-    if not manifest.is_file():
-        problems.append(Problem(MANIFEST, "missing: the campaign is not finalized (campaign archive finalize)"))
-    else:
-        for n, line in enumerate(manifest.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
-            m = _MANIFEST_LINE.match(line)
-            if not m:
-                problems.append(Problem(MANIFEST, f"line {n} is not '<sha256>  <path>': {line[:80]!r}"))
-                continue
-            rel = m.group(2)
-            if rel.startswith("/") or ".." in Path(rel).parts:
-                problems.append(Problem(MANIFEST, f"line {n} names a path outside the campaign: {rel!r}"))
-                continue
-            listed[rel] = m.group(1)
-        for rel, digest in progress(listed.items(), desc="sha256", unit="file"):
-            file = campaign / rel
-            kind = not_regular(file)
-            if kind:
-                problems.append(Problem(rel, f"listed in {MANIFEST} but missing" if kind == "does not exist" else kind))
-            elif sha256_file(file) != digest:
-                problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
+    problems, listed = _manifest_problems(campaign)
+    finalized = not_regular(campaign / MANIFEST) is None
     on_disk = {relative_name(campaign, f) for f in _all_files(campaign)}
     for rel in sorted(on_disk - set(listed)):
         if TEMP_FILE_RE.match(Path(rel).name):
             problems.append(Problem(rel, "temporary file of an interrupted write (delete it)"))
-        elif manifest.is_file():
+        elif finalized:
             problems.append(Problem(rel, f"not in {MANIFEST}"))
     trials = [relative_name(campaign, f) for f in layout_trial_files(campaign)]
     for rel, found in zip(trials, inspect_isolated_many([campaign / rel for rel in trials])):
@@ -388,29 +372,71 @@ def verify_report(campaign_dir: str | os.PathLike) -> Verification:
         except TrialFileError:
             pass  # reported by the inspection above
     readable = [_filing_record(r) for r in records]
-    index = campaign / INDEX
-    rows = None
-    if index.is_file():
-        try:
-            with open(index, newline="", encoding="utf-8") as fh:
-                rows = list(csv.DictReader(fh))
-            indexed = {row["path"] for row in rows}
-        except (KeyError, csv.Error, UnicodeDecodeError) as exc:
-            problems.append(Problem(INDEX, f"unreadable: {exc}"))
-            rows = None
-        else:
-            for rel in sorted(indexed - set(trials)):
-                problems.append(Problem(INDEX, f"lists {rel}, which is not a trial file of this campaign"))
-            for rel in sorted(set(trials) - indexed):
-                problems.append(Problem(rel, f"trial file not listed in {INDEX}"))
-    elif manifest.is_file():
-        problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
+    rows = _index_rows(campaign, trials, problems, finalized=finalized)
     problems += [Problem(rel, message) for rel, message in filing_problems(campaign, readable, rows)]
     known = {group_digests(campaign / r["path"]): r["path"] for r in readable}
     problems += [Problem(rel, message) for rel, message in outside_problems(campaign, known)]
+    problems = list(dict.fromkeys(problems))     # a file found twice (listed, and a trial) is named once
     platforms = collections.Counter(r.computing_platform for r in records)
     order = sorted(platforms.items(), key=lambda item: (item[0] == NOT_RECORDED, -item[1], item[0]))
     return Verification(problems, dict(order))
+
+
+def _manifest_problems(campaign: Path) -> tuple[list[Problem], dict[str, str]]:
+    """The problems of the manifest and of the files it lists, and what it lists ``{path: sha256}``."""
+    problems: list[Problem] = []
+    listed: dict[str, str] = {}
+    manifest = campaign / MANIFEST
+    kind = not_regular(manifest)
+    if kind == "does not exist":
+        return [Problem(MANIFEST, "missing: the campaign is not finalized (campaign archive finalize)")], listed
+    if kind:
+        return [Problem(MANIFEST, f"{kind}; the manifest cannot be read, so no file is checked against it")], listed
+    with open_regular(manifest, "r", error=TrialFileError, encoding="utf-8", errors="replace") as fh:
+        text = fh.read()
+    for n, line in enumerate(text.splitlines(), 1):
+        m = _MANIFEST_LINE.match(line)
+        if not m:
+            problems.append(Problem(MANIFEST, f"line {n} is not '<sha256>  <path>': {line[:80]!r}"))
+            continue
+        rel = m.group(2)
+        if rel.startswith("/") or ".." in Path(rel).parts:
+            problems.append(Problem(MANIFEST, f"line {n} names a path outside the campaign: {rel!r}"))
+            continue
+        listed[rel] = m.group(1)
+    for rel, digest in progress(listed.items(), desc="sha256", unit="file"):
+        file = campaign / rel
+        kind = not_regular(file)
+        if kind:
+            problems.append(Problem(rel, f"listed in {MANIFEST} but missing" if kind == "does not exist" else kind))
+        elif sha256_file(file) != digest:
+            problems.append(Problem(rel, f"sha256 differs from {MANIFEST} (altered, corrupt or truncated)"))
+    return problems, listed
+
+
+def _index_rows(campaign: Path, trials: list[str], problems: list[Problem], *, finalized: bool):
+    """The rows of the campaign's index (None when it cannot be read); its problems appended to ``problems``."""
+    index = campaign / INDEX
+    kind = not_regular(index)
+    if kind == "does not exist":
+        if finalized:
+            problems.append(Problem(INDEX, "missing (campaign archive finalize writes it)"))
+        return None
+    if kind:
+        problems.append(Problem(INDEX, kind))     # as the manifest's check names it: once
+        return None
+    try:
+        with open_regular(index, "r", error=TrialFileError, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+        indexed = {row["path"] for row in rows}
+    except (KeyError, csv.Error, UnicodeDecodeError, TrialFileError) as exc:
+        problems.append(Problem(INDEX, f"unreadable: {exc}"))
+        return None
+    for rel in sorted(indexed - set(trials)):
+        problems.append(Problem(INDEX, f"lists {rel}, which is not a trial file of this campaign"))
+    for rel in sorted(set(trials) - indexed):
+        problems.append(Problem(rel, f"trial file not listed in {INDEX}"))
+    return rows
 
 
 def _filing_record(rec: TrialRecord) -> dict[str, Any]:

@@ -81,6 +81,10 @@ def run(args) -> int:
         raise InputError(f"--k {args.k}: must be >= 1")
     if args.repeats < 1:
         raise InputError(f"--repeats {args.repeats}: must be >= 1")
+    if args.seed < 0:
+        raise InputError(f"--seed {args.seed}: the seed of the random candidates must be an integer >= 0")
+    if args.n_random < 1:
+        raise InputError(f"--n-random {args.n_random}: must be >= 1")
 
     priors = dict(load_paper()["table3"])
     for text in args.prior:

@@ -12,6 +12,7 @@ Examples
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 from ..core.errors import InputError
@@ -21,6 +22,7 @@ from ..model.conventions import angle_count
 from ..model.paper import impact_direction, load_paper
 from ..model.robot import load_robot
 from ..plan.factory import check_model_domain, planner_model
+from ..plan.grid import grid_points
 from ..report.figures import plan_maps
 from ..scene.description import rig_values
 from .args import parse_named_lambdas, parse_vector
@@ -28,6 +30,9 @@ from .commands import HELP
 from .plan import check_structure
 
 __all__ = ["register", "run"]
+
+#: the workspace map's grid step when --resolution is not given [m]
+DEFAULT_RESOLUTION = 0.05
 
 
 DESCRIPTION = """\
@@ -63,16 +68,30 @@ def register(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--fit", action="append", default=[], metavar="JSON", help="campaign lambda fit; repeatable")
     p.add_argument("--lambda", dest="lambdas", action="append", default=[], metavar="NAME=L1,L2,L3",
                    help="a gain class and its diagonal lambda [kg m^2]; repeatable")
-    p.add_argument("--resolution", type=float, default=0.05, help="workspace grid step [m] (default 0.05)")
+    p.add_argument("--resolution", type=float, default=None,
+                   help=f"workspace grid step [m] (default {DEFAULT_RESOLUTION}; at most 0.5, for 5 points a side)")
     p.add_argument("--y", type=float, default=None, help="plane of the workspace map, y [m] (default: the paper's)")
-    p.add_argument("--config", default="1", help="paper configuration of the direction map (default 1)")
-    p.add_argument("--q", metavar="Q1,Q2,Q3", default=None,
-                   help="pose of the direction map, paper angles [deg] (instead of --config)")
+    pose = p.add_mutually_exclusive_group()
+    pose.add_argument("--config", default=None, help="paper configuration of the direction map (default 1)")
+    pose.add_argument("--q", metavar="Q1,Q2,Q3", default=None,
+                      help="pose of the direction map, paper angles [deg] (instead of --config)")
     p.add_argument("--structure", metavar="NAME", default=None,
                    help="a named structure of the rig file (flexible base; default the file's own)")
     p.add_argument("--rig", metavar="YAML", default=None, help="rig parameter file (default config/rig.yaml)")
     p.set_defaults(func=run)
     return p
+
+
+def _check_kind_options(args) -> None:
+    """An option of the other map is refused, not ignored."""
+    other = (("--config", args.config), ("--q", args.q)) if args.kind == "workspace" else \
+        (("--resolution", args.resolution), ("--y", args.y))
+    given = [f"{option} {value:g}" if isinstance(value, float) else f"{option} {value}"
+             for option, value in other if value is not None]
+    if given:
+        mine = "the workspace map's" if args.kind == "directions" else "the direction map's"
+        raise InputError(f"{', '.join(given)}: {'is' if len(given) == 1 else 'are'} {mine}; "
+                         f"map {args.kind} takes no {' or '.join(o for o, v in other if v is not None)}")
 
 
 def run(args) -> int:
@@ -83,8 +102,14 @@ def run(args) -> int:
     pdf = out.with_suffix(".pdf")
     check_output_file(args.out, option="--out")     # as typed: a trailing slash names a folder
     check_output_file(pdf, option="--out's PDF")
-    if not (args.resolution > 0):
-        raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")
+    _check_kind_options(args)
+    resolution = DEFAULT_RESOLUTION if args.resolution is None else args.resolution
+    if args.resolution is not None:
+        if not (math.isfinite(args.resolution) and args.resolution > 0):
+            raise InputError(f"--resolution {args.resolution:g}: must be a finite step > 0 m")
+        grid_points(args.resolution, key="--resolution")
+    if args.y is not None and not math.isfinite(args.y):
+        raise InputError(f"--y {args.y}: the plane of the workspace map must be a finite y [m]")
     check_structure(args)
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
@@ -93,7 +118,7 @@ def run(args) -> int:
         check_model_domain(model, base=args.base, speed=plan_maps.MAP_SPEED, directions=impact_direction()[None],
                            structure=args.structure, rig=args.rig)
     if args.kind == "workspace":
-        line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, model=model, rig=args.rig, resolution=args.resolution,
+        line = plan_maps.make_workspace(out, pdf, lambdas=lambdas, model=model, rig=args.rig, resolution=resolution,
                                         base=args.base, y=args.y, structure=args.structure)
     else:
         q = None
@@ -103,9 +128,10 @@ def run(args) -> int:
             q = robot.q_from_angles(parse_vector(args.q, option="--q", size=robot.nv, units="deg"), what=f"--q {args.q}")
         else:
             table = load_paper()["configurations"]
-            if not args.config.isdigit() or int(args.config) not in table:
+            text = "1" if args.config is None else args.config.strip()
+            if not (text.isascii() and text.isdigit()) or int(text) not in table:
                 raise InputError(f"--config {args.config}: unknown configuration; known: {sorted(table)}")
-            config = int(args.config)
+            config = int(text)
         line = plan_maps.make_directions(out, pdf, lambdas=lambdas, model=model, rig=args.rig, config=config, q=q,
                                          base=args.base, structure=args.structure)
     print(f"wrote {out} and {pdf}: {line}")

@@ -31,6 +31,7 @@ import numpy as np
 from ..core.errors import InputError
 from ..core.vocabulary import FIXED, FLEXIBLE, bases, gain_sets
 from ..model.conventions import configurations
+from ..model.exiit import unit_direction
 from ..model.paper import impact_direction, load_paper
 from ..model.robot import load_robot
 from ..model.table2 import table2_column_classes, table2_rows
@@ -174,10 +175,9 @@ def _direction(args) -> list[float]:
     if args.direction is None:
         return impact_direction().tolist()
     n = np.asarray(parse_vector(args.direction, option="--direction", size=3))
-    norm = float(np.linalg.norm(n))
-    if norm == 0.0:
+    if not np.any(n):
         raise InputError(f"--direction {args.direction}: the zero vector has no direction")
-    return (n / norm).tolist()
+    return unit_direction(n).tolist()
 
 
 # -- output -----------------------------------------------------------------------------

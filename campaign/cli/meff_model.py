@@ -97,6 +97,11 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
     setting = Setting.from_rig(structure=args.structure)
     path = args.model or shipped_model_path()
     shown = display_path(path) + (" (shipped)" if not args.model else "")
+    if robot.name != setting.robot.name:
+        # a response model predicts for the robot of the rig it was fitted on, never another
+        raise InputError(f"--robot {args.robot}: --model {shown} predicts for the rig's robot "
+                         f"{setting.robot.name!r} (config/rig.yaml), not {robot.name!r}; give no --robot, "
+                         "or use eq 11 without --model")
     model = load_model(path, setting=setting)
     base = args.base or FIXED
     mass = setting.hammer_mass if args.mass is None else float(args.mass)

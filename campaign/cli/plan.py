@@ -20,13 +20,13 @@ import sys
 
 import numpy as np
 
-from ..core.errors import InputError
+from ..core.errors import InputError, SimulationError
 from ..core.vocabulary import FIXED, FLEXIBLE, bases
 from ..joints.modelfile import shipped_model_path
 from ..joints.setting import display_path
 from ..model.conventions import angle_count
 from ..model.paper import impact_direction
-from ..plan.directions import cone_directions, horizontal_directions
+from ..plan.directions import cone_directions, horizontal_directions, unit_directions
 from ..plan.factory import build_planner, check_model_domain, planner_model
 from ..plan.prediction import check_object
 from ..scene.description import load_structures, rig_values
@@ -126,9 +126,9 @@ def register(subparsers) -> argparse.ArgumentParser:
                    help="a gain class and its diagonal lambda [kg m^2]; repeatable")
     p.add_argument("--objective", choices=("impulse", "force", "displacement", "weighted"), default="impulse",
                    help="what the ranking minimises (displacement needs --base flexible; default impulse)")
-    p.add_argument("--weights", metavar="WI,WF,WD", default="1,1,1",
+    p.add_argument("--weights", metavar="WI,WF,WD", default=None,
                    help="weights of impulse, peak force, displacement in the weighted objective, each over "
-                        "its largest candidate value (default 1,1,1)")
+                        "its largest candidate value (with --objective weighted only; default 1,1,1)")
     p.add_argument("--top", type=int, default=20, help="candidates printed (0: all; default 20)")
     p.add_argument("--rig", metavar="YAML", default=None, help="rig parameter file (default config/rig.yaml)")
     p.add_argument("--json", action="store_true", help="print one JSON object with every candidate")
@@ -148,14 +148,14 @@ def _directions(args):
         count = 9 if args.count is None else args.count
         if count < 1:
             raise InputError(f"--count {count}: need at least 1 direction")
-        if np.linalg.norm(v[:3]) == 0.0:
+        if not any(v[:3]):
             raise InputError(f"--cone {args.cone}: the zero vector has no direction")
         return cone_directions(v[:3], v[3], count)
     if args.direction is not None:
         n = np.asarray(parse_vector(args.direction, option="--direction", size=3))
-        if np.linalg.norm(n) == 0.0:
+        if not np.any(n):
             raise InputError(f"--direction {args.direction}: the zero vector has no direction")
-        return n[None] / np.linalg.norm(n)
+        return unit_directions(n)
     return impact_direction()[None]
 
 
@@ -201,7 +201,10 @@ def run(args) -> int:
         raise InputError(f"--mass {args.mass:g}: the object mass must be > 0 kg")
     if args.top < 0:
         raise InputError(f"--top {args.top}: must be >= 0")
-    weights = parse_vector(args.weights, option="--weights", size=3)
+    if args.weights is not None and args.objective != "weighted":
+        raise InputError(f"--weights {args.weights}: weigh the weighted objective only; give --objective weighted "
+                         f"too (the ranking is by {args.objective})")
+    weights = parse_vector("1,1,1" if args.weights is None else args.weights, option="--weights", size=3)
     if args.objective == "displacement" and args.base != FLEXIBLE:
         raise InputError("--objective displacement needs --base flexible (a fixed base has no structure)")
     check_structure(args)
@@ -222,7 +225,11 @@ def run(args) -> int:
         if outside:
             print("campaign plan: warning: extrapolating outside the model's domain: "
                   + "; ".join(x.message for x in outside) + "; its predictions there are unchecked", file=sys.stderr)
-    planner.fit(point, dirs)
+    try:
+        planner.fit(point, dirs)
+    except SimulationError as exc:       # the contact model has no answer for this object: name it
+        raise InputError(f"--mass {planner.mass:g} kg at --speed {planner.speed:g} m/s: the planner's contact "
+                         f"model cannot predict this impact ({exc})") from None
     rows = planner.rows()
     if args.json:
         print(json.dumps({

@@ -12,12 +12,14 @@ also refuses a pose whose servo would be unstable.
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..core.errors import InputError
+from ..core.files import check_regular_file, open_regular
 from ..core.vocabulary import FIXED
 from ..model.exiit import effective_mass
 from ..model.paper import impact_direction, load_paper, paper_offset_deg, paper_q
@@ -67,24 +69,28 @@ def random_candidates(n: int, *, robot, seed: int = 0) -> tuple[np.ndarray, np.n
 def read_candidates(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """Candidates from a CSV with columns ``q1,q2,q3`` (paper degrees) and either ``azimuth``
     (deg from -x about +z) or ``nx,ny,nz``; each direction is checked (horizontal, unit)."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"candidate file {path} does not exist")
+    path = check_regular_file(path, what="candidate file")
     Q, D = [], []
-    with open(path, newline="", encoding="utf-8") as fh:
-        reader = csv.DictReader(fh)
-        cols = set(reader.fieldnames or ())
-        if not {"q1", "q2", "q3"} <= cols or not ({"azimuth"} <= cols or {"nx", "ny", "nz"} <= cols):
-            raise InputError(f"{path}: needs columns q1,q2,q3 and azimuth or nx,ny,nz; has {sorted(cols)}")
-        for line, row in enumerate(reader, 2):
-            try:
-                Q.append([float(row[k]) for k in ("q1", "q2", "q3")])
-                if "azimuth" in cols and row.get("azimuth", "") != "":
-                    D.append(_directions_from([float(row["azimuth"])])[0])
-                else:
-                    D.append(check_direction([float(row[k]) for k in ("nx", "ny", "nz")]))
-            except (ValueError, InputError) as exc:
-                raise InputError(f"{path}, line {line}: {exc}") from None
+    with open_regular(path, "rb", what="candidate file") as fh:
+        raw = fh.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"candidate file {path}: not a CSV table (not UTF-8 text: {exc.reason} at byte "
+                         f"{exc.start})") from None
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    cols = set(reader.fieldnames or ())
+    if not {"q1", "q2", "q3"} <= cols or not ({"azimuth"} <= cols or {"nx", "ny", "nz"} <= cols):
+        raise InputError(f"{path}: needs columns q1,q2,q3 and azimuth or nx,ny,nz; has {sorted(cols)}")
+    for line, row in enumerate(reader, 2):
+        try:
+            Q.append([float(row[k]) for k in ("q1", "q2", "q3")])
+            if "azimuth" in cols and row.get("azimuth", "") != "":
+                D.append(_directions_from([float(row["azimuth"])])[0])
+            else:
+                D.append(check_direction([float(row[k]) for k in ("nx", "ny", "nz")]))
+        except (ValueError, InputError) as exc:
+            raise InputError(f"{path}, line {line}: {exc}") from None
     if not Q:
         raise InputError(f"{path} lists no candidate")
     return np.array(Q, float), np.array(D, float)

@@ -24,6 +24,7 @@ import numpy as np
 
 from ..archive import open_trial_arrays
 from ..core.errors import InputError
+from ..core.files import check_regular_file
 from ..core.vocabulary import FIXED
 from ..core.yamlfile import PROJECT_DIR
 from ..identify.table import read_identification
@@ -115,9 +116,13 @@ def calibrate_error_model(ident_tables: Sequence[str | Path] | None = None, *,
         ident_tables = [root / "reference.identification.csv"]
         archive_dir = root / "reference" if archive_dir is None else archive_dir
     for t in ident_tables:
-        if not Path(t).is_file():
-            raise InputError(f"identification table {t} does not exist (the error model is calibrated from it)")
-    rows = [r for r in read_identification(ident_tables) if r["base"] == FIXED and not r["excluded"]]
+        check_regular_file(t, what="identification table")
+    try:
+        rows = [r for r in read_identification(ident_tables) if r["base"] == FIXED and not r["excluded"]]
+    except UnicodeDecodeError as exc:        # a trial file, a figure: not a CSV at all
+        names = ", ".join(str(t) for t in ident_tables)
+        raise InputError(f"identification table {names}: not a CSV table (not UTF-8 text: {exc.reason} at byte "
+                         f"{exc.start})") from None
     mi, mt, mb, v = [], [], [], []
     for r in rows:
         path = Path(r["path"])

@@ -73,10 +73,11 @@ def unit_direction(n) -> np.ndarray:
     arr = np.asarray(n, dtype=float)
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"direction must be 3 finite numbers, got {np.asarray(n).tolist()}")
-    norm = np.linalg.norm(arr)
-    if norm == 0:
+    scale = np.abs(arr).max()        # scaled first: a norm of 1e308 or 1e-320 parts would over- or underflow
+    if scale == 0:
         raise ValueError(f"direction {arr.tolist()} is the zero vector")
-    return arr / norm
+    arr = arr / scale
+    return arr / np.linalg.norm(arr)
 
 
 def inertia(model: pin.Model, data: pin.Data, q) -> np.ndarray:

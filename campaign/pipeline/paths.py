@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..core.errors import InputError
+from ..core.files import not_regular, open_regular
 from ..core.vocabulary import TRIAL_SUFFIX, cell_dir, trial_relpath
 
 __all__ = ["cell_trials", "find_cell_trials", "index_cells", "REUSE_PREFIX", "VERIFY_FILE", "reuse_results",
@@ -59,10 +60,10 @@ def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], li
         give (named), or an index without trials.
     """
     index = Path(archive_dir) / "index.csv"
-    if not index.is_file():
+    if not_regular(index) == "does not exist":
         raise FileNotFoundError(f"{archive_dir}: no index.csv (finalize it first: campaign archive finalize {archive_dir})")
     cells: dict[tuple[str, int, str], list[tuple[float, int, str]]] = {}
-    with open(index, newline="", encoding="utf-8") as fh:
+    with open_regular(index, "r", error=ValueError, newline="", encoding="utf-8") as fh:
         for n, row in enumerate(csv.DictReader(fh), start=2):
             try:
                 base, config, gain = row["base"], int(row["config"]), row["gain"]
@@ -73,11 +74,25 @@ def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], li
             if row["path"] != expected:
                 raise ValueError(f"{index}, line {n}: path {row['path']} contradicts its row "
                                  f"(base, config, gain, speed, repeat give {expected})")
+            _check_listed_trial(Path(archive_dir) / expected, expected, index)
             cells.setdefault((base, config, gain), []).append((speed, repeat, str(Path(archive_dir) / expected)))
     if not cells:
         raise ValueError(f"{index}: lists no trial")
     return {cell: [p for _, _, p in sorted(rows)] for cell, rows in sorted(cells.items())}
 
+
+
+def _check_listed_trial(path: Path, relpath: str, index: Path) -> None:
+    """A trial ``index`` lists must be a regular file of its own cell: ValueError naming a FIFO,
+    socket, device or folder, or a link to another cell's trial (which would be counted
+    twice). Nothing is opened; a missing file is left to the archive's verification."""
+    kind = not_regular(path)
+    if kind and kind != "does not exist":
+        raise ValueError(f"{path}: {kind} ({index} lists it as a trial)")
+    target = Path(os.path.realpath(path))     # the file itself or a folder above it may be a link
+    if not kind and target.parts[-len(Path(relpath).parts):] != Path(relpath).parts:
+        raise ValueError(f"{path}: resolves through a symbolic link to {target}, another cell's trial "
+                         f"({index} lists it as {relpath})")
 
 
 def reuse_results(results_root: str | os.PathLike, archive_dir: str | os.PathLike) -> str:

@@ -139,7 +139,8 @@ def compression_mass(H, J, n, kp, damping, *, contact, mass: float, speed: float
     for _ in range(max_iter):
         mu = m * mass / (m + mass)
         h = frac * contact.duration(mu, speed) / K
-        m_new = 1.0 / tip(h)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):    # checked on the next line
+            m_new = 1.0 / tip(h)
         if not np.all(np.isfinite(m_new) & (m_new > 0)):
             raise SimulationError("the arm's apparent mass over the compression is not finite and positive")
         done = np.max(np.abs(m_new - m) / m_new) <= tol

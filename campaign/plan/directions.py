@@ -23,11 +23,12 @@ def unit_directions(directions) -> np.ndarray:
     n = np.atleast_2d(np.asarray(directions, dtype=float))
     if n.ndim != 2 or n.shape[1] != 3 or not np.all(np.isfinite(n)):
         raise InputError(f"directions must be finite 3-vectors, got shape {np.shape(directions)}")
-    norm = np.linalg.norm(n, axis=1)
-    if np.any(norm == 0.0):
-        i = int(np.flatnonzero(norm == 0.0)[0])
+    scale = np.abs(n).max(axis=1)    # scaled first: a norm of 1e308 or 1e-320 parts would over- or underflow
+    if np.any(scale == 0.0):
+        i = int(np.flatnonzero(scale == 0.0)[0])
         raise InputError(f"direction {n[i].tolist()} is the zero vector")
-    return n / norm[:, None]
+    n = n / scale[:, None]
+    return n / np.linalg.norm(n, axis=1)[:, None]
 
 
 def horizontal_directions(count: int, *, start_deg: float = 180.0) -> np.ndarray:

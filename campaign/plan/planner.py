@@ -116,6 +116,9 @@ class ImpactPlanner:
         w = np.asarray(self.weights, dtype=float)
         if w.shape != (3,) or not np.all(np.isfinite(w)) or np.any(w < 0) or not np.any(w > 0):
             raise InputError(f"weights = {np.asarray(self.weights).tolist()} must be 3 values >= 0, not all zero")
+        if self.objective == "weighted" and self.beam is None and not np.any(w[:2] > 0):
+            raise InputError(f"weights = {w.tolist()} weigh only the displacement, which a fixed base has not "
+                             "(give the impulse or the peak force a weight, or --base flexible)")
         e = self.restitution if self.contact_restitution is None else self.contact_restitution
         return ContactLaw(float(self.contact_stiffness), float(self.contact_exponent), float(e)), w
 
@@ -130,7 +133,7 @@ class ImpactPlanner:
         p = np.asarray(point, dtype=float)
         ik = position_branches(self.robot, p)
         if ik.n_branches == 0:
-            where = ", ".join(f"{x:.4g}" for x in np.ravel(p))
+            where = ", ".join(f"{x + 0.0:.4g}" for x in np.ravel(p))     # + 0.0: never "-0"
             if ik.reached_outside_limits:
                 raise InputError(f"point ({where}) m is reached only outside the joint limits")
             raise InputError(f"point ({where}) m is out of the arm's reach")
@@ -168,7 +171,7 @@ class ImpactPlanner:
             return pred.structure_peak.copy()
         parts = [pred.impulse, pred.peak_force] + ([pred.structure_peak] if pred.structure_peak is not None else [])
         score = np.zeros(pred.impulse.shape)
-        for wk, x in zip(w, parts, strict=True):
+        for wk, x in zip(w[:len(parts)], parts, strict=True):     # a fixed base: no displacement term
             top = float(np.max(x))
             if top > 0:
                 score += wk * x / top

@@ -96,8 +96,13 @@ def test_verify_names_the_file(archive, capsys, alarm):
     named = [line for line in out.splitlines() if line.startswith(str(root / VICTIM))]
     assert named, out
     assert any(EXPECTED[kind] in line for line in named), out
+    assert len(named) == len(set(named)), out           # each problem named once
     if kind == "symlink":
         assert any(f"same content (group digests) as {TWIN}" in line for line in named), out
+    else:
+        # listed in the manifest and a trial path, yet one problem: nothing counted twice
+        assert named == [f"{root / VICTIM}: {EXPECTED[kind]}"], out
+        assert out.splitlines() == named and "1 problem(s) in 1 file(s)" in err, (out, err)
 
 
 def test_finalize_refuses_and_writes_nothing(archive, capsys, alarm):
@@ -176,3 +181,79 @@ def test_yaml_and_model_readers_refuse_a_fifo(tmp_path, alarm):
         read_yaml(tmp_path / "missing.yaml")
     with pytest.raises(ModelFileError, match=r"model file .*x\.yaml: is a FIFO, not a regular file"):
         load_model(tmp_path / "x.yaml")
+
+
+# -------------------------------------------------------------------------------------------
+# the campaign folder's own files: the manifest and the index
+# -------------------------------------------------------------------------------------------
+@pytest.fixture(params=[("MANIFEST.sha256", "fifo"), ("MANIFEST.sha256", "socket"), ("index.csv", "fifo"),
+                        ("index.csv", "socket")], ids=lambda p: f"{p[0]}-{p[1]}")
+def own_file(request, tmp_path, monkeypatch):
+    """A copy of the reference archive with its manifest or index replaced by a FIFO or a socket."""
+    name, kind = request.param
+    root = tmp_path / "arch"
+    shutil.copytree(REFERENCE, root)
+    make_special(root / name, kind)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    return name, kind, Path("arch")
+
+
+def test_verify_says_what_stands_in_place_of_the_manifest_or_index(own_file, capsys, alarm):
+    name, kind, root = own_file
+    status, out, err = _run(["archive", "verify", root], capsys)
+    assert status == 1, (out, err)
+    named = [line for line in out.splitlines() if line.startswith(f"{root / name}:")]
+    assert len(named) == 1, out                          # once, though the manifest lists the index
+    assert named[0].startswith(f"{root / name}: {EXPECTED[kind]}"), named
+    assert "missing" not in out, out
+    if name == "index.csv":                              # the rest of the archive is intact
+        assert out.splitlines() == named and "1 problem(s) in 1 file(s)" in err, (out, err)
+
+
+def test_finalize_refuses_a_node_where_it_writes_before_writing(own_file, capsys, alarm):
+    name, kind, root = own_file
+    others = [f for f in ("MANIFEST.sha256", "index.csv") if f != name]
+    for other in others:                                 # not finalized yet
+        (root / other).unlink()
+    readme = (root / "README.md").stat().st_mtime_ns
+    status, out, err = _run(["archive", "finalize", root], capsys)
+    assert status == 2, (out, err)
+    assert err.splitlines() == [f"campaign archive: error: {root / name}: {EXPECTED[kind]}; "
+                                "finalizing writes a file there"], err
+    assert all(not (root / other).exists() for other in others)
+    assert (root / "README.md").stat().st_mtime_ns == readme
+    assert not_regular(root / name) == EXPECTED[kind]   # left as it was
+
+
+@pytest.mark.parametrize("command", [["fit-lambda", "--bootstrap", "2"], ["tables", "--bootstrap", "2", "--out", "t"],
+                                     ["archive", "ls"]])
+@pytest.mark.parametrize("kind", ["fifo", "socket"])
+def test_a_node_in_place_of_the_index_is_named_by_every_reader(tmp_path, monkeypatch, capsys, alarm, command, kind):
+    """Not taken for a campaign not finalized (whose trials would then be read at the layout)."""
+    name, root = "index.csv", Path("arch")
+    shutil.copytree(REFERENCE, tmp_path / root)
+    make_special(tmp_path / root / name, kind)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    status, out, err = _run([*command, root], capsys)
+    assert status == 2 and out == "", (out, err)
+    assert err.splitlines() == [f"campaign {command[0]}: error: {root / name}: {EXPECTED[kind]}; "
+                                "a campaign's index must be a regular file"], err
+    assert not Path("t").exists()
+
+
+@pytest.mark.parametrize("command", [["fit-lambda", "--bootstrap", "2"], ["tables", "--bootstrap", "2", "--out", "t"]])
+def test_a_linked_speed_folder_is_not_counted_twice(tmp_path, monkeypatch, capsys, alarm, command):
+    """``v2.500`` a link to the ``v1.500`` folder: its trial is the other speed's, misfiled."""
+    root = tmp_path / "arch"
+    shutil.copytree(REFERENCE, root)
+    shutil.rmtree(root / VICTIM.parent)
+    (root / VICTIM.parent).symlink_to(TWIN.parent.name)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("CAMPAIGN_PROGRESS", "0")
+    status, out, err = _run([*command, "arch"], capsys)
+    assert status == 2 and out == "", (out, err)
+    assert err.splitlines() == [f"campaign {command[0]}: error: arch/{VICTIM}: misfiled: its attributes place it "
+                                f"at arch/{TWIN} (speed: v2.500 in the path, v1.500 in the file)"], err
+    assert not Path("t").exists()

@@ -29,7 +29,7 @@ import pinocchio as pin
 from ...core.errors import InputError
 from . import Robot
 
-__all__ = ["IKResult", "position_branches", "position_branches_many", "impact_point", "reach_starts"]
+__all__ = ["IKResult", "position_branches", "position_branches_many", "impact_point", "reach_starts", "reach_sphere"]
 
 #: Newton stops for a start when its position error is below this [m]
 _CONVERGED = 1e-12
@@ -66,6 +66,26 @@ def impact_point(robot: Robot, q, *, data: pin.Data | None = None) -> np.ndarray
     data = robot.model.createData() if data is None else data
     pin.framesForwardKinematics(robot.model, data, np.asarray(q, dtype=float))
     return np.array(data.oMf[robot.impact_frame_id].translation)
+
+
+def reach_sphere(robot: Robot) -> tuple[np.ndarray, float]:
+    """(centre [m], radius [m]) of a sphere the impact point never leaves: centred on the first
+    joint's axis point, of radius the sum of the distances between successive joint origins
+    and the impact point, which revolute joints keep whatever their angles (an infinite radius
+    when a joint of the chain is not revolute)."""
+    model = robot.model
+    frame = model.frames[robot.impact_frame_id]
+    chain = [j for j in model.supports[frame.parentJoint] if j > 0]
+    centre = np.zeros(3)
+    if not chain:
+        return centre, float(np.linalg.norm(frame.placement.translation))
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    centre = np.array(data.oMi[chain[0]].translation)
+    if not all(model.joints[j].shortname().startswith("JointModelR") for j in chain):
+        return centre, float("inf")
+    links = [model.jointPlacements[j].translation for j in chain[1:]] + [frame.placement.translation]
+    return centre, float(sum(np.linalg.norm(t) for t in links)) * (1.0 + 1e-9) + 1e-9
 
 
 def reach_starts(robot: Robot, *, per_joint: int = 3) -> np.ndarray:
@@ -140,6 +160,15 @@ def position_branches_many(robot: Robot, targets, *, tol: float = 1e-9, dedup_to
     P = np.asarray(targets, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
         raise InputError(f"target points must be finite 3-vectors, got shape {np.shape(targets)}")
+    centre, radius = reach_sphere(robot)
+    # beyond the arm's reach no start can converge: such a target gets no branch without an
+    # iteration (far enough away, the Newton steps would overflow)
+    near = np.abs(P - centre).max(axis=1) <= radius
+    if not np.all(near):
+        found = iter(position_branches_many(robot, P[near], tol=tol, dedup_tol=dedup_tol, max_iter=max_iter,
+                                            starts=starts, data=data) if np.any(near) else ())
+        none = IKResult(np.empty((0, robot.model.nq)), np.empty(0), False)
+        return [next(found) if ok else none for ok in near]
     model = robot.model
     data = model.createData() if data is None else data
     fid = robot.impact_frame_id
