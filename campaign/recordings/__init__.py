@@ -30,11 +30,13 @@ from .fileformat import (
     write_recording,
 )
 from .identify import FITS, HIT_COLUMNS, RecordedHitOptions, identify_recording
+from .mapping import read_mapped_hit
+from .table import check_mass, identify_folder, import_airhockey, import_mapped, write_hit_table
 
 __all__ = [
     "INDEX_COLUMNS", "NO_LICENCE", "FITS", "HIT_COLUMNS", "Recording", "RecordedHitOptions",
     "airhockey_hits", "read_airhockey_hit", "read_mapped_hit", "clock_offset", "drop_stale", "repair_stamps",
     "export_airhockey", "truth_of", "finalize_recordings", "is_recording_folder", "read_recording",
     "recording_files", "verify_recordings", "write_recording", "identify_recording", "identify_folder",
-    "import_airhockey", "import_mapped",
+    "import_airhockey", "import_mapped", "check_mass", "write_hit_table",
 ]

@@ -88,7 +88,10 @@ def export_airhockey(trial: str | Path, folder: str | Path, *, hit: int = 1, rat
     q_touch = np.array([np.interp(float(tr.contact_start), t_truth, q_truth[:, k]) for k in range(q_truth.shape[1])])
     touch = impact_point(robot, q_touch, data=data)
     period = 1.0 / rate
-    times = np.arange(t_truth[0] + period, t_truth[-1] - period, period)
+    # the rig stops following the hammer some time after the contact (its angle then stays put)
+    moving = np.flatnonzero(np.asarray(tr.theta_dot.values) != 0.0)
+    t_last = float(t_truth[moving[-1]]) if len(moving) else float(t_truth[-1])
+    times = np.arange(t_truth[0] + period, min(t_truth[-1], t_last) - period, period)
     ticks = times + rng.normal(0.0, 2e-5, len(times))
     nj = q_truth.shape[1]
     q = np.array([np.interp(times, t_truth, q_truth[:, k]) for k in range(nj)]).T

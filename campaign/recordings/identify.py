@@ -73,7 +73,7 @@ class RecordedHitOptions:
     post_window_robot: float = 0.04
     min_samples: int | None = None
     k_sigma: float = 8.0
-    margin: int = 1
+    margin: int = 2
     search: float = 0.06
     min_dv_ratio: float = 0.10
     max_rel_width: float = 0.5
