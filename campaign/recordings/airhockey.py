@@ -68,7 +68,7 @@ def _column(header: list[str], name: str, path: Path) -> int:
 def _metadata(path: Path) -> dict[str, str]:
     with open_regular(path, "r", what="recording file", encoding="utf-8") as fh:
         first = fh.readline().strip().split(",")
-    meta = dict(zip(first[0::2], first[1::2]))
+    meta = dict(zip(first[0::2], first[1::2], strict=False))
     if "HitTime" not in meta:
         raise InputError(f"{path}: first line is not the air-hockey metadata (DesiredFlux,...,HitTime,...)")
     return meta

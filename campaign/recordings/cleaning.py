@@ -7,7 +7,7 @@
   stamp that cannot be explained so is counted and the row dropped (:func:`repair_stamps`).
 * The object's clock (motion capture) and the robot's differ by an offset: the object's
   onset of motion is matched to the end effector's deceleration along the impact direction
-  by cross-correlating their accelerations (:func:`clock_offset`).
+  (:func:`clock_offset`).
 """
 
 from __future__ import annotations
@@ -15,6 +15,8 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+
+from .contact import Body, fit_contact, fit_onset, noise_level
 
 __all__ = ["StampReport", "drop_stale", "repair_stamps", "clock_offset", "impact_direction_of", "MAX_CLOCK_OFFSET"]
 
@@ -90,7 +92,7 @@ def impact_direction_of(t: np.ndarray, p: np.ndarray, *, span: float = 0.08) -> 
     """
     tm, v = _velocity(np.asarray(t, float), np.asarray(p, float))
     best, centre, n = -1.0, float(tm[len(tm) // 2]), np.array([1.0, 0.0, 0.0])
-    for k, tc in enumerate(tm):
+    for tc in tm:
         before = (tm > tc - span / 2 - 0.015) & (tm <= tc - span / 2)
         after = (tm >= tc + span / 2) & (tm < tc + span / 2 + 0.015)
         if not before.any() or not after.any():
@@ -103,31 +105,20 @@ def impact_direction_of(t: np.ndarray, p: np.ndarray, *, span: float = 0.08) -> 
 
 
 def clock_offset(t_robot: np.ndarray, ee: np.ndarray, t_object: np.ndarray, obj: np.ndarray, *,
-                 max_offset: float = MAX_CLOCK_OFFSET, step: float = 2.5e-4) -> float:
+                 max_offset: float = MAX_CLOCK_OFFSET) -> float:
     """The offset to add to the object's stamps to put them on the robot's clock [s].
 
-    Along the object's impact direction n, the object's acceleration (positive: it is
-    pushed) and the end effector's deceleration come from the same contact force, so they
-    coincide in time. Both velocities (finite differences) are interpolated onto a fine grid
-    within 60 ms of the contact; the offset maximising the correlation of their derivatives
-    (the object's acceleration against the end effector's deceleration), within
-    ``max_offset``, refined by a parabola through the peak, is returned.
+    Along the object's impact direction n the object's velocity change (its onset of motion)
+    and the end effector's (its deceleration) come from the same contact force, so they
+    start together. The object's contact window is fitted on its own clock
+    (:func:`campaign.recordings.contact.fit_contact`), then the start of the end effector's
+    velocity change of the same duration (its own profile: an arm's velocity does not follow
+    the impulse as a point mass's does) on the robot's clock, within ``max_offset``
+    (:func:`campaign.recordings.contact.fit_onset`); the offset is the difference.
     """
     n, centre = impact_direction_of(t_object, obj)
-    tm_o, v_o = _velocity(np.asarray(t_object, float), np.asarray(obj, float) @ n[:, None])
-    tm_r, v_r = _velocity(np.asarray(t_robot, float), np.asarray(ee, float) @ n[:, None])
-    grid = np.arange(centre - 0.06, centre + 0.06, step)
-    a_o = np.gradient(np.interp(grid, tm_o, v_o[:, 0]), step)
-    lags = np.arange(-max_offset, max_offset + step / 2, step)
-    score = np.empty(len(lags))
-    for i, lag in enumerate(lags):
-        # an object event at stamp s happened at s + lag on the robot's clock
-        a_r = -np.gradient(np.interp(grid + lag, tm_r, v_r[:, 0]), step)
-        score[i] = float(np.dot(a_o - a_o.mean(), a_r - a_r.mean()))
-    i = int(np.argmax(score))
-    if 0 < i < len(lags) - 1:
-        y0, y1, y2 = score[i - 1], score[i], score[i + 1]
-        curv = y0 - 2 * y1 + y2
-        shift = 0.5 * (y0 - y2) / curv if curv < 0 else 0.0
-        return float(lags[i] + shift * step)
-    return float(lags[i])
+    t_o, s_o = np.asarray(t_object, float), np.asarray(obj, float) @ n
+    found = fit_contact([Body(t_o, s_o, noise_level(t_o, s_o), 0.05, 0.06)], guess=centre, deg=2, search="refine")
+    onset = fit_onset(np.asarray(t_robot, float), np.asarray(ee, float) @ n, T=found.T, guess=found.t_s,
+                      reach=max_offset, deg=2, pre=0.05, post=0.04)
+    return onset - found.t_s

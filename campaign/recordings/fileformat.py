@@ -19,8 +19,9 @@ import hashlib
 import io
 import os
 import re
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import h5py
 import numpy as np
@@ -176,7 +177,7 @@ def _digest(ds: xr.Dataset, attrs: Mapping[str, Any]) -> str:
 
 
 def _root_attrs(rec: Recording) -> dict[str, Any]:
-    when = source_date_epoch() or _dt.datetime.now(_dt.timezone.utc)
+    when = source_date_epoch() or _dt.datetime.now(_dt.UTC)
     created = when.strftime("%Y-%m-%dT%H:%M:%SZ")
     given = {k: _check_attr(k, v) for k, v in rec.attrs.items() if k not in _GROUP_ATTRS}
     licence = str(given.pop("license", NO_LICENCE))

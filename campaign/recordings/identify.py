@@ -2,10 +2,9 @@
 
 Along the impact direction n (the direction of the object's velocity change):
 
-* the contact window is where the object's positions leave the motion fitted before it
-  (growing forward from well before) and after it (growing backward from well after):
-  the first sample that departs from the fit's prediction by more than ``k_sigma`` noise
-  levels bounds the window;
+* the contact window (start and duration) is fitted to both bodies' positions: each body's
+  motion before and after plus a velocity change of free profile over the window
+  (:mod:`campaign.recordings.contact`);
 * each body's velocity just before (after) the contact is the derivative, at the window's
   edge, of a polynomial fitted to the samples before (after) it, never across it:
   ``quadratic`` (default; constant acceleration: the object's sliding friction, the
@@ -13,7 +12,8 @@ Along the impact direction n (the direction of the object's velocity change):
 * ``m* = m_o (v_o' - v_o) / (v_e - v_e')`` (the object's momentum change over the end
   effector's velocity change) and ``e = (v_o' - v_e') / (v_e - v_o)``;
 * intervals: a bootstrap of each fit's residuals (scaled for the fitted parameters) with
-  each edge drawn uniformly within the sample interval that holds it, seeded.
+  the window's start and duration drawn uniformly from the ranges the object's samples
+  cannot tell apart (a soft contact's slow end widens them), seeded.
 
 A hit is refused (no numbers) when a fit has too few samples, no contact is found or the
 end effector does not slow along n; it is flagged (numbers kept) when the end effector's
@@ -31,6 +31,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from .cleaning import impact_direction_of
+from .contact import Body, ContactFit, fit_contact, noise_level
 from .fileformat import Recording
 
 __all__ = ["FITS", "RecordedHitOptions", "identify_recording", "HIT_COLUMNS"]
@@ -50,14 +51,8 @@ class RecordedHitOptions:
         Lengths of the fitted windows before the contact and after it (object, robot).
     min_samples : int or None
         Fewest samples a fit may use (default: 2 more than its parameters).
-    k_sigma : float
-        Departure from a fit, in noise levels, that marks the contact's edge.
     margin : int
-        Samples added to the contact window on each side (the contact's soft start and end
-        lie below the departure threshold).
-    search : float
-        How far from the object's largest velocity change the fits start their walk
-        toward the contact.
+        Robot sample periods excluded beyond the contact window on each side.
     min_dv_ratio : float
         The end effector's velocity change below this fraction of the approach speed flags
         the hit (object too light against m*).
@@ -72,9 +67,7 @@ class RecordedHitOptions:
     post_window_object: float = 0.06
     post_window_robot: float = 0.04
     min_samples: int | None = None
-    k_sigma: float = 8.0
-    margin: int = 2
-    search: float = 0.06
+    margin: int = 0
     min_dv_ratio: float = 0.10
     max_rel_width: float = 0.5
     n_boot: int = 400
@@ -83,7 +76,7 @@ class RecordedHitOptions:
     def __post_init__(self) -> None:
         if self.fit not in FITS:
             raise InputError(f"fit {self.fit!r}: choose one of {', '.join(FITS)}")
-        for name in ("pre_window", "post_window_object", "post_window_robot", "k_sigma", "min_dv_ratio",
+        for name in ("pre_window", "post_window_object", "post_window_robot", "min_dv_ratio",
                      "max_rel_width"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -100,41 +93,16 @@ def HIT_COLUMNS(n_joints: int) -> list[str]:  # noqa: N802 - a column list built
     """The columns of the per-hit table for ``n_joints`` joints."""
     return (["hit", "session", "object_mass", "n_x", "n_y", "n_z"] + [f"q_{k + 1}" for k in range(n_joints)]
             + ["speed", "m_eff", "m_eff_lo", "m_eff_hi", "e", "e_lo", "e_hi", "m_eff_logged", "flag",
-               "contact_start", "contact_duration", "fit", "clock_offset"])
+               "contact_start", "contact_duration", "contact_duration_lo", "contact_duration_hi", "fit",
+               "clock_offset"])
 
 
 class _Refused(Exception):
     pass
 
 
-def _noise(t: np.ndarray, s: np.ndarray) -> float:
-    """Position noise from second differences (robust), with a floor."""
-    d2 = s[2:] - 2 * s[1:-1] + s[:-2]
-    if len(d2) < 3:
-        return 1e-6
-    return max(float(np.median(np.abs(d2 - np.median(d2)))) / 0.6745 / math.sqrt(6.0), 1e-6)
-
-
 def _polyfit(t: np.ndarray, s: np.ndarray, deg: int, t_ref: float) -> np.ndarray:
     return np.polynomial.polynomial.polyfit(t - t_ref, s, deg)
-
-
-def _edge(t: np.ndarray, s: np.ndarray, sigma: float, *, start: int, stop: int, step: int, deg: int,
-          k_sigma: float, window: float) -> int:
-    """Index of the last sample consistent with the motion outside the contact, walking from
-    ``start`` toward ``stop`` (step +1: forward from before, -1: backward from after), each
-    step predicting the next sample from a fit to the ``window`` seconds behind it."""
-    j = start
-    while j != stop:
-        nxt = j + step
-        idx = np.flatnonzero((np.abs(t - t[j]) <= window + 1e-9) & ((t <= t[j]) if step > 0 else (t >= t[j])))
-        if len(idx) >= deg + 2:
-            c = _polyfit(t[idx], s[idx], deg, t[j])
-            pred = np.polynomial.polynomial.polyval(t[nxt] - t[j], c)
-            if abs(s[nxt] - pred) > k_sigma * sigma:
-                return j
-        j = nxt
-    return j
 
 
 def _fit_velocity(t: np.ndarray, s: np.ndarray, deg: int, at: float) -> tuple[float, np.ndarray, np.ndarray]:
@@ -145,34 +113,22 @@ def _fit_velocity(t: np.ndarray, s: np.ndarray, deg: int, at: float) -> tuple[fl
     return float(c[1]), fitted, resid
 
 
-def _window(t: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    return np.flatnonzero((t >= lo - 1e-9) & (t <= hi + 1e-9))
+def _contact(rec: Recording, n: np.ndarray, centre: float, opts: RecordedHitOptions) -> ContactFit:
+    """The contact window on the robot's clock, fitted to both bodies' positions."""
+    bodies = []
+    for t, p, post in ((rec.t_object, rec.object_position, opts.post_window_object),
+                       (rec.t_robot, rec.ee_position, opts.post_window_robot)):
+        s = p @ n
+        bodies.append(Body(t, s, noise_level(t, s), opts.pre_window, post))
+    try:
+        return fit_contact(bodies, guess=centre, deg=_DEGREE[opts.fit])
+    except ValueError:
+        raise _Refused("too few samples: the object's samples around the contact do not determine it") from None
 
 
-def _contact(rec: Recording, n: np.ndarray, centre: float, opts: RecordedHitOptions) -> tuple[float, float, float, float]:
-    """The bands (earliest, latest) holding the contact's start and end, on the robot's clock,
-    widened by ``margin`` samples on each side."""
-    t, s = rec.t_object, rec.object_position @ n
-    sigma = _noise(t, s)
-    deg = _DEGREE[opts.fit]
-    k_c = int(np.searchsorted(t, centre))
-    first = max(int(np.searchsorted(t, centre - opts.search - opts.pre_window)), 0)
-    last = min(int(np.searchsorted(t, centre + opts.search + opts.post_window_object)), len(t) - 1)
-    j_s = _edge(t, s, sigma, start=first, stop=k_c, step=1, deg=deg, k_sigma=opts.k_sigma,
-                window=opts.pre_window)
-    j_e = _edge(t, s, sigma, start=last, stop=k_c, step=-1, deg=deg, k_sigma=opts.k_sigma,
-                window=opts.post_window_object)
-    j_s, j_e = max(j_s - opts.margin, 0), min(j_e + opts.margin, len(t) - 1)
-    if j_e <= j_s + 1:
-        raise _Refused("no contact found: the object's motion has no velocity change between its fits")
-    return float(t[j_s]), float(t[j_s + 1]), float(t[j_e - 1]), float(t[j_e])
-
-
-def _velocities(bodies, edges, opts, rng=None):
-    """(v_o, v_o', v_e, v_e') from the four fits; with ``rng`` one bootstrap draw."""
-    (s_lo, s_hi, e_lo, e_hi) = edges
-    t_s = rng.uniform(s_lo, s_hi) if rng is not None else 0.5 * (s_lo + s_hi)
-    t_e = rng.uniform(e_lo, e_hi) if rng is not None else 0.5 * (e_lo + e_hi)
+def _velocities(bodies, t_s: float, t_e: float, opts: RecordedHitOptions, rng=None) -> list[float]:
+    """(v_o, v_o', v_e, v_e') from the four fits, evaluated at the contact's edges; with ``rng``
+    one bootstrap draw (each fit's residuals resampled)."""
     out = []
     for (t, s, pre, post) in bodies:
         for idx, at in ((pre, t_s), (post, t_e)):
@@ -206,27 +162,30 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     if len(rec.t_object) < 2 * opts.need + 2:
         raise _Refused(f"too few samples: the object has {len(rec.t_object)}")
     n, centre = impact_direction_of(rec.t_object, rec.object_position)
-    edges = _contact(rec, n, centre, opts)
-    row.update(n_x=n[0], n_y=n[1], n_z=n[2], contact_start=0.5 * (edges[0] + edges[1]),
-               contact_duration=0.5 * (edges[2] + edges[3]) - 0.5 * (edges[0] + edges[1]))
+    found = _contact(rec, n, centre, opts)
+    t_s, t_e = found.t_s, found.t_s + found.T
+    row.update(n_x=n[0], n_y=n[1], n_z=n[2], contact_start=t_s, contact_duration=found.T,
+               contact_duration_lo=found.T_range[0], contact_duration_hi=found.T_range[1])
+    # the samples the contact's edges may still hold: a margin of whole samples is excluded too
+    dt = float(np.median(np.diff(rec.t_robot)))
+    lo_edge, hi_edge = t_s - opts.margin * dt, t_e + opts.margin * dt
     bodies = []
     for name, t, p, post_window in (("object", rec.t_object, rec.object_position, opts.post_window_object),
                                     ("robot", rec.t_robot, rec.ee_position, opts.post_window_robot)):
         s = p @ n
-        pre = _window(t, edges[0] - opts.pre_window, edges[0])
-        post = _window(t, edges[3], edges[3] + post_window)
+        pre = np.flatnonzero((t >= lo_edge - opts.pre_window) & (t < lo_edge))
+        post = np.flatnonzero((t > hi_edge) & (t <= hi_edge + post_window))
         for where, idx in (("before", pre), ("after", post)):
             if len(idx) < opts.need:
                 raise _Refused(f"too few samples: the {name} has {len(idx)} {where} the contact within its fit "
                                f"window (need {opts.need})")
         bodies.append((t, s, pre, post))
-    t_s = row["contact_start"]
     for k in range(rec.q.shape[1]):
         row[f"q_{k + 1}"] = float(np.interp(t_s, rec.t_robot, rec.q[:, k]))
     if rec.inertia_inv is not None:
-        k = max(int(np.searchsorted(rec.t_robot, edges[0], side="right")) - 1, 0)
+        k = max(int(np.searchsorted(rec.t_robot, t_s, side="right")) - 1, 0)
         row["m_eff_logged"] = 1.0 / float(n @ rec.inertia_inv[k] @ n)
-    vo, vo2, ve, ve2 = _velocities(bodies, edges, opts)
+    vo, vo2, ve, ve2 = _velocities(bodies, t_s, t_e, opts)
     speed = ve - vo
     if speed <= 0:
         raise _Refused(f"the end effector does not approach the object along n (approach speed {speed:.3g} m/s)")
@@ -237,7 +196,9 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     rng = np.random.default_rng(opts.seed)
     draws = []
     for _ in range(opts.n_boot):
-        a, b, c, d = _velocities(bodies, edges, opts, rng)
+        ts_b = rng.uniform(*found.t_s_range)
+        te_b = ts_b + rng.uniform(*found.T_range)
+        a, b, c, d = _velocities(bodies, ts_b, te_b, opts, rng)
         if c - d > 0 and c - a > 0:
             draws.append((rec.object_mass * (b - a) / (c - d), (b - d) / (c - a)))
     if len(draws) < 0.9 * opts.n_boot:
