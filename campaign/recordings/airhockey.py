@@ -105,7 +105,7 @@ def airhockey_hits(folder: str | Path) -> list[tuple[str, Path, Path, str]]:
 
 def read_airhockey_hit(robot_file: str | Path, object_file: str | Path, *, object_mass: float, session: str,
                        hit: str, licence: str = NO_LICENCE, source: str | None = None,
-                       min_rows: int = 10) -> Recording:
+                       min_rows: int = 20) -> Recording:
     """Read one hit of the air-hockey layout, clean it, and return it as a :class:`Recording`.
 
     Rows that repeat the previous end-effector pose (no new message) are dropped, glitched
@@ -120,7 +120,8 @@ def read_airhockey_hit(robot_file: str | Path, object_file: str | Path, *, objec
                                                                  "EEF_Position")}
     optional = {name: header.index(name) for name in ("JointVelocity", "EEF_Velocity", "Inertia") if name in header}
     if len(rows) < min_rows:
-        raise InputError(f"{robot_file}: {len(rows)} rows, fewer than the {min_rows} a hit needs")
+        raise InputError(f"{robot_file}: {len(rows)} rows, fewer than the {min_rows} a hit needs "
+                         "(fits before and after the contact)")
     robot_name = rows[0][cols["RobotName"]].strip()
 
     def field(row, i, line, name, size=None):

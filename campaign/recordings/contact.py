@@ -108,9 +108,9 @@ def _weighted(bodies, x, deg, masks):
     return np.concatenate([_solve(b.t[m], b.s[m], x[0], x[1], deg)[1] / b.noise for b, m in zip(bodies, masks, strict=True)])
 
 
-def _cost(bodies: list[Body], ts: float, T: float, deg: int) -> tuple[float, list[np.ndarray]] | None:
-    """Weighted residual per degree of freedom of a window, with each body's samples; None
-    when a body has too few samples before or after it."""
+def _cost(bodies: list[Body], ts: float, T: float, deg: int) -> tuple[float, list[np.ndarray], int] | None:
+    """Weighted residual per degree of freedom of a window, each body's samples and the
+    degrees of freedom; None when a body has too few samples before or after it."""
     n_par = deg + KNOTS + 2
     masks, sse, n = [], 0.0, 0
     for b in bodies:
@@ -120,20 +120,26 @@ def _cost(bodies: list[Body], ts: float, T: float, deg: int) -> tuple[float, lis
         sse += float(np.sum((_solve(b.t[m], b.s[m], ts, T, deg)[1] / b.noise) ** 2))
         n += int(m.sum()) - n_par
         masks.append(m)
-    return sse / max(n - 2, 1), masks
+    dof = max(n - 2, 1)
+    return sse / dof, masks, dof
 
 
 def _grid(bodies, deg, starts, durations):
-    """The window of least :func:`_cost` on a grid: (cost, (t_s, T), each body's samples)."""
-    best = None
+    """The shortest window on a grid whose residual per degree of freedom is within two
+    standard errors of the least one (a longer window's free profile fits noise, not
+    contact): (cost, (t_s, T), each body's samples)."""
+    found = []
     for ts in starts:
         for T in durations:
-            found = _cost(bodies, float(ts), float(T), deg)
-            if found is not None and (best is None or found[0] < best[0]):
-                best = (found[0], np.array([ts, T]), found[1])
-    if best is None:
+            c = _cost(bodies, float(ts), float(T), deg)
+            if c is not None:
+                found.append((c[0], float(ts), float(T), c[1], c[2]))
+    if not found:
         raise ValueError("too few samples around the contact")
-    return best
+    least = min(found, key=lambda f: f[0])
+    bound = least[0] * (1.0 + 2.0 * np.sqrt(2.0 / least[4]))
+    cost, ts, T, masks, _ = min((f for f in found if f[0] <= bound), key=lambda f: (round(f[2], 6), f[0]))
+    return cost, np.array([ts, T]), masks
 
 
 def _refined(bodies, deg, guess, durations, min_T, max_T):
@@ -166,10 +172,11 @@ def fit_contact(bodies: list[Body], *, guess: float, deg: int, search: str = "gr
     Every body has its own motion and profile, the window is common; a window is scored by
     its weighted residual per degree of freedom, each body fitted on its own samples around
     the window (a body needs samples of its fit on both sides). ``search`` ``"grid"``: a 2 ms
-    grid of starts within ``reach`` of ``guess`` and of durations, then a 0.25 ms grid around
+    grid of starts within ``reach`` of ``guess`` (a start) and of durations from ``min_T`` to
+    ``max_T``, then a 0.25 ms grid around
     the best, each body's residuals weighed first by its noise, then by what its fit leaves
     (noise and the model's own error). ``"refine"``: least squares from a few durations
-    centred on ``guess`` (quicker; enough for one body with a sharp start). Returns the
+    centred on ``guess`` (the velocity change's middle; quicker). Returns the
     window with its profile ranges and the first body's velocity change and profile.
     """
     if search == "grid":

@@ -12,8 +12,9 @@ Along the impact direction n (the direction of the object's velocity change):
 * ``m* = m_o (v_o' - v_o) / (v_e - v_e')`` (the object's momentum change over the end
   effector's velocity change) and ``e = (v_o' - v_e') / (v_e - v_o)``;
 * intervals: a bootstrap of each fit's residuals (scaled for the fitted parameters) with
-  the window's start and duration drawn uniformly from the ranges the object's samples
-  cannot tell apart (a soft contact's slow end widens them), seeded.
+  the window's start and duration drawn uniformly from the ranges the samples cannot tell
+  apart (a soft contact's slow end widens them) and the fitted windows' lengths drawn
+  within +-25 %, seeded.
 
 A hit is refused (no numbers) when a fit has too few samples, no contact is found or the
 end effector does not slow along n; it is flagged (numbers kept) when the end effector's
@@ -53,6 +54,9 @@ class RecordedHitOptions:
         Fewest samples a fit may use (default: 2 more than its parameters).
     margin : int
         Robot sample periods excluded beyond the contact window on each side.
+    window_spread : float
+        Each bootstrap draw scales the fitted windows before and after the contact by a
+        factor drawn within 1 +- this: the intervals include the choice of the windows.
     min_dv_ratio : float
         The end effector's velocity change below this fraction of the approach speed flags
         the hit (object too light against m*).
@@ -68,6 +72,7 @@ class RecordedHitOptions:
     post_window_robot: float = 0.04
     min_samples: int | None = None
     margin: int = 0
+    window_spread: float = 0.25
     min_dv_ratio: float = 0.10
     max_rel_width: float = 0.5
     n_boot: int = 400
@@ -114,23 +119,47 @@ def _fit_velocity(t: np.ndarray, s: np.ndarray, deg: int, at: float) -> tuple[fl
 
 
 def _contact(rec: Recording, n: np.ndarray, centre: float, opts: RecordedHitOptions) -> ContactFit:
-    """The contact window on the robot's clock, fitted to both bodies' positions."""
+    """The contact window on the robot's clock: the object's alone first (coarse), then both
+    bodies' positions near it; a body without enough samples on either side is refused."""
+    deg = _DEGREE[opts.fit]
     bodies = []
-    for t, p, post in ((rec.t_object, rec.object_position, opts.post_window_object),
-                       (rec.t_robot, rec.ee_position, opts.post_window_robot)):
+    for name, t, p, post in (("object", rec.t_object, rec.object_position, opts.post_window_object),
+                             ("robot", rec.t_robot, rec.ee_position, opts.post_window_robot)):
         s = p @ n
-        bodies.append(Body(t, s, noise_level(t, s), opts.pre_window, post))
+        bodies.append((name, Body(t, s, noise_level(t, s), opts.pre_window, post)))
     try:
-        return fit_contact(bodies, guess=centre, deg=_DEGREE[opts.fit])
+        coarse = fit_contact([bodies[0][1]], guess=centre, deg=deg, search="refine")
     except ValueError:
         raise _Refused("too few samples: the object's samples around the contact do not determine it") from None
+    for name, b in bodies:
+        before = np.count_nonzero((b.t >= coarse.t_s - b.pre) & (b.t < coarse.t_s))
+        after = np.count_nonzero((b.t > coarse.t_s + coarse.T) & (b.t <= coarse.t_s + coarse.T + b.post))
+        for where, count in (("before", before), ("after", after)):
+            if count < opts.need:
+                raise _Refused(f"too few samples: the {name} has {count} {where} the contact within its fit window "
+                               f"(need {opts.need})")
+    try:
+        return fit_contact([bodies[0][1]], guess=coarse.t_s, deg=deg, reach=0.02,
+                           min_T=max(0.004, coarse.T - 0.03), max_T=coarse.T + 0.03)
+    except ValueError:
+        raise _Refused("too few samples: the samples around the contact do not determine it") from None
 
 
-def _velocities(bodies, t_s: float, t_e: float, opts: RecordedHitOptions, rng=None) -> list[float]:
+def _sets(bodies, lo_edge: float, hi_edge: float, opts: RecordedHitOptions, scale: tuple[float, float] = (1.0, 1.0)):
+    """Each body's samples before and after the contact within its fit windows (scaled)."""
+    out = []
+    for name, t, s, post_window in bodies:
+        pre = np.flatnonzero((t >= lo_edge - scale[0] * opts.pre_window) & (t < lo_edge))
+        post = np.flatnonzero((t > hi_edge) & (t <= hi_edge + scale[1] * post_window))
+        out.append((name, t, s, pre, post))
+    return out
+
+
+def _velocities(sets, t_s: float, t_e: float, opts: RecordedHitOptions, rng=None) -> list[float]:
     """(v_o, v_o', v_e, v_e') from the four fits, evaluated at the contact's edges; with ``rng``
     one bootstrap draw (each fit's residuals resampled)."""
     out = []
-    for (t, s, pre, post) in bodies:
+    for (_, t, s, pre, post) in sets:
         for idx, at in ((pre, t_s), (post, t_e)):
             v, fitted, resid = _fit_velocity(t[idx], s[idx], _DEGREE[opts.fit], at)
             if rng is not None:
@@ -169,23 +198,20 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     # the samples the contact's edges may still hold: a margin of whole samples is excluded too
     dt = float(np.median(np.diff(rec.t_robot)))
     lo_edge, hi_edge = t_s - opts.margin * dt, t_e + opts.margin * dt
-    bodies = []
-    for name, t, p, post_window in (("object", rec.t_object, rec.object_position, opts.post_window_object),
-                                    ("robot", rec.t_robot, rec.ee_position, opts.post_window_robot)):
-        s = p @ n
-        pre = np.flatnonzero((t >= lo_edge - opts.pre_window) & (t < lo_edge))
-        post = np.flatnonzero((t > hi_edge) & (t <= hi_edge + post_window))
+    bodies = [("object", rec.t_object, rec.object_position @ n, opts.post_window_object),
+              ("robot", rec.t_robot, rec.ee_position @ n, opts.post_window_robot)]
+    sets = _sets(bodies, lo_edge, hi_edge, opts)
+    for name, _, _, pre, post in sets:
         for where, idx in (("before", pre), ("after", post)):
             if len(idx) < opts.need:
                 raise _Refused(f"too few samples: the {name} has {len(idx)} {where} the contact within its fit "
                                f"window (need {opts.need})")
-        bodies.append((t, s, pre, post))
     for k in range(rec.q.shape[1]):
         row[f"q_{k + 1}"] = float(np.interp(t_s, rec.t_robot, rec.q[:, k]))
     if rec.inertia_inv is not None:
         k = max(int(np.searchsorted(rec.t_robot, t_s, side="right")) - 1, 0)
         row["m_eff_logged"] = 1.0 / float(n @ rec.inertia_inv[k] @ n)
-    vo, vo2, ve, ve2 = _velocities(bodies, t_s, t_e, opts)
+    vo, vo2, ve, ve2 = _velocities(sets, t_s, t_e, opts)
     speed = ve - vo
     if speed <= 0:
         raise _Refused(f"the end effector does not approach the object along n (approach speed {speed:.3g} m/s)")
@@ -198,7 +224,11 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     for _ in range(opts.n_boot):
         ts_b = rng.uniform(*found.t_s_range)
         te_b = ts_b + rng.uniform(*found.T_range)
-        a, b, c, d = _velocities(bodies, ts_b, te_b, opts, rng)
+        scale = tuple(rng.uniform(1 - opts.window_spread, 1 + opts.window_spread, 2))
+        drawn = _sets(bodies, lo_edge, hi_edge, opts, scale)
+        if any(len(pre) < opts.need or len(post) < opts.need for _, _, _, pre, post in drawn):
+            drawn = sets
+        a, b, c, d = _velocities(drawn, ts_b, te_b, opts, rng)
         if c - d > 0 and c - a > 0:
             draws.append((rec.object_mass * (b - a) / (c - d), (b - d) / (c - a)))
     if len(draws) < 0.9 * opts.n_boot:

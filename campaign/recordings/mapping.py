@@ -36,7 +36,10 @@ from ..core.yamlfile import read_yaml
 from .cleaning import clock_offset, drop_stale, repair_stamps
 from .fileformat import NO_LICENCE, Recording
 
-__all__ = ["UNITS", "read_mapped_hit"]
+__all__ = ["MIN_ROWS", "UNITS", "read_mapped_hit"]
+
+#: fewest rows of each file a hit needs
+MIN_ROWS = 20
 
 #: units each kind of quantity may be given in, with the factor to SI
 UNITS = {"time": {"s": 1.0, "ms": 1e-3}, "length": {"m": 1.0, "mm": 1e-3},
@@ -110,6 +113,10 @@ def read_mapped_hit(mapping: str | Path, *, object_mass: Any = None, licence: st
                                     (3 if n.endswith("position") and n != "joint_position" else None))
                        for n in names if n in sec or n != "joint_position"}
     r, o = parts["robot"], parts["object"]
+    for part, arrays in parts.items():
+        if len(arrays["time"]) < MIN_ROWS:
+            raise InputError(f"{mapping}: the {part} file has {len(arrays['time'])} rows, fewer than the {MIN_ROWS} a "
+                             "hit needs (fits before and after the contact)")
     fresh = drop_stale(r["ee_position"])
     t, order, stamps = repair_stamps(r["time"])
     keep = fresh & order

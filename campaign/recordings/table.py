@@ -40,17 +40,23 @@ def import_airhockey(sources: list[str | os.PathLike], out: str | os.PathLike, *
     """
     mass = check_mass(object_mass)
     plans = [(Path(src).name, airhockey_hits(src)) for src in sources]  # every source checked before any work
-    done = []
+    recs = []
     for session, hits in plans:
         for hit, robot_file, object_file, obj in hits:
             rec = read_airhockey_hit(robot_file, object_file, object_mass=mass, session=session, hit=hit,
                                      licence=licence)
             rec.attrs["object_number"] = int(obj)
             rec.attrs["object_mass_source"] = "given to the import (--object-mass)"
-            report = {**rec.attrs["robot_attrs"], "clock_offset": rec.attrs["object_attrs"]["clock_offset"]}
-            done.append((write_recording(rec, out), report))
+            recs.append(rec)
+    # every hit read and checked before the first is written
+    done = [(write_recording(rec, out), _report(rec)) for rec in recs]
     finalize_recordings(out)
     return done
+
+
+def _report(rec) -> dict[str, Any]:
+    return {**{k: v for k, v in rec.attrs["robot_attrs"].items() if k != "rows_read"},
+            "clock_offset": rec.attrs["object_attrs"]["clock_offset"]}
 
 
 def import_mapped(mapping: str | os.PathLike, out: str | os.PathLike, *, object_mass: Any = None,
@@ -58,10 +64,9 @@ def import_mapped(mapping: str | os.PathLike, out: str | os.PathLike, *, object_
     """Import the hit a mapping file describes (:mod:`campaign.recordings.mapping`) into ``out``."""
     mass = None if object_mass is None else check_mass(object_mass)
     rec = read_mapped_hit(mapping, object_mass=mass, licence=licence)
-    report = {**rec.attrs["robot_attrs"], "clock_offset": rec.attrs["object_attrs"]["clock_offset"]}
     path = write_recording(rec, out)
     finalize_recordings(out)
-    return [(path, report)]
+    return [(path, _report(rec))]
 
 
 def identify_folder(folder: str | os.PathLike, opts: RecordedHitOptions | None = None) -> list[dict[str, Any]]:
