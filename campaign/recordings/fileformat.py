@@ -78,15 +78,15 @@ class Recording:
     robot_name : str
     object_mass : float
         The struck object's mass [kg].
-    t_robot : ndarray (N,)
+    t_robot : ndarray, shape (N,)
         Robot sample times [s] from the first robot sample.
-    q : ndarray (N, J)
+    q : ndarray, shape (N, n_joints)
         Joint positions [rad].
-    ee_position : ndarray (N, 3)
+    ee_position : ndarray, shape (N, 3)
         End-effector position [m], robot base frame.
-    t_object : ndarray (M,)
+    t_object : ndarray, shape (M,)
         Object sample times [s] on the robot's clock.
-    object_position : ndarray (M, 3)
+    object_position : ndarray, shape (M, 3)
         Object position [m], robot base frame.
     qd, ee_velocity, inertia_inv : ndarray or None
         Joint velocities [rad/s], logged end-effector velocity [m/s], logged inverse

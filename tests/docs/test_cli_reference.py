@@ -148,6 +148,12 @@ RUN_BY_TEST: dict[str, RunBy] = {
     "campaign design --prior high=2.34,3.55,3.19": RunBy(
         "tests/design/test_design.py::test_design_at_a_fitted_prior_uses_it_for_its_class_only",
         "design --prior high=2.34,3.55,3.19"),
+    "campaign import --format airhockey rig_hits/rig --object-mass 0.7164703333333333 --out recordings/rig": RunBy(
+        "tests/recordings/test_recordings.py::imported", "import --format airhockey * --object-mass * --out *",
+        {"source": "the test exports the rig's trial into its own temporary folder"}),
+    "campaign identify-recordings recordings/rig --out rig_hits.csv": RunBy(
+        "tests/recordings/test_recordings.py::imported", "identify-recordings * --out * --bootstrap 200",
+        {"dir": "the folder the test imported into", "--bootstrap": "200 draws keep the test quick; 400 by default"}),
     "campaign design --k 6 --repeat-information": RunBy(
         "tests/design/test_design.py::test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n",
         "design --k 6 --repeat-information"),
