@@ -109,16 +109,22 @@ def clock_offset(t_robot: np.ndarray, ee: np.ndarray, t_object: np.ndarray, obj:
     """The offset to add to the object's stamps to put them on the robot's clock [s].
 
     Along the object's impact direction n the object's velocity change (its onset of motion)
-    and the end effector's (its deceleration) come from the same contact force, so they
-    start together. The object's contact window is fitted on its own clock
-    (:func:`campaign.recordings.contact.fit_contact`), then the start of the end effector's
-    velocity change of the same duration (its own profile: an arm's velocity does not follow
-    the impulse as a point mass's does) on the robot's clock, within ``max_offset``
-    (:func:`campaign.recordings.contact.fit_onset`); the offset is the difference.
+    and the end effector's (its deceleration) come from the same contact force. The
+    object's contact window and the profile of its velocity change are fitted on its own
+    clock (:func:`campaign.recordings.contact.fit_contact`), then the start of the same
+    profile, scaled, in the end effector's positions on the robot's clock, within
+    ``max_offset`` (:func:`campaign.recordings.contact.fit_onset`); the offset is the
+    difference. The end effector of an arm follows the impulse as a point mass does over a
+    short, stiff contact (found to within a millisecond on the rig); over a long, soft one
+    its velocity lags the object's and the offset comes out some milliseconds short.
     """
     n, centre = impact_direction_of(t_object, obj)
     t_o, s_o = np.asarray(t_object, float), np.asarray(obj, float) @ n
-    found = fit_contact([Body(t_o, s_o, noise_level(t_o, s_o), 0.05, 0.06)], guess=centre, deg=2, search="refine")
-    onset = fit_onset(np.asarray(t_robot, float), np.asarray(ee, float) @ n, T=found.T, guess=found.t_s,
+    body = Body(t_o, s_o, noise_level(t_o, s_o), 0.05, 0.06)
+    coarse = fit_contact([body], guess=centre, deg=2, search="refine")
+    found = fit_contact([body], guess=coarse.t_s, deg=2, reach=0.02, min_T=max(0.004, coarse.T - 0.03),
+                        max_T=coarse.T + 0.03)
+    onset = fit_onset(np.asarray(t_robot, float), np.asarray(ee, float) @ n, T=found.T, shape=found.shape,
+                      guess=found.t_s,
                       reach=max_offset, deg=2, pre=0.05, post=0.04)
     return onset - found.t_s

@@ -22,20 +22,19 @@ import dataclasses
 import numpy as np
 from scipy.optimize import least_squares
 
-__all__ = ["Body", "ContactFit", "KNOTS", "CHI2_95", "fit_contact", "fit_onset", "design", "noise_level"]
+__all__ = ["Body", "ContactFit", "KNOTS", "fit_contact", "fit_onset", "design", "noise_level"]
 
 #: segments of the velocity change's piecewise-linear profile over the contact
 KNOTS = 6
-#: chi-square quantile (1 degree of freedom, 95 %) bounding a profile interval
-CHI2_95 = 3.841458820694124
 
 
 @dataclasses.dataclass(frozen=True)
 class ContactFit:
-    """The contact window of a body: start ``t_s``, duration ``T`` [s], the ranges of each the
-    samples cannot tell from the best (profile intervals at 95 %, the other held at its best),
-    the velocity change ``dv`` [m/s], the position noise ``sigma`` [m] the fit leaves, and the
-    velocity change's profile at the knots as fractions of ``dv`` (``shape``)."""
+    """The contact window of a body: start ``t_s``, duration ``T`` [s]; the windows
+    (start, duration) the samples fit as well (``windows``, residual per degree of freedom
+    within two standard errors of the least) and their ranges; the velocity change ``dv``
+    [m/s], the position noise ``sigma`` [m] the fit leaves, and the velocity change's
+    profile at the knots as fractions of ``dv`` (``shape``)."""
 
     t_s: float
     T: float
@@ -44,6 +43,7 @@ class ContactFit:
     dv: float
     sigma: float
     shape: tuple[float, ...] = ()
+    windows: tuple[tuple[float, float], ...] = ()
 
 
 def design(t: np.ndarray, t_s: float, T: float, deg: int, knots: int = KNOTS,
@@ -125,9 +125,9 @@ def _cost(bodies: list[Body], ts: float, T: float, deg: int) -> tuple[float, lis
 
 
 def _grid(bodies, deg, starts, durations):
-    """The shortest window on a grid whose residual per degree of freedom is within two
-    standard errors of the least one (a longer window's free profile fits noise, not
-    contact): (cost, (t_s, T), each body's samples)."""
+    """The windows on a grid whose residual per degree of freedom is within two standard
+    errors of the least one, and the shortest of them (a longer window's free profile fits
+    noise as well as the contact): (cost, (t_s, T), each body's samples, the windows)."""
     found = []
     for ts in starts:
         for T in durations:
@@ -138,8 +138,9 @@ def _grid(bodies, deg, starts, durations):
         raise ValueError("too few samples around the contact")
     least = min(found, key=lambda f: f[0])
     bound = least[0] * (1.0 + 2.0 * np.sqrt(2.0 / least[4]))
-    cost, ts, T, masks, _ = min((f for f in found if f[0] <= bound), key=lambda f: (round(f[2], 6), f[0]))
-    return cost, np.array([ts, T]), masks
+    accepted = [f for f in found if f[0] <= bound]
+    cost, ts, T, masks, _ = min(accepted, key=lambda f: (round(f[2], 6), f[0]))
+    return cost, np.array([ts, T]), masks, tuple((f[1], f[2]) for f in accepted)
 
 
 def _refined(bodies, deg, guess, durations, min_T, max_T):
@@ -173,57 +174,38 @@ def fit_contact(bodies: list[Body], *, guess: float, deg: int, search: str = "gr
     its weighted residual per degree of freedom, each body fitted on its own samples around
     the window (a body needs samples of its fit on both sides). ``search`` ``"grid"``: a 2 ms
     grid of starts within ``reach`` of ``guess`` (a start) and of durations from ``min_T`` to
-    ``max_T``, then a 0.25 ms grid around
+    ``max_T``, then a 0.5 ms grid around
     the best, each body's residuals weighed first by its noise, then by what its fit leaves
-    (noise and the model's own error). ``"refine"``: least squares from a few durations
+    (noise and the model's own error); the windows of the fine grid that fit as well are
+    kept. ``"refine"``: least squares from a few durations
     centred on ``guess`` (the velocity change's middle; quicker). Returns the
-    window with its profile ranges and the first body's velocity change and profile.
+    window, those that fit as well, and the first body's velocity change and profile.
     """
     if search == "grid":
-        _, x, masks = _grid(bodies, deg, np.arange(guess - reach, guess + reach + 1e-4, 0.002),
-                            np.arange(min_T, max_T + 1e-4, 0.002))
+        _, x, masks, _ = _grid(bodies, deg, np.arange(guess - reach, guess + reach + 1e-4, 0.002),
+                               np.arange(min_T, max_T + 1e-4, 0.002))
         bodies = [dataclasses.replace(b, noise=max(b.noise, float(np.sqrt(np.mean(
             _solve(b.t[m], b.s[m], x[0], x[1], deg)[1] ** 2))))) for b, m in zip(bodies, masks, strict=True)]
-        fine = np.arange(-0.002, 0.002 + 1e-5, 2.5e-4)
-        scale, x, masks = _grid(bodies, deg, x[0] + fine, np.clip(x[1] + fine, min_T, max_T))
+        fine = np.arange(-0.004, 0.004 + 1e-5, 5e-4)
+        _, x, masks, windows = _grid(bodies, deg, x[0] + fine, np.clip(x[1] + fine, min_T, max_T))
     else:
-        scale, x, masks = _refined(bodies, deg, guess, (0.01, 0.02, 0.04, 0.08), min_T, max_T)
+        _, x, masks = _refined(bodies, deg, guess, (0.01, 0.02, 0.04, 0.08), min_T, max_T)
+        windows = ((float(x[0]), float(x[1])),)
     t_s, T = float(x[0]), float(x[1])
-    sse = float(np.sum(_weighted(bodies, x, deg, masks) ** 2))
-    dof = sum(int(m.sum()) for m in masks) - len(bodies) * (deg + KNOTS + 2) - 2
-    unit = sse / max(dof, 1)
-
-    def profile(values, start):
-        return [float(np.sum(_weighted(bodies, (v, T) if start else (t_s, v), deg, masks) ** 2)) - sse
-                <= CHI2_95 * unit for v in values]
-
-    step = 2.5e-4
-    ts_grid = np.arange(t_s - 0.02, t_s + 0.02 + step / 2, step)
-    T_grid = np.arange(max(min_T, T - 0.04), min(max_T, T + 0.04) + step / 2, step)
     coef, res = _solve(bodies[0].t[masks[0]], bodies[0].s[masks[0]], t_s, T, deg)
     first = 3 if deg >= 2 else 2
     knots = coef[first:first + KNOTS]
     shape = tuple(float(v) for v in knots / knots[-1]) if knots[-1] != 0 else ()
     sigma = float(np.sqrt(np.sum(res ** 2) / max(len(res) - len(coef), 1)))
-    return ContactFit(t_s, T, _around(ts_grid, profile(ts_grid, True), t_s),
-                      _around(T_grid, profile(T_grid, False), T), float(knots[-1]), sigma, shape)
+    starts, durations = [w[0] for w in windows], [w[1] for w in windows]
+    return ContactFit(t_s, T, (min(starts), max(starts)), (min(durations), max(durations)), float(knots[-1]), sigma,
+                      shape, windows)
 
 
-def _around(grid: np.ndarray, ok: list[bool], best: float) -> tuple[float, float]:
-    """The contiguous run of accepted grid values around ``best``: (lowest, highest)."""
-    i = int(np.argmin(np.abs(grid - best)))
-    lo = hi = i
-    while lo > 0 and ok[lo - 1]:
-        lo -= 1
-    while hi < len(grid) - 1 and ok[hi + 1]:
-        hi += 1
-    return float(min(grid[lo], best)), float(max(grid[hi], best))
-
-
-def fit_onset(t: np.ndarray, s: np.ndarray, *, T: float, guess: float, reach: float, deg: int, pre: float,
-              post: float, step: float = 2.5e-4) -> float:
-    """The start of a body's velocity change of duration ``T`` (free profile), searched
-    within ``reach`` of ``guess``.
+def fit_onset(t: np.ndarray, s: np.ndarray, *, T: float, shape: tuple[float, ...] | None, guess: float,
+              reach: float, deg: int, pre: float, post: float, step: float = 2.5e-4) -> float:
+    """The start of a body's velocity change of duration ``T`` and profile ``shape`` (another
+    body's, :class:`ContactFit`; None: free), searched within ``reach`` of ``guess``.
 
     The samples fitted are those around the window at ``guess`` widened by ``reach``, the same
     for every candidate start, so the residuals compare; the best start on a grid of ``step``
@@ -233,7 +215,7 @@ def fit_onset(t: np.ndarray, s: np.ndarray, *, T: float, guess: float, reach: fl
     mask = (t >= guess - reach - pre) & (t <= guess + T + reach + post)
     tt, ss = t[mask], s[mask]
     starts = np.arange(guess - reach, guess + reach + step / 2, step)
-    cost = np.array([float(np.sum(_solve(tt, ss, ts, T, deg)[1] ** 2)) for ts in starts])
+    cost = np.array([float(np.sum(_solve(tt, ss, ts, T, deg, shape)[1] ** 2)) for ts in starts])
     i = int(np.argmin(cost))
     if 0 < i < len(starts) - 1:
         y0, y1, y2 = cost[i - 1], cost[i], cost[i + 1]

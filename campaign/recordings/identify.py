@@ -11,10 +11,10 @@ Along the impact direction n (the direction of the object's velocity change):
   controller's push and re-acceleration) or ``linear`` (constant velocity);
 * ``m* = m_o (v_o' - v_o) / (v_e - v_e')`` (the object's momentum change over the end
   effector's velocity change) and ``e = (v_o' - v_e') / (v_e - v_o)``;
-* intervals: a bootstrap of each fit's residuals (scaled for the fitted parameters) with
-  the window's start and duration drawn uniformly from the ranges the samples cannot tell
-  apart (a soft contact's slow end widens them) and the fitted windows' lengths drawn
-  within +-25 %, seeded.
+* intervals: a bootstrap of each fit's residuals (scaled for the fitted parameters), each
+  draw taking one of the contact windows the samples fit as well (a soft contact's slow
+  end gives many) and the fitted windows' lengths within +-25 %, seeded; m* and e are the
+  draws' medians, the intervals their 2.5 and 97.5 percentiles.
 
 A hit is refused (no numbers) when a fit has too few samples, no contact is found or the
 end effector does not slow along n; it is flagged (numbers kept) when the end effector's
@@ -69,7 +69,7 @@ class RecordedHitOptions:
     fit: str = "quadratic"
     pre_window: float = 0.05
     post_window_object: float = 0.06
-    post_window_robot: float = 0.04
+    post_window_robot: float = 0.05
     min_samples: int | None = None
     margin: int = 0
     window_spread: float = 0.25
@@ -217,13 +217,11 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
         raise _Refused(f"the end effector does not approach the object along n (approach speed {speed:.3g} m/s)")
     if ve - ve2 <= 0:
         raise _Refused(f"the end effector does not slow along n (velocity change {ve2 - ve:.3g} m/s)")
-    m_eff = rec.object_mass * (vo2 - vo) / (ve - ve2)
-    e = (vo2 - ve2) / speed
     rng = np.random.default_rng(opts.seed)
     draws = []
     for _ in range(opts.n_boot):
-        ts_b = rng.uniform(*found.t_s_range)
-        te_b = ts_b + rng.uniform(*found.T_range)
+        ts_b, T_b = found.windows[int(rng.integers(len(found.windows)))]
+        te_b = ts_b + T_b
         scale = tuple(rng.uniform(1 - opts.window_spread, 1 + opts.window_spread, 2))
         drawn = _sets(bodies, lo_edge, hi_edge, opts, scale)
         if any(len(pre) < opts.need or len(post) < opts.need for _, _, _, pre, post in drawn):
@@ -235,7 +233,8 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
         raise _Refused("the end effector's velocity change is lost in the noise (bootstrap draws without a "
                        "slowing end effector)")
     draws_arr = np.array(draws)
-    lo, hi = np.percentile(draws_arr, [2.5, 97.5], axis=0)
+    lo, mid, hi = np.percentile(draws_arr, [2.5, 50.0, 97.5], axis=0)
+    m_eff, e = float(mid[0]), float(mid[1])
     row.update(speed=speed, m_eff=m_eff, m_eff_lo=lo[0], m_eff_hi=hi[0], e=e, e_lo=lo[1], e_hi=hi[1])
     reasons = []
     ratio = (ve - ve2) / speed

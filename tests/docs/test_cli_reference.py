@@ -148,7 +148,12 @@ RUN_BY_TEST: dict[str, RunBy] = {
     "campaign design --prior high=2.34,3.55,3.19": RunBy(
         "tests/design/test_design.py::test_design_at_a_fitted_prior_uses_it_for_its_class_only",
         "design --prior high=2.34,3.55,3.19"),
-    "campaign import --format airhockey rig_hits/rig --object-mass 0.7164703333333333 --out recordings/rig": RunBy(
+    "campaign trial --config 3 --gain zero --speed 1.5 --set pendulum.head_mass=2.0 --set contact.stiffness=40000 "
+    "--out rig_trial.nc": RunBy(
+        "tests/recordings/test_recordings.py::imported",
+        "trial --config 3 --gain zero --speed 1.5 --set pendulum.head_mass=2.0 --set contact.stiffness=40000 --out * "
+        "--quiet", {"--quiet": "the test reads the file it writes, not the line"}),
+    "campaign import --format airhockey rig_hits/rig --object-mass 2.0333 --out recordings/rig": RunBy(
         "tests/recordings/test_recordings.py::imported", "import --format airhockey * --object-mass * --out *",
         {"source": "the test exports the rig's trial into its own temporary folder"}),
     "campaign identify-recordings recordings/rig --out rig_hits.csv": RunBy(

@@ -26,18 +26,22 @@ from campaign.recordings import (
     verify_recordings,
 )
 
-REPO = Path(__file__).resolve().parents[2]
-#: a zero-gain trial of the reference archive: the rig's arm struck at 2.5 m/s (truth group kept)
-TRIAL = REPO / "archive" / "reference" / "fixed" / "config3" / "zero" / "v2.500" / "r00.nc"
 LEAD = 0.006
+#: the rig's zero-gain arm in configuration 3 struck at 1.5 m/s by a 2 kg hammer head on a stiff
+#: pad: a contact of about 9 ms and a velocity change of the arm of about 40 % of the speed, the
+#: conditions of the air-hockey hits with the 1.9 kg box (the rig's default 0.7 kg hammer on its
+#: soft pad is an object too light against m*, over a 70 ms contact)
 
 
 @pytest.fixture(scope="module")
 def imported(tmp_path_factory):
-    """The trial exported as session ``rig`` (hit 1), imported, identified: (folder, rows, truth)."""
+    """A rig trial exported as session ``rig`` (hit 1), imported, identified: (folder, rows, truth)."""
     tmp = tmp_path_factory.mktemp("recordings")
-    export_airhockey(TRIAL, tmp / "src" / "rig", hit=1, clock_lead=LEAD, seed=0)
-    truth = truth_of(TRIAL)
+    trial = tmp / "trial.nc"
+    assert main(["trial", "--config", "3", "--gain", "zero", "--speed", "1.5", "--set", "pendulum.head_mass=2.0",
+                 "--set", "contact.stiffness=40000", "--out", str(trial), "--quiet"]) == 0
+    export_airhockey(trial, tmp / "src" / "rig", hit=1, clock_lead=LEAD, seed=0)
+    truth = truth_of(trial)
     assert main(["import", "--format", "airhockey", str(tmp / "src" / "rig"), "--object-mass",
                  repr(truth["object_mass"]), "--out", str(tmp / "rec")]) == 0
     assert main(["identify-recordings", str(tmp / "rec"), "--out", str(tmp / "hits.csv"), "--bootstrap", "200"]) == 0
@@ -59,8 +63,9 @@ def test_round_trip_recovers_the_rigs_truth_within_the_intervals(imported):
     # the rig's contact lasts as long as the range of durations the samples allow
     assert (float(row["contact_duration_lo"]) <= truth["contact_end"] - truth["contact_start"]
             <= float(row["contact_duration_hi"]))
-    # the logged model's m* is the rig's rigid-body one, lighter than the identified (the drives' friction)
-    assert 0 < float(row["m_eff_logged"]) < float(row["m_eff"])
+    # the logged model is the rig's eq 7 (rotor inertia included): the momentum balance's m* is
+    # heavier, as the joints' friction resists the contact too
+    assert 0 < float(row["m_eff_logged"]) < truth["m_eff"]
 
 
 def test_import_handles_the_loggers_quirks(imported):
@@ -72,10 +77,10 @@ def test_import_handles_the_loggers_quirks(imported):
         assert f["robot/ee_position"].attrs["units"] == "m"
         assert f["object/position"].attrs["units"] == "m"
         assert f.attrs["license"] == NO_LICENCE
-        assert f.attrs["object_mass"] == pytest.approx(truth_of(TRIAL)["object_mass"])
+        assert f.attrs["object_mass"] == pytest.approx(truth_of(tmp / "trial.nc")["object_mass"])
     assert robot["stale_rows_dropped"] > 0
     assert robot["stamps_repaired"] == 2               # the two glitched stamps the export put in
-    assert abs(obj["clock_offset"] - LEAD) < 0.0015    # the motion capture's lead, found
+    assert abs(obj["clock_offset"] - LEAD) < 0.001     # the motion capture's lead, found
     rec = read_recording(path)
     assert np.all(np.diff(rec.t_robot) > 0.004)         # no stale rows, no glitched stamps left
     assert float(rows[0]["clock_offset"]) == pytest.approx(obj["clock_offset"], rel=1e-5)
@@ -131,7 +136,7 @@ def test_a_light_object_is_flagged(imported):
 
 def test_generic_csv_round_trip(imported, tmp_path):
     """The imported hit written as plain CSV (ms, mm, deg, the object in a turned frame) and read
-    back through a mapping file: the same samples, the same identification."""
+    back through a mapping file: the same samples, the same identification within its intervals."""
     tmp, _, _ = imported
     (path,) = recording_files(tmp / "rec")
     rec = read_recording(path)
@@ -166,8 +171,10 @@ def test_generic_csv_round_trip(imported, tmp_path):
     np.testing.assert_allclose(back.t_object - back.t_object[0], rec.t_object - rec.t_object[0], atol=1e-12)
     a = identify_recording(rec, RecordedHitOptions(n_boot=50))
     b = identify_recording(back, RecordedHitOptions(n_boot=50))
-    assert b["m_eff"] == pytest.approx(a["m_eff"], rel=1e-6)
-    assert b["e"] == pytest.approx(a["e"], rel=1e-6)
+    # the same samples to rounding: the same m* and e within each other's intervals (the window
+    # search is discrete, so a rounding-level difference may pick a neighbouring window)
+    assert a["m_eff_lo"] <= b["m_eff"] <= a["m_eff_hi"] and b["m_eff_lo"] <= a["m_eff"] <= b["m_eff_hi"]
+    assert a["e_lo"] <= b["e"] <= a["e_hi"] and b["e_lo"] <= a["e"] <= b["e_hi"]
 
 
 def test_stale_rows_and_glitched_stamps():
