@@ -5,7 +5,6 @@ round trip; the cleaning steps on their own."""
 from __future__ import annotations
 
 import csv
-from pathlib import Path
 
 import h5py
 import numpy as np
