@@ -8,11 +8,12 @@ and fall slowly), plus, for the constant-acceleration model, another acceleratio
 the contact. For given ``t_s`` and ``T`` the model is linear in its other parameters, so
 only ``t_s`` and ``T`` are searched (variable projection); the samples fitted are those
 within ``pre`` seconds before and ``post`` seconds after the window. The contact window of
-a hit is the one both bodies' positions fit best (:func:`fit_contact`).
+a hit is the shortest one the object's positions fit as well as the best
+(:func:`fit_contact`; it takes several bodies sharing a window too).
 
-The same model, with ``T`` fixed to the object's, finds when the end effector's own
-velocity change starts on the robot's clock (:func:`fit_onset`): the offset between the
-two starts is the offset between the clocks.
+The same model, with ``T`` and the profile fixed to the object's, finds when the end
+effector's velocity change starts on the robot's clock (:func:`fit_onset`): the offset
+between the two starts is the offset between the clocks.
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 
 Along the impact direction n (the direction of the object's velocity change):
 
-* the contact window (start and duration) is fitted to both bodies' positions: each body's
-  motion before and after plus a velocity change of free profile over the window
-  (:mod:`campaign.recordings.contact`);
+* the contact window (start and duration) is fitted to the object's positions: its motion
+  before and after plus a velocity change of free profile over the window, the shortest
+  window that fits as well as the best (:mod:`campaign.recordings.contact`);
 * each body's velocity just before (after) the contact is the derivative, at the window's
   edge, of a polynomial fitted to the samples before (after) it, never across it:
   ``quadratic`` (default; constant acceleration: the object's sliding friction, the
@@ -119,8 +119,8 @@ def _fit_velocity(t: np.ndarray, s: np.ndarray, deg: int, at: float) -> tuple[fl
 
 
 def _contact(rec: Recording, n: np.ndarray, centre: float, opts: RecordedHitOptions) -> ContactFit:
-    """The contact window on the robot's clock: the object's alone first (coarse), then both
-    bodies' positions near it; a body without enough samples on either side is refused."""
+    """The contact window on the robot's clock from the object's positions (a quick fit, then
+    the grid near it); a body without enough samples on either side of it is refused."""
     deg = _DEGREE[opts.fit]
     bodies = []
     for name, t, p, post in (("object", rec.t_object, rec.object_position, opts.post_window_object),
