@@ -10,6 +10,7 @@ it (:data:`LAYERS`, bottom up; ``tests/project/test_layout.py`` enforces the ord
 ``rig``       the simulated VES-II: plant, integrator, servo, sensors, structures, VES loop
 ``archive``   trial files, campaign folders, manifest, verification
 ``identify``  m* (eq 10) and e (eq 12) per trial from the measured channels; identification tables
+``recordings`` real robots' recorded hits: import, recording files, m* and e by momentum balance
 ``joints``    joint-resistance models: the lambda fits (eq 11, 15), Coulomb, joint impedance
 ``plan``      the impact planner, its factory, compression and post-contact terms, the stroke check
 ``design``    experiment design and the designed campaign
@@ -26,7 +27,7 @@ from importlib.metadata import version as _version
 __all__ = ["LAYERS", "__version__"]
 
 #: the packages of the campaign package, bottom up: a module imports only from its own package and those before it
-LAYERS = ("core", "model", "scene", "rig", "archive", "identify", "joints", "plan", "design", "studies", "report",
+LAYERS = ("core", "model", "scene", "rig", "archive", "identify", "recordings", "joints", "plan", "design", "studies", "report",
           "bench", "pipeline", "cli")
 
 try:

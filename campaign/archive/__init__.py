@@ -27,6 +27,7 @@ from .fileformat import (
     README,
     REFERENCES,
     TRIAL_SUFFIX,
+    content_digest,
     prepare_trial,
     provenance,
 )
@@ -56,7 +57,7 @@ __all__ = [
     "GROUPS", "MANIFEST", "INDEX", "README", "TRIAL_SUFFIX", "CELL_KEYS", "INDEX_COLUMNS", "FILTER_KEYS",
     "REFERENCES", "TRIAL_BYTES",
     "TrialRecord", "Problem", "Verification", "ChannelArray", "GroupArrays", "TrialArrays",
-    "provenance", "prepare_trial", "write_trial", "open_trial", "open_trial_arrays", "open_trial_tree", "trial_path",
+    "provenance", "content_digest", "prepare_trial", "write_trial", "open_trial", "open_trial_arrays", "open_trial_tree", "trial_path",
     "list_trials", "trial_files", "outside_layout", "open_campaign", "to_cell_dataset",
     "JOBS", "TrialEntry", "write_trial_entry", "intact_trials", "write_job_manifest", "read_job_manifests",
     "job_trial_paths",

@@ -8,6 +8,7 @@ import sys
 
 from campaign.archive import INDEX_COLUMNS, finalize_campaign, list_trials, verify_report
 from campaign.core.errors import InputError
+from campaign.recordings import is_recording_folder, verify_recordings
 
 from .commands import HELP
 
@@ -28,6 +29,15 @@ def _filters(items: list[str] | None) -> dict[str, str]:
 
 def _verify(args: argparse.Namespace) -> int:
 
+    if is_recording_folder(args.dir):
+        found = verify_recordings(args.dir)
+        for rel, message in found:
+            print(f"{args.dir.rstrip('/')}/{rel}: {message}")
+        if found:
+            print(f"campaign archive verify: {len(found)} problem(s)", file=sys.stderr)
+            return 1
+        print(f"{args.dir}: ok")
+        return 0
     report = verify_report(args.dir)
     problems = report.problems
     for problem in problems:

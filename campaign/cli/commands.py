@@ -13,7 +13,7 @@ COMMANDS = {
     "meff": "meff", "plan": "plan", "map": "map", "trial": "trial", "sweep": "sweep", "design": "design",
     "archive": "archive", "identify": "identify", "fit-lambda": "identify", "recorded-lambda": "recorded",
     "tables": "identify",
-    "calibrate": "calibrate", "bench": "bench",
+    "calibrate": "calibrate", "bench": "bench", "import": "recordings", "identify-recordings": "recordings",
 }
 
 #: subcommand -> its one-line help
@@ -31,4 +31,6 @@ HELP = {
     "tables": "write Tables 2-4 (CSV and Markdown) from an archive, beside the paper's values",
     "calibrate": "fit unpublished rig parameters to the paper's fixed-base observations",
     "bench": "work-precision / per-trial cost benchmark and the numerical stress suite",
+    "import": "import a real robot's recorded hits (air-hockey layout or mapped CSV) into a recording folder",
+    "identify-recordings": "identify m* and e by momentum balance per recorded hit, with intervals",
 }

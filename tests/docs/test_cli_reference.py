@@ -152,6 +152,17 @@ RUN_BY_TEST: dict[str, RunBy] = {
         "tests/design/test_recorded.py::test_recorded_lambda_cli_reports_and_writes_json",
         "recorded-lambda * --robot * --fit config_1 --predict config_2",
         {"hits": "the test writes synthetic per-hit rows of a seven-axis test arm with a known lambda"}),
+    "campaign trial --config 3 --gain zero --speed 1.5 --set pendulum.head_mass=2.0 --set contact.stiffness=40000 "
+    "--out rig_trial.nc": RunBy(
+        "tests/recordings/test_recordings.py::imported",
+        "trial --config 3 --gain zero --speed 1.5 --set pendulum.head_mass=2.0 --set contact.stiffness=40000 --out * "
+        "--quiet", {"--quiet": "the test reads the file it writes, not the line"}),
+    "campaign import --format airhockey rig_hits/rig --object-mass 2.0333 --out recordings/rig": RunBy(
+        "tests/recordings/test_recordings.py::imported", "import --format airhockey * --object-mass * --out *",
+        {"source": "the test exports the rig's trial into its own temporary folder"}),
+    "campaign identify-recordings recordings/rig --out rig_hits.csv": RunBy(
+        "tests/recordings/test_recordings.py::imported", "identify-recordings * --out * --bootstrap 200",
+        {"dir": "the folder the test imported into", "--bootstrap": "200 draws keep the test quick; 400 by default"}),
     "campaign design --k 6 --repeat-information": RunBy(
         "tests/design/test_design.py::test_design_repeating_information_strikes_three_high_poses_along_n_and_minus_n",
         "design --k 6 --repeat-information"),
