@@ -36,6 +36,7 @@ from .coulomb import CoulombLambdaFit
 from .impacts import Impacts
 from .lambda_fit import IdentifiabilityWarning, LambdaFit
 from .params import Params
+from .scatter import tip_velocity_change
 from .setting import Setting
 from .terms import arm_terms
 
@@ -97,6 +98,10 @@ class ResponseModel(Params, ABC):
     def _masses(self, impacts: Impacts) -> np.ndarray:
         return impacts.mass if impacts.mass is not None else np.full(len(impacts), self._the_setting().hammer_mass)
 
+    def _restitution(self) -> float:
+        """Eq 14's restitution of the model's predictions (the fitted one, else the contact law's)."""
+        return float(getattr(self, "restitution_", self._the_setting().contact.restitution))
+
     def _record_fit(self, impacts: Impacts, predicted: np.ndarray, n_parameters: int) -> None:
         """Residuals ``ln m*_model - ln m*_identified`` per fitted impact, their rms and scatter."""
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -127,10 +132,17 @@ class ResponseModel(Params, ABC):
         """Standard deviation of ``ln m*`` from the parameters' uncertainty, per impact (0 here)."""
         return np.zeros(len(impacts))
 
-    def scatter(self, impacts: Impacts) -> float:
-        """The residual scatter of ``ln m*`` the intervals carry: the fit's, or on the flexible
-        base the one measured under the impacts' structure where the model has it
-        (``structure_scatter_``)."""
+    def scatter(self, impacts: Impacts, m_eff=None):
+        """The residual scatter of ``ln m*`` the intervals carry: with a scatter model
+        (``scatter_model_``, :mod:`campaign.joints.scatter`) per impact from its gain set, its
+        structure and the tip velocity change of the predicted ``m_eff``; without one the
+        fit's, or on the flexible base the one measured under the impacts' structure where the
+        model has it (``structure_scatter_``)."""
+        sm = getattr(self, "scatter_model_", None)
+        if sm is not None and m_eff is not None:
+            dv = tip_velocity_change(m_eff, impacts.speed, self._masses(impacts), self._restitution())
+            structure = (impacts.structure or self._the_setting().structure) if impacts.base == FLEXIBLE else None
+            return sm.sd(impacts.gain, dv, structure=structure)
         if impacts.base == FLEXIBLE:
             name = impacts.structure or self._the_setting().structure
             extra = getattr(self, "structure_scatter_", {})
@@ -140,11 +152,14 @@ class ResponseModel(Params, ABC):
 
     def predict_interval(self, impacts: Impacts, *, level: float = 0.95):
         """``(m*, lower, upper)`` [kg]: the prediction and its interval from the parameters'
-        uncertainty and the fit's residual scatter, combined on ``ln m*``."""
+        uncertainty and the residual scatter (:meth:`scatter`), combined on ``ln m*``; its
+        width the scatter model's quantile of ``level`` where the model has one, else the
+        normal distribution's."""
         self._check_fitted()
         m = self.predict(impacts)
-        sd = np.sqrt(self.parameter_sd(impacts) ** 2 + self.scatter(impacts) ** 2)
-        z = _z(level)
+        sd = np.sqrt(self.parameter_sd(impacts) ** 2 + self.scatter(impacts, m) ** 2)
+        sm = getattr(self, "scatter_model_", None)
+        z = sm.quantile(level) if sm is not None else _z(level)
         with np.errstate(invalid="ignore", over="ignore"):
             return m, m * np.exp(-z * sd), m * np.exp(z * sd)
 

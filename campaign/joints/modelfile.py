@@ -9,8 +9,9 @@ The file (schema :data:`SCHEMA`, version :data:`SCHEMA_VERSION`) holds:
   as known (:class:`campaign.joints.setting.Setting`);
 * ``fit``: the archive the trials came from, the number of trials and the sha256 of their
   sorted list, the residual of each (``ln m*_model - ln m*_identified``, keyed by trial),
-  their rms and scatter (the intervals' part), and per flexible-base structure where the
-  model was checked there the residuals and their scatter;
+  their rms and scatter, per flexible-base structure where the model was checked there the
+  residuals and their scatter, and (``scatter_model``, where fitted) the scatter model the
+  intervals carry (:mod:`campaign.joints.scatter`);
 * ``package_version``.
 
 No pickles: numbers are JSON numbers written with Python's shortest round-trip repr, so a
@@ -37,6 +38,7 @@ from ..core.yamlfile import config_file
 from .coulomb import CoulombLambdaFit
 from .estimator import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
 from .impedance_model import JointImpedance
+from .scatter import ScatterModel
 from .setting import Setting, display_path
 
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "KINDS", "SHIPPED_MODEL", "ModelFileError", "model_document", "save_model",
@@ -92,7 +94,7 @@ def model_document(model: ResponseModel, *, archive: str | None = None) -> dict[
     s = model._the_setting()
     keys = list(model.keys_)
     residuals = {k: (float(r) if math.isfinite(r) else None) for k, r in zip(keys, model.residuals_, strict=True)}
-    return {
+    doc = {
         "schema": SCHEMA, "schema_version": SCHEMA_VERSION, "kind": model.kind, "options": _options(model),
         "parameters": model.parameters(),
         "robot": {"name": s.robot.name, "files": dict(s.digests["robot"])},
@@ -106,6 +108,10 @@ def model_document(model: ResponseModel, *, archive: str | None = None) -> dict[
                 "structure_residuals": {k: dict(v) for k, v in getattr(model, "structure_residuals_", {}).items()}},
         "package_version": __version__,
     }
+    scatter = getattr(model, "scatter_model_", None)
+    if scatter is not None:
+        doc["fit"]["scatter_model"] = scatter.to_dict()
+    return doc
 
 
 def save_model(model: ResponseModel, path, *, archive: str | None = None) -> Path:
@@ -209,6 +215,11 @@ def _restore(doc: dict, setting: Setting, where: str) -> ResponseModel:
                                       for k, v in doc["fit"]["structure_residuals"].items()}
     except (AttributeError, TypeError, ValueError) as exc:
         raise ModelFileError(f"{where}: fit.structure_scatter or fit.structure_residuals is malformed ({exc})") from None
+    if "scatter_model" in doc["fit"]:
+        try:
+            model.scatter_model_ = ScatterModel.from_dict(doc["fit"]["scatter_model"])
+        except InputError as exc:
+            raise ModelFileError(f"{where}: fit.scatter_model: {exc}") from None
     model.provenance_ = {k: doc[k] for k in ("robot", "rig", "paper", "package_version")}
     model.provenance_["archive"] = doc["fit"]["archive"]
     return model
