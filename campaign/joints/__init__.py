@@ -15,6 +15,7 @@ __all__ = [
     "ResponseModel", "Eq11Model", "LambdaModel", "CoulombModel", "LambdaFit", "IdentifiabilityWarning",
     "design_arrays", "load_fits", "CoulombLambdaFit", "JointImpedance", "Impacts", "Setting", "display_path",
     "ModelFileError", "load_model", "save_model", "shipped_model_path", "arm_terms", "respond",
+    "ScatterModel", "fit_scatter", "tip_velocity_change",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -27,4 +28,5 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "modelfile": ("ModelFileError", "load_model", "save_model", "shipped_model_path"),
     "terms": ("arm_terms",),
     "response": ("respond",),
+    "scatter": ("ScatterModel", "fit_scatter", "tip_velocity_change"),
 })

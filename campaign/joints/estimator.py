@@ -150,6 +150,12 @@ class ResponseModel(Params, ABC):
                 return float(extra[name])
         return float(self.residual_scatter_)
 
+    def interval_quantile(self, level: float) -> float:
+        """The multiple of the sd of ``ln m*`` a two-sided interval of ``level`` spans: the
+        scatter model's (its residuals' tails) where the model has one, else the normal's."""
+        sm = getattr(self, "scatter_model_", None)
+        return sm.quantile(level) if sm is not None else _z(level)
+
     def predict_interval(self, impacts: Impacts, *, level: float = 0.95):
         """``(m*, lower, upper)`` [kg]: the prediction and its interval from the parameters'
         uncertainty and the residual scatter (:meth:`scatter`), combined on ``ln m*``; its
@@ -158,8 +164,7 @@ class ResponseModel(Params, ABC):
         self._check_fitted()
         m = self.predict(impacts)
         sd = np.sqrt(self.parameter_sd(impacts) ** 2 + self.scatter(impacts, m) ** 2)
-        sm = getattr(self, "scatter_model_", None)
-        z = sm.quantile(level) if sm is not None else _z(level)
+        z = self.interval_quantile(level)
         with np.errstate(invalid="ignore", over="ignore"):
             return m, m * np.exp(-z * sd), m * np.exp(z * sd)
 
