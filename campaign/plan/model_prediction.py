@@ -5,8 +5,9 @@ With a model (:class:`campaign.joints.impedance_model.JointImpedance`, by defaul
 response to the contact law's pulse (:func:`campaign.joints.response.respond`): m* as eq 10
 measures it, the joints' velocities and the contact's duration at the contact's end, and on
 the flexible base the structure's tip twist then and its peak displacement over one
-first-mode period, the arm ideally coupled to the structure (a real structure has no VES-II
-loop; ``coupling="loop"`` follows the rig's emulation instead, at about four times the cost). The impulse is eq 14
+first-mode period, the arm ideally coupled to the structure (``coupling="loop"`` follows the
+rig's VES-II emulation instead, at about four times the cost; :func:`rescore_loop` predicts
+chosen candidates again through it, as the planner does for its best). The impulse is eq 14
 with that m*; the peak force is the contact law's at the arm's apparent mass over the
 compression (:mod:`campaign.plan.compression`, with the model's joint damping) on the fixed
 base, at the reduced mass of m* on the flexible base.
@@ -119,10 +120,20 @@ def rescore_loop(robot, Q, model, gains, directions, pred: Predictions, picks, *
     if setting.loop is None:
         raise InputError("the rig file has no VES-II loop (ves.mode) to rescore the candidates through")
     Q = np.atleast_2d(np.asarray(Q, float))
-    terms = arm_terms(robot, Q[picks[:, 0]], beam=setting.beam)
-    r = model.respond_terms(terms, [gains[g] for g in picks[:, 1]], n[picks[:, 2]][:, None, :], speed=speed,
-                            mass=mass, pendulum=pendulum, window=True, structure=structure, restitution=e,
-                            coupling="loop")
+    # one case per (pose, gain set), its picked directions the variants (padded with its last)
+    cases, slot = np.unique(picks[:, :2], axis=0, return_inverse=True)
+    slot = slot.ravel()
+    col = np.zeros(picks.shape[0], int)
+    for c in range(cases.shape[0]):
+        col[slot == c] = np.arange(np.count_nonzero(slot == c))
+    dirs = np.empty((cases.shape[0], int(col.max()) + 1, 3))
+    dirs[:] = n[picks[:, 2]][[np.flatnonzero(slot == c)[-1] for c in range(cases.shape[0])]][:, None, :]
+    dirs[slot, col] = n[picks[:, 2]]
+    terms = arm_terms(robot, Q[cases[:, 0]], beam=setting.beam)
+    r = model.respond_terms(terms, [gains[g] for g in cases[:, 1]], dirs, speed=speed, mass=mass, pendulum=pendulum,
+                            window=True, structure=structure, restitution=e, coupling="loop")
+    r = dataclasses.replace(r, **{f.name: getattr(r, f.name)[slot, col] for f in dataclasses.fields(r)
+                                  if getattr(r, f.name) is not None})
     new = _quantities(r, (picks.shape[0],), setting, mass=mass, speed=speed, e=e, contact=contact, flexible=True)
     fields = {}
     at = tuple(picks.T)

@@ -57,3 +57,9 @@ def test_the_fixed_base_has_nothing_to_rescore_and_a_bad_count_is_refused(model)
         planner.rescore = bad
         with pytest.raises(InputError, match="rescore"):
             planner.fit(impact_point(model.setting.robot, POINT_Q), horizontal_directions(2))
+
+
+def test_the_cli_help_names_the_rescored_count():
+    from campaign.cli import plan as cli_plan
+
+    assert f"the best {RESCORE} are predicted again through the VES-II loop" in " ".join(cli_plan.EPILOG.split())
