@@ -18,7 +18,7 @@ from campaign.joints.setting import Setting
 from campaign.model.paper import configuration_q
 
 TRUE = ScatterModel(floor={"zero": 0.004, "high": 0.008}, velocity_noise={"zero": 0.0005, "high": 0.001},
-                    structure={"stiff_mast": 0.002}, dof=6.0)
+                    structure={"stiff_mast": 0.002}, flexible_floor={"zero": 0.0, "high": 0.01}, dof=6.0)
 
 
 def _draw(model: ScatterModel, n: int, seed: int):
@@ -32,12 +32,15 @@ def _draw(model: ScatterModel, n: int, seed: int):
 
 
 def test_the_fit_recovers_a_known_scatter_and_its_intervals_cover_what_they_say():
+    held = fit_scatter(*_draw(TRUE, 300, 3)[:3], structures=_draw(TRUE, 300, 3)[3], dof=(4.0, 4.0))
+    assert held.dof == 4.0
     r, gains, dv, structures, _ = _draw(TRUE, 4000, 1)
     fitted = fit_scatter(r, gains, dv, structures=structures)
     for g in ("zero", "high"):
         assert math.isclose(fitted.floor[g], TRUE.floor[g], rel_tol=0.15)
         assert math.isclose(fitted.velocity_noise[g], TRUE.velocity_noise[g], rel_tol=0.15)
     assert math.isclose(fitted.structure["stiff_mast"], 0.002, rel_tol=0.3)
+    assert math.isclose(fitted.flexible_floor["high"], 0.01, rel_tol=0.3) and fitted.flexible_floor["zero"] < 0.003
     assert 4.0 < fitted.dof < 10.0
     assert fitted.n_residuals == 4000
     # on fresh draws from the same model, each level covers its share
@@ -52,10 +55,13 @@ def test_the_scatter_grows_as_the_tip_moves_less_and_on_the_structure():
     sd = TRUE.sd(["high"] * 3, [0.3, 0.03, 0.003])
     assert np.all(np.diff(sd) > 0) and math.isclose(sd[-1], math.hypot(0.008, 0.001 / 0.003))
     assert TRUE.sd(["zero"], [0.1], structure="stiff_mast")[0] > TRUE.sd(["zero"], [0.1])[0]
+    assert math.isclose(TRUE.sd(["high"], [0.1], structure="stiff_mast")[0],
+                        math.sqrt(0.008 ** 2 + 0.01 ** 2 + (0.001 ** 2 + 0.002 ** 2) / 0.01))
     assert TRUE.sd(["zero"], [0.0])[0] == math.inf            # m* unbounded: the tip does not move
     # a heavy-tailed t spans more than the normal's 1.96 sd at 95 % (unit variance)
     assert TRUE.quantile(0.95) > 1.96 > TRUE.quantile(0.90)
-    assert math.isclose(ScatterModel({"zero": 0.01}, {"zero": 0.0}, {}, dof=200.0).quantile(0.95), 1.96, rel_tol=0.01)
+    assert math.isclose(ScatterModel({"zero": 0.01}, {"zero": 0.0}, {}, {"zero": 0.0}, dof=200.0).quantile(0.95), 1.96,
+                        rel_tol=0.01)
 
 
 def test_tip_velocity_change_is_what_eq10_divides_by():
@@ -64,15 +70,15 @@ def test_tip_velocity_change_is_what_eq10_divides_by():
 
 
 @pytest.mark.parametrize("doc, words", [
-    ({"floor": {"zero": -0.1}, "velocity_noise": {"zero": 0.0}, "structure": {}, "dof": 5.0, "n_residuals": 3},
+    ({"floor": {"zero": -0.1}, "velocity_noise": {"zero": 0.0}, "structure": {}, "flexible_floor": {"zero": 0.0}, "dof": 5.0, "n_residuals": 3},
      "floor of 'zero' must be a finite number >= 0"),
-    ({"floor": {"zero": 0.1}, "velocity_noise": {"low": 0.0}, "structure": {}, "dof": 5.0, "n_residuals": 3},
+    ({"floor": {"zero": 0.1}, "velocity_noise": {"low": 0.0}, "structure": {}, "flexible_floor": {"zero": 0.0}, "dof": 5.0, "n_residuals": 3},
      "name other gain sets"),
-    ({"floor": {"zero": 0.1}, "velocity_noise": {"zero": 0.0}, "structure": {"x": math.nan}, "dof": 5.0,
+    ({"floor": {"zero": 0.1}, "velocity_noise": {"zero": 0.0}, "structure": {"x": math.nan}, "flexible_floor": {"zero": 0.0}, "dof": 5.0,
       "n_residuals": 3}, "structure of 'x'"),
-    ({"floor": {"zero": 0.1}, "velocity_noise": {"zero": 0.0}, "structure": {}, "dof": 1.0, "n_residuals": 3},
+    ({"floor": {"zero": 0.1}, "velocity_noise": {"zero": 0.0}, "structure": {}, "flexible_floor": {"zero": 0.0}, "dof": 1.0, "n_residuals": 3},
      "dof must be in"),
-    ({"floor": {"zero": 0.1}, "velocity_noise": {"zero": 0.0}, "structure": {}, "dof": 5.0}, "no key 'n_residuals'"),
+    ({"floor": {"zero": 0.1}, "velocity_noise": {"zero": 0.0}, "structure": {}, "flexible_floor": {"zero": 0.0}, "dof": 5.0}, "no key 'n_residuals'"),
 ])
 def test_a_bad_scatter_model_is_refused_with_one_line(doc, words):
     with pytest.raises(InputError) as err:
