@@ -156,7 +156,8 @@ class ScatterModel:
 
 def _unpack(x, gains, structures, dof):
     G, S = len(gains), len(structures)
-    e = np.exp(x)
+    with np.errstate(over="ignore"):        # a held dof leaves its coordinate free to drift
+        e = np.exp(x)
     nu = dof[0] + e[-1] if dof[0] < dof[1] else dof[0]
     return e[:G], e[G:2 * G], e[2 * G:3 * G], e[3 * G:3 * G + S], nu
 
