@@ -4,8 +4,10 @@
 :func:`campaign.studies.response_model.evaluate`) by base, gain set, speed band (below,
 inside and above the 1.0-2.5 m/s the model was once fitted on) and decade of the
 identified m*, and gives per group the m* error's median and worst, the signed median (the
-bias), and the share of trials the 90 % and 95 % intervals hold, with a binomial 95 %
-interval of that share (Wilson's) so that a group's miss can be told from its size.
+bias) against the identified m* and against the simulator's own (diagnosis only: it tells
+the model's bias from the identification's noise), and the share of trials the 90 % and
+95 % intervals hold, with a binomial 95 % interval of that share (Wilson's) so that a
+group's miss can be told from its size.
 :func:`bias_by_speed` gives the signed median error per finer speed band.
 """
 
@@ -23,8 +25,8 @@ __all__ = ["SPEED_BANDS", "BIAS_BANDS", "speed_band", "decade", "coverage_table"
 SPEED_BANDS = (("below 1.0", 0.0, 1.0), ("1.0-2.5", 1.0, 2.5 + 1e-9), ("above 2.5", 2.5 + 1e-9, math.inf))
 #: finer speed bands for the bias [m/s]
 BIAS_BANDS = ((0.3, 0.5), (0.5, 0.7), (0.7, 1.0), (1.0, 1.75), (1.75, 2.5), (2.5, 3.0 + 1e-9))
-COVERAGE_COLUMNS = ("group", "value", "trials", "median_error", "worst_error", "bias", "covered_90", "covered_95",
-                    "covered_95_low", "covered_95_high")
+COVERAGE_COLUMNS = ("group", "value", "trials", "median_error", "worst_error", "bias", "bias_truth", "covered_90",
+                    "covered_95", "covered_95_low", "covered_95_high")
 
 
 def speed_band(speed: float) -> str:
@@ -53,8 +55,10 @@ def _group_row(group: str, value: str, rows: Sequence[dict]) -> dict:
     c90 = [bool(r["covered_90"]) for r in rows]
     c95 = [bool(r["covered"]) for r in rows]
     lo, hi = wilson(sum(c95), len(c95))
+    truth = [r["model_vs_truth"] for r in rows if r.get("model_vs_truth") is not None]
     return {"group": group, "value": value, "trials": len(rows), "median_error": float(np.median(np.abs(err))),
             "worst_error": float(np.max(np.abs(err))), "bias": float(np.median(err)),
+            "bias_truth": float(np.median(truth)) if truth else math.nan,
             "covered_90": float(np.mean(c90)), "covered_95": float(np.mean(c95)), "covered_95_low": lo,
             "covered_95_high": hi}
 
@@ -91,11 +95,12 @@ def bias_by_speed(rows: Sequence[dict]) -> list[dict]:
 def coverage_markdown(table: Sequence[dict], bias: Sequence[dict], *, seeds: str) -> str:
     """The coverage table and the bias per speed band as Markdown."""
     lines = ["# Response model: accuracy and interval coverage per group", "", seeds, "",
-             "| group | value | trials | m* median / worst | bias (signed median) | 90 % cover | 95 % cover "
-             "(Wilson 95 %) |", "|---|---|---|---|---|---|---|"]
+             "| group | value | trials | m* median / worst | bias (signed median) | against the truth | 90 % cover | "
+             "95 % cover (Wilson 95 %) |", "|---|---|---|---|---|---|---|---|"]
     for r in list(table) + list(bias):
         lines.append(f"| {r['group']} | {r['value']} | {r['trials']} | {100 * r['median_error']:.2f} / "
-                     f"{100 * r['worst_error']:.2f} % | {100 * r['bias']:+.2f} % | {100 * r['covered_90']:.1f} % | "
+                     f"{100 * r['worst_error']:.2f} % | {100 * r['bias']:+.2f} % | {100 * r['bias_truth']:+.2f} % | "
+                     f"{100 * r['covered_90']:.1f} % | "
                      f"{100 * r['covered_95']:.1f} % ({100 * r['covered_95_low']:.0f}-{100 * r['covered_95_high']:.0f})"
                      " |")
     return "\n".join(lines) + "\n"

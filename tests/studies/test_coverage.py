@@ -11,7 +11,7 @@ from campaign.studies.coverage import bias_by_speed, coverage_markdown, coverage
 
 def _row(base, gain, speed, m, error, c95, c90, structure=None):
     return {"base": base, "structure": structure, "gain": gain, "speed_m_s": speed, "m_identified_kg": m,
-            "error": error, "covered": c95, "covered_90": c90}
+            "error": error, "covered": c95, "covered_90": c90, "model_vs_truth": error / 4}
 
 
 ROWS = [_row("fixed", "high", 0.6, 8.0, -0.02, True, False), _row("fixed", "high", 1.0, 25.0, 0.01, True, True),
@@ -40,7 +40,7 @@ def test_each_group_counts_its_trials():
     assert table[("base", "flexible stiff_mast")]["trials"] == 1
     g = table[("gain set", "high")]
     assert g["trials"] == 2 and g["median_error"] == pytest.approx(0.015) and g["worst_error"] == pytest.approx(0.02)
-    assert g["bias"] == pytest.approx(-0.005)
+    assert g["bias"] == pytest.approx(-0.005) and g["bias_truth"] == pytest.approx(-0.00125)
     assert table[("speed band", "below 1.0")]["trials"] == 1 and table[("speed band", "above 2.5")]["trials"] == 1
     assert table[("m* decade", "100-1000 kg")]["covered_95"] == 0.0
     bias = {r["value"]: r for r in bias_by_speed(ROWS)}
