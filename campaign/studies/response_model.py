@@ -56,7 +56,7 @@ from .common import CELLS, Log, quiet, write_csv
 from .coverage import COVERAGE_COLUMNS, bias_by_speed, coverage_markdown, coverage_table
 
 __all__ = ["Settings", "TARGETS", "simulate_case", "held_out_fixed", "held_out_flexible", "planner_check",
-           "summarise", "run"]
+           "summarise", "run", "evaluate", "loop_correction"]
 
 #: the targets the model is held to: (quantity, comparison, value)
 TARGETS = {
