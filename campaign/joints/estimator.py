@@ -4,7 +4,8 @@ Every model takes a :class:`campaign.joints.setting.Setting` (the rig and robot 
 on) and keyword-only options; ``fit(impacts)`` estimates its parameters from identified m*
 (:class:`campaign.joints.impacts.Impacts`), fitted values end in ``_``; ``predict(impacts)``
 gives m* [kg] as eq 10 measures it; ``predict_interval(impacts)`` a 95 % interval (the
-parameters' uncertainty and the fit's residual scatter); ``summary()`` plain numbers.
+parameters' uncertainty and the residual scatter: the scatter model's where the model has
+one, :mod:`campaign.joints.scatter`, else the fit's); ``summary()`` plain numbers.
 :mod:`campaign.joints.modelfile` saves and loads any of them as JSON.
 
 * :class:`Eq11Model`  eq 11 with a given lambda per gain class (the paper's Table 3 by
