@@ -46,6 +46,7 @@ import pinocchio as pin  # noqa: E402
 from campaign import __version__  # noqa: E402
 from campaign.bench.common import blas_line, cpu_name, pin_to_one_cpu, wall_and_cpu, write_section  # noqa: E402
 from campaign.model.robot.ik import impact_point  # noqa: E402
+from campaign.plan import RESCORE  # noqa: E402
 from campaign.plan.directions import horizontal_directions  # noqa: E402
 from campaign.plan.factory import build_planner, planner_model  # noqa: E402
 from campaign.plan.model_prediction import predict_model  # noqa: E402
@@ -100,13 +101,13 @@ def measure_grid(planner, *, n_poses: int, n_gains: int, n_dirs: int, repeats: i
                f"{n_poses} x {n_gains} x {n_dirs}", n_poses * n_gains * n_dirs, timed(fn, repeats))
 
 
-def measure_plan(planner, *, n_dirs: int, repeats: int) -> dict:
+def measure_plan(planner, *, n_dirs: int, repeats: int, case: str = "plan (IK included)") -> dict:
     q = np.radians([30.0, 60.0, -60.0])          # a point with four branches
     p = impact_point(planner.robot, q)
     dirs = horizontal_directions(n_dirs)
     planner.fit(p, dirs)
     count = planner.q_.shape[0] * len(planner.lambdas) * n_dirs
-    return row("plan (IK included)", "flexible" if planner.beam is not None else "fixed",
+    return row(case, "flexible" if planner.beam is not None else "fixed",
                f"{planner.q_.shape[0]} x {len(planner.lambdas)} x {n_dirs}", count,
                timed(lambda: planner.fit(p, dirs), repeats))
 
@@ -161,6 +162,11 @@ def main(argv: list[str] | None = None) -> int:
         grid.append(g)
         rows += [g, measure_grid(planner, n_poses=1000, n_gains=1, n_dirs=1, repeats=args.repeats, seed=2),
                  measure_plan(planner, n_dirs=360, repeats=args.repeats)]
+        if base == "flexible":
+            # the same plan ranked ideally coupled only (no candidate rescored through the loop)
+            ideal = build_planner(base=base, model=model, speed=2.0)
+            ideal.rescore = 0
+            rows.append(measure_plan(ideal, n_dirs=360, repeats=args.repeats, case="plan, ideal only"))
         maps.append(measure_map(planner, resolution=0.1, repeats=max(1, args.repeats // 2)))
     rows += maps
     worst = min(grid, key=lambda r: r["cpu_rate"])
@@ -174,7 +180,8 @@ def main(argv: list[str] | None = None) -> int:
         f"(BLAS threads = 1, process {pinning}). `grid`: random poses inside the joint limits x 3 gain classes x "
         "8 horizontal directions, Pinocchio pass per pose included; `one pose per prediction`: the worst case; "
         "`plan`: `ImpactPlanner.fit` at a point with four branches, inverse kinematics included, over 360 "
-        "directions.",
+        f"directions (on the flexible base its best {RESCORE} candidates rescored through the VES-II loop; "
+        "`plan, ideal only`: none).",
         "",
         format_table(rows),
         "",

@@ -76,9 +76,11 @@ derivative gains (the paper's Table 1 gains in joint units, controller.torque_pe
 config/rig.yaml) and the joints' damping have built up the resistance m* sums over the whole
 contact. The flexible base is the rig's cantilever (flexible.* of config/rig.yaml). With a
 model its peak displacement (x_b) is the structure's over one period of its first mode,
-driven by the arm's response to the pulse (through the VES-II loop as the rig emulates it);
---structure NAME plans on a named structure of the rig file (its structures: section; with
---base flexible). With lambdas, that of the linearised arm on the structure pushed by eq 14's impulse spread
+driven by the arm's response to the pulse: every candidate is ranked with the arm ideally
+coupled to the structure, and the best 64 are predicted again through the VES-II loop as the
+rig emulates it (--json: each candidate's coupling); --structure NAME plans on a named
+structure of the rig file (its structures: section; with --base flexible);
+with lambdas, that of the linearised arm on the structure pushed by eq 14's impulse spread
 over the contact's pulse under the servo, the joints' viscous friction and gravity, and
 --json also gives structure_peak_release (the structure's modes released with eq 8's base
 velocity change alone); the paper's pooled class zero_low is planned as its gain sets zero

@@ -32,27 +32,34 @@ from ..identify.table import read_identification
 from ..joints.impacts import Impacts
 from ..joints.impedance_model import JointImpedance
 from ..joints.modelfile import save_model, shipped_model_path
+from ..joints.scatter import DESIGNED_DOF, fit_scatter, tip_velocity_change
 from ..joints.setting import Setting, display_path
 
 __all__ = ["fit_model", "model_markdown", "compare_shipped", "model_differences"]
 
 
 def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, Sequence], *, archive, out_json,
-              out_md) -> JointImpedance:
+              out_md, check_tables: Sequence = ()) -> JointImpedance:
     """Fit the model on the designed trials (``fixed_tables``: identification CSVs of the
     designed role, every gain set), measure its scatter per structure on ``flexible_tables``
-    (structure -> CSVs of the held-out poses on the flexible base), save it and its summary."""
+    (structure -> CSVs of the held-out poses on the flexible base), fit its scatter model on
+    every residual (those, the designed trials' and the fixed-base ``check_tables``: the
+    paper's and the held-out poses, which the fit does not see), save it and its summary."""
     with open(plan_json, encoding="utf-8") as fh:
         plan = json.load(fh)
     setting = Setting.from_rig(plan.get("rig"))
     fixed = Impacts.from_records(read_identification(fixed_tables))
     model = JointImpedance(setting).fit(fixed)
     model.structure_scatter_, model.structure_residuals_ = {}, {}
+    spread = [_residuals(model, fixed, None)]
+    if check_tables:
+        spread.append(_residuals(model, Impacts.from_records(read_identification(check_tables)), None))
     for name, tables in sorted(flexible_tables.items()):
         imp = Impacts.from_records(read_identification(tables), structure=name)
         if imp.base != FLEXIBLE:
             raise InputError(f"structure {name}: its trials are not on the flexible base")
-        r = np.log(model.predict(imp)) - np.log(imp.m_eff)
+        spread.append(_residuals(model, imp, name))
+        r = spread[-1][0]
         ok = np.isfinite(r)
         if not ok.any():
             raise InputError(f"structure {name}: no finite prediction to measure the scatter on")
@@ -60,9 +67,21 @@ def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, S
         model.structure_residuals_[name] = {k: (float(x) if math.isfinite(x) else None)
                                             for k, x in zip(imp.keys, r, strict=True)}
         model.domain_ = model.domain_.with_structure(name, imp, masses=model._masses(imp))
+    r, gains, dv, structures, psd = (sum((list(part[j]) for part in spread), []) for j in range(5))
+    model.scatter_model_ = fit_scatter(r, gains, dv, structures=structures, parameter_sd=psd,
+                                       dof=(DESIGNED_DOF, DESIGNED_DOF))
     save_model(model, out_json, archive=archive)
     write_atomic(out_md, model_markdown(model, archive=display_path(archive)))
     return model
+
+
+def _residuals(model: JointImpedance, impacts: Impacts, structure: str | None):
+    """``(ln m*_model - ln m*_identified, gain sets, predicted tip velocity change, structures,
+    the parameters' sd)`` of ``impacts``."""
+    m = model.predict(impacts)
+    r = np.log(m) - np.log(impacts.m_eff)
+    dv = tip_velocity_change(m, impacts.speed, model._masses(impacts), model.restitution_)
+    return r, impacts.gain, dv, [structure] * len(impacts), model.parameter_sd(impacts)
 
 
 def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
@@ -85,6 +104,16 @@ def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
               f"fit's Jacobian: {p['condition_number']:.3g}. Residuals ln(m*_model / m*_identified): rms "
               f"{model.rms_log_residual_:.4f}, scatter {model.residual_scatter_:.4f} (the intervals' part on the "
               "fixed base).", ""]
+    sm = getattr(model, "scatter_model_", None)
+    if sm is not None:
+        lines += ["Scatter of ln m* the intervals carry (fitted on " f"{sm.n_residuals} residuals; "
+                  "sigma^2 = a_g^2 + b_g^2 / dv^2, on the flexible base + f_g^2 + c_s^2 / dv^2, dv the predicted "
+                  "tip velocity change, "
+                  f"Student t with {sm.dof:.3g} degrees of freedom):", "",
+                  "| gain set | floor a_g | velocity noise b_g [m/s] | flexible base's floor f_g |", "|---|---|---|---|"]
+        lines += [f"| {g} | {sm.floor[g]:.4g} | {sm.velocity_noise[g]:.4g} | {sm.flexible_floor[g]:.4g} |"
+                  for g in sorted(sm.floor)]
+        lines += [""] + [f"- flexible base, {k}: c_s = {v:.4g} m/s" for k, v in sorted(sm.structure.items())] + [""]
     for name, s in sorted(getattr(model, "structure_scatter_", {}).items()):
         n = len(model.structure_residuals_.get(name, {}))
         lines.append(f"- flexible base, {name}: scatter {s:.4f} over {n} trials of the plan's held-out poses (the "

@@ -15,7 +15,7 @@ __all__ = [
     "ResponseModel", "Eq11Model", "LambdaModel", "CoulombModel", "LambdaFit", "IdentifiabilityWarning",
     "design_arrays", "load_fits", "CoulombLambdaFit", "JointImpedance", "Impacts", "Setting", "display_path",
     "ModelFileError", "load_model", "save_model", "shipped_model_path", "arm_terms", "respond", "Domain",
-    "OutsideDomain", "m_eff_state",
+    "OutsideDomain", "m_eff_state", "ScatterModel", "fit_scatter", "tip_velocity_change",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
@@ -29,4 +29,5 @@ __getattr__, __dir__ = lazy_exports(__name__, {
     "terms": ("arm_terms",),
     "response": ("respond",),
     "domain": ("Domain", "OutsideDomain", "m_eff_state"),
+    "scatter": ("ScatterModel", "fit_scatter", "tip_velocity_change"),
 })

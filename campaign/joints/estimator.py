@@ -4,7 +4,8 @@ Every model takes a :class:`campaign.joints.setting.Setting` (the rig and robot 
 on) and keyword-only options; ``fit(impacts)`` estimates its parameters from identified m*
 (:class:`campaign.joints.impacts.Impacts`), fitted values end in ``_``; ``predict(impacts)``
 gives m* [kg] as eq 10 measures it; ``predict_interval(impacts)`` a 95 % interval (the
-parameters' uncertainty and the fit's residual scatter); ``summary()`` plain numbers.
+parameters' uncertainty and the residual scatter: the scatter model's where the model has
+one, :mod:`campaign.joints.scatter`, else the fit's); ``summary()`` plain numbers.
 :mod:`campaign.joints.modelfile` saves and loads any of them as JSON.
 
 * :class:`Eq11Model`  eq 11 with a given lambda per gain class (the paper's Table 3 by
@@ -37,6 +38,7 @@ from .domain import Domain
 from .impacts import Impacts
 from .lambda_fit import IdentifiabilityWarning, LambdaFit
 from .params import Params
+from .scatter import tip_velocity_change
 from .setting import Setting
 from .terms import arm_terms
 
@@ -98,6 +100,10 @@ class ResponseModel(Params, ABC):
     def _masses(self, impacts: Impacts) -> np.ndarray:
         return impacts.mass if impacts.mass is not None else np.full(len(impacts), self._the_setting().hammer_mass)
 
+    def _restitution(self) -> float:
+        """Eq 14's restitution of the model's predictions (the fitted one, else the contact law's)."""
+        return float(getattr(self, "restitution_", self._the_setting().contact.restitution))
+
     def _record_fit(self, impacts: Impacts, predicted: np.ndarray, n_parameters: int) -> None:
         """Residuals ``ln m*_model - ln m*_identified`` per fitted impact, their rms and scatter."""
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -130,10 +136,17 @@ class ResponseModel(Params, ABC):
         """Standard deviation of ``ln m*`` from the parameters' uncertainty, per impact (0 here)."""
         return np.zeros(len(impacts))
 
-    def scatter(self, impacts: Impacts) -> float:
-        """The residual scatter of ``ln m*`` the intervals carry: the fit's, or on the flexible
-        base the one measured under the impacts' structure where the model has it
-        (``structure_scatter_``)."""
+    def scatter(self, impacts: Impacts, m_eff=None):
+        """The residual scatter of ``ln m*`` the intervals carry: with a scatter model
+        (``scatter_model_``, :mod:`campaign.joints.scatter`) per impact from its gain set, its
+        structure and the tip velocity change of the predicted ``m_eff``; without one the
+        fit's, or on the flexible base the one measured under the impacts' structure where the
+        model has it (``structure_scatter_``)."""
+        sm = getattr(self, "scatter_model_", None)
+        if sm is not None and m_eff is not None:
+            dv = tip_velocity_change(m_eff, impacts.speed, self._masses(impacts), self._restitution())
+            structure = (impacts.structure or self._the_setting().structure) if impacts.base == FLEXIBLE else None
+            return sm.sd(impacts.gain, dv, structure=structure)
         if impacts.base == FLEXIBLE:
             name = impacts.structure or self._the_setting().structure
             extra = getattr(self, "structure_scatter_", {})
@@ -141,13 +154,21 @@ class ResponseModel(Params, ABC):
                 return float(extra[name])
         return float(self.residual_scatter_)
 
+    def interval_quantile(self, level: float) -> float:
+        """The multiple of the sd of ``ln m*`` a two-sided interval of ``level`` spans: the
+        scatter model's (its residuals' tails) where the model has one, else the normal's."""
+        sm = getattr(self, "scatter_model_", None)
+        return sm.quantile(level) if sm is not None else _z(level)
+
     def predict_interval(self, impacts: Impacts, *, level: float = 0.95):
         """``(m*, lower, upper)`` [kg]: the prediction and its interval from the parameters'
-        uncertainty and the fit's residual scatter, combined on ``ln m*``."""
+        uncertainty and the residual scatter (:meth:`scatter`), combined on ``ln m*``; its
+        width the scatter model's quantile of ``level`` where the model has one, else the
+        normal distribution's."""
         self._check_fitted()
         m = self.predict(impacts)
-        sd = np.sqrt(self.parameter_sd(impacts) ** 2 + self.scatter(impacts) ** 2)
-        z = _z(level)
+        sd = np.sqrt(self.parameter_sd(impacts) ** 2 + self.scatter(impacts, m) ** 2)
+        z = self.interval_quantile(level)
         with np.errstate(invalid="ignore", over="ignore"):
             return m, m * np.exp(-z * sd), m * np.exp(z * sd)
 

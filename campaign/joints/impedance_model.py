@@ -11,7 +11,8 @@ them, and both bases. The restitution of eq 14 is the fitted trials' mean.
 
 Intervals: the parameters' covariance ``s^2 (J^T J)^-1`` (Gauss-Newton, ``s^2`` the
 residual variance) carried to ``ln m*`` through its finite-difference gradient, plus the
-residual scatter ``s`` itself. The measured accuracy: user guide, *The response model*.
+residual scatter: the scatter model the designed campaign fits (``scatter_model_``,
+:mod:`campaign.joints.scatter`), else ``s`` itself. The measured accuracy: user guide, *The response model*.
 """
 
 from __future__ import annotations

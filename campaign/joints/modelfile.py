@@ -9,8 +9,9 @@ The file (schema :data:`SCHEMA`, version :data:`SCHEMA_VERSION`) holds:
   as known (:class:`campaign.joints.setting.Setting`);
 * ``fit``: the archive the trials came from, the number of trials and the sha256 of their
   sorted list, the residual of each (``ln m*_model - ln m*_identified``, keyed by trial),
-  their rms and scatter (the intervals' part), and per flexible-base structure where the
-  model was checked there the residuals and their scatter;
+  their rms and scatter (the intervals' part), per flexible-base structure where the model
+  was checked there the residuals and their scatter, and (``scatter_model``, where fitted)
+  the scatter model the intervals carry (:mod:`campaign.joints.scatter`);
 * ``domain``: where the model holds, the speeds, gain sets, object masses, impact directions,
   m* and structures of the trials it was fitted and checked on
   (:class:`campaign.joints.domain.Domain`);
@@ -47,6 +48,7 @@ from .domain import Domain
 from .estimator import CoulombModel, Eq11Model, LambdaModel, ResponseModel, json_numbers
 from .impedance_model import JointImpedance
 from .modelcheck import check_digest, check_values, content_digest
+from .scatter import ScatterModel
 from .setting import Setting, display_path
 
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "KINDS", "SHIPPED_MODEL", "ModelFileError", "model_document", "save_model",
@@ -117,6 +119,9 @@ def model_document(model: ResponseModel, *, archive: str | None = None) -> dict[
         "domain": model.domain_.to_json(),
         "package_version": __version__,
     }
+    scatter = getattr(model, "scatter_model_", None)
+    if scatter is not None:
+        doc["fit"]["scatter_model"] = scatter.to_dict()
     doc["digest"] = content_digest(doc)
     return doc
 
@@ -223,6 +228,11 @@ def _restore(doc: dict, setting: Setting, where: str) -> ResponseModel:
     except (AttributeError, TypeError, ValueError) as exc:
         raise ModelFileError(f"{where}: fit.structure_scatter or fit.structure_residuals is malformed ({exc})") from None
     model.domain_ = Domain.from_json(doc["domain"], where=where, gain_sets=gain_sets(), bases=bases())
+    if "scatter_model" in doc["fit"]:
+        try:
+            model.scatter_model_ = ScatterModel.from_dict(doc["fit"]["scatter_model"])
+        except InputError as exc:
+            raise ModelFileError(f"{where}: fit.scatter_model: {exc}") from None
     model.provenance_ = {k: doc[k] for k in ("robot", "rig", "paper", "package_version")}
     model.provenance_["archive"] = doc["fit"]["archive"]
     return model

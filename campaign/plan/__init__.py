@@ -13,15 +13,15 @@ from ..core.lazy import lazy_exports
 __all__ = [
     "ImpactPlanner", "build_planner", "planner_model", "planner_lambdas", "check_model_domain", "horizontal_directions",
     "cone_directions", "pose_terms", "predict", "check_object", "predict_model", "workspace_map", "direction_map",
-    "grid_points", "check_scene_stroke",
+    "grid_points", "check_scene_stroke", "RESCORE", "rescore_loop",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, {
-    "planner": ("ImpactPlanner",),
+    "planner": ("ImpactPlanner", "RESCORE"),
     "factory": ("build_planner", "planner_model", "planner_lambdas", "check_model_domain"),
     "directions": ("horizontal_directions", "cone_directions"),
     "prediction": ("pose_terms", "predict", "check_object"),
-    "model_prediction": ("predict_model",),
+    "model_prediction": ("predict_model", "rescore_loop"),
     "maps": ("workspace_map", "direction_map"),
     "grid": ("grid_points",),
     "stroke": ("check_scene_stroke",),

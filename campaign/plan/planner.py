@@ -23,13 +23,15 @@ from ..model.robot import Robot
 from ..model.robot.ik import position_branches
 from ..rig.contact import ContactLaw
 from .directions import unit_directions
-from .model_prediction import predict_model
+from .model_prediction import predict_model, rescore_loop
 from .prediction import Predictions, check_object, pose_terms, predict
 
-__all__ = ["ImpactPlanner", "OBJECTIVES"]
+__all__ = ["ImpactPlanner", "OBJECTIVES", "RESCORE"]
 
 #: quantities a plan can be ranked by (minimised)
 OBJECTIVES = ("impulse", "force", "displacement", "weighted")
+#: the ideally coupled ranking's best candidates a model predicts again through the VES-II loop
+RESCORE = 64
 
 
 class ImpactPlanner:
@@ -73,13 +75,25 @@ class ImpactPlanner:
     contact_restitution : float, optional
         The restitution the contact law's damping is solved for, where it is not eq 14's
         ``restitution`` (a model's eq 14 takes its fitted trials' mean).
+    rescore : int
+        With a model on the flexible base whose rig emulates the structure through the VES-II
+        loop: the best ``rescore`` candidates of the ideally coupled ranking are predicted again
+        through the loop (:func:`campaign.plan.model_prediction.rescore_loop`) and every
+        candidate is ranked on what it then carries (``coupling`` of each row); 0: none.
+
+    Attributes
+    ----------
+    rescored_ : ndarray of bool, shape (N, G, D)
+        The candidates predicted through the loop.
     """
 
     def __init__(self, robot: Robot, *, lambdas: Mapping[str, object] | None = None, mass: float, speed: float,
                  restitution: float, contact_stiffness: float, contact_exponent: float, beam=None,
                  objective: str = "impulse", weights=(1.0, 1.0, 1.0), arm=None, model=None, gains=None,
-                 structure: str | None = None, pendulum: bool = True, contact_restitution: float | None = None):
+                 structure: str | None = None, pendulum: bool = True, contact_restitution: float | None = None,
+                 rescore: int = RESCORE):
         self.robot = robot
+        self.rescore = rescore
         self.contact_restitution = contact_restitution
         self.model = model
         self.gains = gains
@@ -119,6 +133,8 @@ class ImpactPlanner:
         if self.objective == "weighted" and self.beam is None and not np.any(w[:2] > 0):
             raise InputError(f"weights = {w.tolist()} weigh only the displacement, which a fixed base has not "
                              "(give the impulse or the peak force a weight, or --base flexible)")
+        if isinstance(self.rescore, bool) or not isinstance(self.rescore, (int, np.integer)) or self.rescore < 0:
+            raise InputError(f"rescore = {self.rescore!r} must be an integer >= 0")
         e = self.restitution if self.contact_restitution is None else self.contact_restitution
         return ContactLaw(float(self.contact_stiffness), float(self.contact_exponent), float(e)), w
 
@@ -137,10 +153,19 @@ class ImpactPlanner:
             if ik.reached_outside_limits:
                 raise InputError(f"point ({where}) m is reached only outside the joint limits")
             raise InputError(f"point ({where}) m is out of the arm's reach")
+        rescored = None
         if self.model is not None:
-            pred = predict_model(self.robot, ik.q, self.model, list(self.lambdas), n, mass=self.mass, speed=self.speed,
-                                 restitution=self.restitution, contact=contact, flexible=self.beam is not None,
-                                 structure=self.structure, pendulum=self.pendulum)
+            kw = dict(mass=self.mass, speed=self.speed, restitution=self.restitution, contact=contact,
+                      structure=self.structure, pendulum=self.pendulum)
+            pred = predict_model(self.robot, ik.q, self.model, list(self.lambdas), n, flexible=self.beam is not None,
+                                 **kw)
+            rescored = np.zeros(pred.m_eff.shape, bool)
+            if self.beam is not None and self.rescore > 0 and self.model.setting_for(self.structure).loop is not None:
+                # the ideal coupling ranks; the best candidates carry the loop the rig emulates
+                order = np.argsort(self._score(pred, w), axis=None, kind="stable")[:int(self.rescore)]
+                picks = np.array(np.unravel_index(order, pred.m_eff.shape)).T
+                pred = rescore_loop(self.robot, ik.q, self.model, list(self.lambdas), n, pred, picks, **kw)
+                rescored[tuple(picks.T)] = True
             frequency = None
             if self.beam is not None:
                 frequency = pose_terms(self.robot, ik.q, beam=self.beam).frequency
@@ -156,6 +181,7 @@ class ImpactPlanner:
         self.directions_ = n
         self.gain_classes_ = list(self.lambdas)
         self.predictions_ = pred
+        self.rescored_ = rescored
         self.frequency_ = frequency
         self.score_ = self._score(pred, w)
         order = np.argsort(self.score_, axis=None, kind="stable")
@@ -194,6 +220,8 @@ class ImpactPlanner:
                 "score": float(self.score_[i, g, d]),
                 "contact_duration": float(P.contact_duration[i, g, d]),
             }
+            if P.structure_peak is not None and self.rescored_ is not None:
+                row["coupling"] = "loop" if self.rescored_[i, g, d] else "ideal"
             if P.compression_mass is not None:
                 row["compression_mass"] = float(P.compression_mass[i, g, d])
             if P.structure_peak is not None:

@@ -36,7 +36,7 @@ FILES = {
     "emulation_error": ("emulation_error.csv", "traces.csv", "emulation_error.png"),
     "impact_resistance": ("lambda.csv", "diagnosis.csv", "ablation.csv"),
     "response_model": ("fixed.csv", "flexible.csv", "planner.csv", "planner_candidates.csv", "summary.csv",
-                       "summary.md"),
+                       "summary.md", "coverage.csv", "coverage.md"),
 }
 #: the studies, as the workflow's configuration key ``studies:`` names them
 NAMES = tuple(FILES)

@@ -115,6 +115,7 @@ if PLAN.designed.settings:
         input:
             plan=PLAN.designed.path("plan"),
             fixed=PLAN.designed.tables("designed"),
+            checks=PLAN.designed.tables("paper") + PLAN.designed.tables("heldout"),
             flexible=PLAN.designed.flexible_tables(),
             rig=PLAN.rig_file,
             paper=PLAN.paper_file,

@@ -9,4 +9,4 @@ with job_log(snakemake.log[0], job="designed_model", exit_process=True):  # noqa
                 for s in snakemake.params.structures}  # noqa: F821
     fit_model(snakemake.input.plan, list(snakemake.input.fixed), flexible,  # noqa: F821
               archive=snakemake.params.archive, out_json=snakemake.output.json,  # noqa: F821
-              out_md=snakemake.output.md)  # noqa: F821
+              out_md=snakemake.output.md, check_tables=list(snakemake.input.checks))  # noqa: F821
