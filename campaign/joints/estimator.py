@@ -170,7 +170,9 @@ class ResponseModel(Params, ABC):
         sd = np.sqrt(self.parameter_sd(impacts) ** 2 + self.scatter(impacts, m) ** 2)
         z = self.interval_quantile(level)
         with np.errstate(invalid="ignore", over="ignore"):
-            return m, m * np.exp(-z * sd), m * np.exp(z * sd)
+            lo, hi = m * np.exp(-z * sd), m * np.exp(z * sd)
+        valueless = ~np.isfinite(m)          # recoil or unbounded: no interval, the value itself
+        return m, np.where(valueless, m, lo), np.where(valueless, m, hi)
 
     def summary(self) -> dict:
         """The fitted values and the fit's diagnostics as plain numbers."""

@@ -24,14 +24,15 @@ from .prediction import pose_terms, predict
 __all__ = ["workspace_map", "direction_map"]
 
 
-def _quantities(robot, Q, n, *, model, names, lams, mass, speed, restitution, contact, beam, arm, pendulum):
+def _quantities(robot, Q, n, *, model, names, lams, mass, speed, restitution, contact, beam, arm, pendulum,
+                structure=None):
     """m* on the fixed base and, with ``beam``, on the flexible base with the structure's peak
     (N, G, D): from the response ``model`` when given, else eq 7/8 with ``lams``."""
     if model is not None:
         kw = dict(mass=mass, speed=speed, restitution=restitution, contact=contact, pendulum=pendulum)
         out = {"m_eff": predict_model(robot, Q, model, names, n, flexible=False, **kw).m_eff}
         if beam is not None:
-            P = predict_model(robot, Q, model, names, n, flexible=True, **kw)
+            P = predict_model(robot, Q, model, names, n, flexible=True, structure=structure, **kw)
             out.update(m_eff_flexible=P.m_eff, structure_peak=P.structure_peak)
         return out
     out = {"m_eff": predict(pose_terms(robot, Q), lams, n, mass=mass, speed=speed, restitution=restitution,
@@ -45,7 +46,8 @@ def _quantities(robot, Q, n, *, model, names, lams, mass, speed, restitution, co
 
 def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
                   restitution: float, direction, y: float, x_range=WORKSPACE_RANGE, z_range=WORKSPACE_RANGE,
-                  resolution: float = 0.05, beam=None, arm=None, model=None, pendulum: bool = True) -> dict:
+                  resolution: float = 0.05, beam=None, arm=None, model=None, pendulum: bool = True,
+                  structure: str | None = None) -> dict:
     """m* (eq 7) and, on a flexible base, the structure's peak displacement over a vertical plane.
 
     The plane ``y = const`` of the arm's base frame is sampled every ``resolution`` metres;
@@ -92,7 +94,7 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
     owner = np.array(owner)
     quantities = {k: v[:, :, 0] for k, v in _quantities(
         robot, Q, n, model=model, names=names, lams=lams, mass=mass, speed=speed, restitution=restitution,
-        contact=contact, beam=beam, arm=arm, pendulum=pendulum).items()}
+        contact=contact, beam=beam, arm=arm, pendulum=pendulum, structure=structure).items()}
     for name, vals in quantities.items():
         best = np.full((G, z.size, x.size), np.inf)
         worst = np.full((G, z.size, x.size), -np.inf)
@@ -106,7 +108,8 @@ def workspace_map(robot: Robot, *, lambdas: Mapping[str, object], contact, mass:
 
 
 def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, mass: float, speed: float,
-                  restitution: float, count: int = 72, beam=None, arm=None, model=None, pendulum: bool = True) -> dict:
+                  restitution: float, count: int = 72, beam=None, arm=None, model=None, pendulum: bool = True,
+                  structure: str | None = None) -> dict:
     """m* and the structure's peak displacement against the horizontal impact direction at a pose
     (``arm``: the post-contact term of the structure's peak, :func:`campaign.plan.prediction.predict`).
 
@@ -125,5 +128,5 @@ def direction_map(robot: Robot, q, *, lambdas: Mapping[str, object], contact, ma
            "predictor": "lambda" if model is None else "model"}
     out.update({k: v[0] for k, v in _quantities(
         robot, q[None], n, model=model, names=names, lams=lams, mass=mass, speed=speed, restitution=restitution,
-        contact=contact, beam=beam, arm=arm, pendulum=pendulum).items()})
+        contact=contact, beam=beam, arm=arm, pendulum=pendulum, structure=structure).items()})
     return out

@@ -15,6 +15,7 @@ from __future__ import annotations
 import copy
 import json
 import math
+import re
 import warnings
 
 import pytest
@@ -199,6 +200,11 @@ def test_map_structure(capsys, tmp_path):
     status, text, err = cli(capsys, "map", "directions", "--config", "2", "--structure", "stiff_mast", "--out",
                             str(out))
     assert status == 0 and out.is_file() and out.with_suffix(".pdf").is_file(), err
+    assert "(stiff_mast)" in text
+    status, default, err = cli(capsys, "map", "directions", "--config", "2", "--out", str(tmp_path / "d.png"))
+    assert status == 0, err
+    peak = re.compile(r"structure peak ([0-9.]+)-([0-9.]+) mm")      # the mast is far stiffer: its peak smaller
+    assert float(peak.search(text).group(2)) < 0.5 * float(peak.search(default).group(1)), (text, default)
     refused(capsys, ["map", "directions", "--structure", "telepathy", "--out", str(tmp_path / "x.png")],
             "not a structure of the rig file")
     refused(capsys, ["map", "directions", "--base", "fixed", "--structure", "stiff_mast", "--out",

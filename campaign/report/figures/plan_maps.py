@@ -139,7 +139,7 @@ def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=MAP_SPEED, str
     contact = ContactLaw(planner.contact_stiffness, planner.contact_exponent, e)
     kw = dict(lambdas=planner.lambdas, contact=contact, mass=planner.mass, speed=planner.speed,
               restitution=planner.restitution, beam=planner.beam, arm=planner.arm, model=model,
-              pendulum=planner.pendulum)
+              pendulum=planner.pendulum, structure=planner.structure)
     return planner, kw
 
 
@@ -171,5 +171,9 @@ def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None
     q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
     d = direction_map(planner.robot, q, count=count, **kw)
     style.save(draw_directions(d, title=title), png, pdf)
-    return (f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base) "
-            f"over {count} directions")
+    line = f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base)"
+    if "structure_peak" in d:        # the flexible base's panel: the structure's peak displacement
+        peak = 1e3 * np.asarray(d["structure_peak"], dtype=float)
+        where = structure or "the rig file's structure"
+        line += f", structure peak {np.nanmin(peak):.3g}-{np.nanmax(peak):.3g} mm ({where})"
+    return f"{line} over {count} directions"
