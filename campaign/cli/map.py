@@ -19,6 +19,7 @@ from ..core.vocabulary import FLEXIBLE, bases
 from ..model.conventions import angle_count
 from ..model.paper import load_paper
 from ..model.robot import load_robot
+from ..plan import grid_points
 from ..plan.factory import planner_model
 from ..report.figures import plan_maps
 from ..scene.description import rig_values
@@ -79,6 +80,8 @@ def run(args) -> int:
     check_output_file(pdf, option="--out's PDF")
     if not (args.resolution > 0):
         raise InputError(f"--resolution {args.resolution:g}: must be > 0 m")
+    if args.kind == "workspace":
+        grid_points(args.resolution, key="--resolution")    # before the model is loaded
     nv = angle_count(rig_values(rig=args.rig)["robot"])     # joints of the planner's robot
     model, lambdas = planner_model(model=args.model, fits=args.fit, named=parse_named_lambdas(args.lambdas, nv=nv),
                                    rig=args.rig, nv=nv)

@@ -22,11 +22,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..core import vocabulary
 from ..core.errors import InputError
-from ..core.yamlfile import config_file
+from ..core.yamlfile import config_file, read_yaml
 from ..model import conventions
 from . import config as config_checks
 from . import paths
@@ -52,8 +50,7 @@ CALIBRATION_FILES = {"fit": "fit.md", "md": "calibration.md", "html": "calibrati
 
 
 def _read_yaml(path: str) -> dict:
-    with open(path, encoding="utf-8") as fh:
-        return yaml.safe_load(fh) or {}
+    return read_yaml(path) or {}
 
 
 def _config_error(key: str, message: str) -> InputError:

@@ -19,8 +19,9 @@ import yaml
 from ..core.errors import InputError
 from ..core.files import source_date_epoch
 from ..core.vocabulary import figure_cells
+from ..core.yamlfile import yaml_load
 
-__all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_paths", "check_workflow_config",
+__all__ = ["parse_typed_strings", "check_config_files", "check_environment", "check_schema", "check_paths", "check_workflow_config",
            "trial_pick_problem", "check_products"]
 # ---------------------------------------------------------------------------------------
 # the workflow's configuration
@@ -53,7 +54,7 @@ def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
             # YAML 1.1 would also read yes/no/on/off; a switch is spelled true or false
             return {"true": True, "false": False}.get(value.strip().lower(), value)
         try:
-            value = yaml.safe_load(value)
+            value = yaml_load(value)
         except yaml.YAMLError:
             return value  # the schema then names the key and the bad string
     if isinstance(value, list) and isinstance(spec.get("items"), Mapping):
@@ -62,6 +63,18 @@ def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
         props = spec.get("properties", {})
         return {k: _typed(v, props.get(k, {}), root) for k, v in value.items()}
     return value
+
+
+def check_config_files(paths: Sequence[str | Path]) -> None:
+    """The configuration files Snakemake read, read again as this project reads YAML
+    (:func:`campaign.core.yamlfile.read_yaml`): a key given twice, which Snakemake's loader
+    silently resolves to its last value, is refused naming the key and its lines; so are an
+    alias bomb and a file over the size limit. One line naming the file."""
+    from ..core.yamlfile import read_yaml
+
+    for path in paths:
+        if Path(path).is_file():
+            read_yaml(path, copy=False)
 
 
 def check_environment() -> None:
