@@ -83,16 +83,21 @@ def check_environment() -> None:
     source_date_epoch()
 
 
-def check_schema(settings: Mapping[str, Any], schema: Mapping[str, Any]) -> None:
+def check_schema(settings: Mapping[str, Any], schema: Mapping[str, Any], *, where: str = "configuration key") -> None:
     """``settings`` (the workflow configuration) against the JSON schema: the first failure
-    as one line naming its key."""
+    as one line, ``"<where> <key>: <what is wrong>"``.
+
+    An ``integer`` is an integer as written: JSON Schema also takes a float with no fraction
+    (``1e30``, ``3.0``), which a seed or a count must not be."""
     import jsonschema
 
-    cls = jsonschema.validators.validator_for(schema)
+    base = jsonschema.validators.validator_for(schema)
+    strict = base.TYPE_CHECKER.redefine("integer", lambda _, v: isinstance(v, int) and not isinstance(v, bool))
+    cls = jsonschema.validators.extend(base, type_checker=strict)
     error = jsonschema.exceptions.best_match(cls(schema).iter_errors(settings))
     if error is not None:
         key = ".".join(str(p) for p in error.absolute_path) or "(top level)"
-        raise InputError(f"configuration key {key}: {error.message}")
+        raise InputError(f"{where} {key}: {error.message}")
 
 
 
@@ -129,13 +134,18 @@ def check_workflow_config(settings: Mapping[str, Any], *, sweeps: Mapping[str, M
 
 def check_paths(settings: Mapping[str, Any]) -> None:
     """The folders and files a configuration names, before anything reads or writes them:
-    ``archive_root`` and ``results_root`` are folders (or do not exist yet), ``rig`` is an
+    ``archive_root`` and ``results_root`` are folders (or do not exist yet) and not the same
+    folder, ``rig`` is an
     existing file, ``reuse_archive`` (when nothing is simulated) and ``identification_csv``
     are not folders of the wrong kind. One line naming the key."""
     for key in ("archive_root", "results_root"):
         value = settings.get(key)
         if value is not None and Path(value).exists() and not Path(value).is_dir():
             raise InputError(f"configuration key {key}: {value!r} is a file, not a folder")
+    archive, results = settings.get("archive_root", "archive"), settings.get("results_root", "results")
+    if Path(archive).resolve() == Path(results).resolve():
+        raise InputError(f"configuration key results_root: {results!r} is also archive_root; an archive folder "
+                         "holds its trials and their manifest only: give the results another folder")
     rig = settings.get("rig")
     if rig is not None and not Path(rig).is_file():
         what = "is a folder, not" if Path(rig).is_dir() else "does not exist: it names"

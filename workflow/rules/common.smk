@@ -83,13 +83,19 @@ class Refusing:
 
 
 try:
-    PLAN = Refusing(CampaignPlan.from_config(config))
+    # a reused archive's files checked against its manifest once, in the main process (not per job)
+    PLAN = Refusing(CampaignPlan.from_config(config, check_reuse=workflow.is_main_process))
 except InputError as _exc:
     raise WorkflowError(str(_exc)) from None
 for _note in PLAN.notes:
     print(_note, file=sys.stderr)
 # the designed campaign's settings (the designed rules exist when its file does)
 if PLAN.designed.settings:
+    try:
+        config_checks.check_schema(PLAN.designed.settings, read_yaml(Path(workflow.basedir, "workflow", "schemas",
+                                   "designed.schema.yaml")), where=f"designed campaign file {PLAN.designed.file}: key")
+    except InputError as _exc:
+        raise WorkflowError(str(_exc)) from None
     validate(PLAN.designed.settings, schema="../schemas/designed.schema.yaml")
 
 
