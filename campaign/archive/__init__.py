@@ -43,6 +43,7 @@ from .jobs import (
 from .manifest import (
     Problem,
     Verification,
+    check_listed_digests,
     finalize_campaign,
     verify,
     verify_report,
@@ -61,4 +62,5 @@ __all__ = [
     "JOBS", "TrialEntry", "write_trial_entry", "intact_trials", "write_job_manifest", "read_job_manifests",
     "job_trial_paths",
     "write_manifest", "write_index", "write_readme", "finalize_campaign", "verify", "verify_report",
+    "check_listed_digests",
 ]
