@@ -37,6 +37,11 @@ def _items(text: str, *, option: str, convert, what: str) -> list:
     return out
 
 
+#: the most trials per speed (a campaign configuration's ``repeats`` maximum) and per sweep
+MAX_REPEATS = 100
+MAX_TRIALS = 10_000
+
+
 def _check_not_finalized(out: str) -> None:
     """``out`` is not (inside) a finalized archive: its manifest lists every file with its
     sha256, so a trial added or replaced there would fail ``campaign archive verify``."""
@@ -81,9 +86,14 @@ def run(args) -> int:
     configs = _items(args.configs, option="--configs", convert=int, what="configuration number")
     gains = _items(args.gains, option="--gains", convert=str, what="gain set")
     speeds = _items(args.speeds, option="--speeds", convert=float, what="speed")
-    if args.repeats < 1:
-        raise InputError(f"--repeats {args.repeats}: expected at least 1")
+    if not 1 <= args.repeats <= MAX_REPEATS:
+        raise InputError(f"--repeats {args.repeats}: expected 1 to {MAX_REPEATS} trials per speed (as a "
+                         "campaign configuration's repeats)")
     check_seed(args.campaign_seed, key="--campaign-seed")
+    total = len(configs) * len(gains) * len(speeds) * args.repeats
+    if total > MAX_TRIALS:
+        raise InputError(f"--speeds, --configs, --gains, --repeats: {total} trials, over the {MAX_TRIALS} one sweep "
+                         "runs (about 0.1 s each; the full campaign has 216): split the sweep")
     for g in gains:
         if g not in gain_sets():
             raise InputError(f"--gains: unknown gain set {g!r}; expected one of {', '.join(gain_sets())}")

@@ -16,7 +16,7 @@ import yaml
 from .errors import InputError
 from .files import open_regular
 
-__all__ = ["PROJECT_DIR", "MAX_YAML_BYTES", "MAX_YAML_NODES", "yaml_load", "parse_yaml_bytes", "read_yaml_bytes",
+__all__ = ["PROJECT_DIR", "MAX_YAML_BYTES", "MAX_YAML_NODES", "MAX_YAML_DEPTH", "yaml_load", "parse_yaml_bytes", "read_yaml_bytes",
            "read_yaml", "copy_tree", "config_dir", "config_file"]
 
 #: the project folder this package lives in (``config/``, ``archive/``, ``benchmarks/`` beside it)
@@ -30,6 +30,9 @@ MAX_YAML_BYTES = 1 << 20
 #: a thousand; an alias bomb (a few lines whose aliases nest) is refused while it is composed,
 #: before the tree is built or copied, in milliseconds and a few MB
 MAX_YAML_NODES = 50_000
+#: the deepest nesting of a YAML document (its own files nest 5 deep): deeper, the composer's
+#: recursion would end in a RecursionError instead of a message
+MAX_YAML_DEPTH = 50
 
 try:    # libyaml's parser (C) reads the events: ten times faster than PyYAML's own
     from yaml import CParser as _Parser
@@ -70,10 +73,11 @@ class _Refused(yaml.MarkedYAMLError):
 
 
 class _Loader(_Parser, yaml.composer.Composer, yaml.constructor.SafeConstructor, _Resolver):
-    """PyYAML's safe loader with three refusals a plain ``safe_load`` lacks: a mapping that
+    """PyYAML's safe loader with the refusals a plain ``safe_load`` lacks: a mapping that
     gives a key twice (PyYAML keeps the last value), a document of more than
     :data:`MAX_YAML_NODES` nodes with its aliases expanded (an alias bomb: a few lines whose
-    expansion fills the memory when the tree is walked), and a recursive alias."""
+    expansion fills the memory when the tree is walked), nesting deeper than
+    :data:`MAX_YAML_DEPTH`, and a recursive alias."""
 
     def __init__(self, stream):
         _init_parser(self, stream)
@@ -82,6 +86,7 @@ class _Loader(_Parser, yaml.composer.Composer, yaml.constructor.SafeConstructor,
         _Resolver.__init__(self)
         self._size: dict[int, int | None] = {}    # id(node) -> nodes with aliases expanded (None: open)
         self._expanded = 0
+        self._depth = 0
 
     # the parser's events composed by PyYAML's own composer, node by node, counting
     get_node = yaml.composer.Composer.get_node
@@ -107,8 +112,13 @@ class _Loader(_Parser, yaml.composer.Composer, yaml.constructor.SafeConstructor,
             return node
         event = self.peek_event()
         self._count(1, event)
+        self._depth += 1
+        if self._depth > MAX_YAML_DEPTH:
+            raise _Refused(None, None, f"nested more than {MAX_YAML_DEPTH} levels deep; a file of this project "
+                           "nests a few", event.start_mark)
         before = self._expanded
         node = super().compose_node(parent, index)
+        self._depth -= 1
         self._size[id(node)] = 1 + self._expanded - before
         return node
 
@@ -132,8 +142,8 @@ class _Loader(_Parser, yaml.composer.Composer, yaml.constructor.SafeConstructor,
 
 def yaml_load(stream):
     """Parse YAML (a string, bytes or a text stream) with scientific-notation floats read as
-    floats, refusing a key given twice, an alias bomb and a recursive alias (a yaml.YAMLError
-    naming the line)."""
+    floats, refusing a key given twice, an alias bomb, too deep a nesting and a recursive
+    alias (a yaml.YAMLError naming the line)."""
     loader = _Loader(stream)
     try:
         return loader.get_single_data()

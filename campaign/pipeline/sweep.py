@@ -74,10 +74,9 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
         Only these repeat indices (each ``< repeats``), e.g. ``[1]`` for one trial
         (:func:`run_trial`); default all.
     keep_others : str, optional
-        The option that named ``archive_dir`` (``"--out"``): a file already at a trial's path
-        that is not that trial (another seed or rig, or not a trial) is then refused before
-        any simulation, naming it, instead of replaced. Default: replaced (the workflow's
-        jobs own their paths).
+        The option that named ``archive_dir`` (``"--out"``): a file at a trial's path that is
+        not that trial (another seed or rig, or no trial) is then refused before any
+        simulation, not replaced (the workflow's jobs own their paths and replace it).
 
     Returns
     -------
