@@ -123,4 +123,4 @@ def key_value(text: str) -> tuple[str, Any]:
         return key.strip(), yaml_load(value)
     except yaml.YAMLError as exc:
         problem = getattr(exc, "problem", None) or type(exc).__name__
-        raise argparse.ArgumentTypeError(f"--set {text}: the value is not valid YAML: {problem}") from None
+        raise argparse.ArgumentTypeError(f"--set {key.strip()}: the value is not valid YAML: {problem}") from None

@@ -29,13 +29,13 @@ MAX_YAML_BYTES = 1 << 20
 #: the most nodes a YAML document may hold with every alias expanded: its own files hold under
 #: a thousand; an alias bomb (a few lines whose aliases nest) is refused while it is composed,
 #: before the tree is built or copied, in milliseconds and a few MB
-MAX_YAML_NODES = 50_000
+MAX_YAML_NODES = 20_000
 #: the deepest nesting of a YAML document (its own files nest 5 deep): deeper, the composer's
 #: recursion would end in a RecursionError instead of a message
 MAX_YAML_DEPTH = 50
 
 try:    # libyaml's parser (C) reads the events: ten times faster than PyYAML's own
-    from yaml import CParser as _Parser
+    from yaml.cyaml import CParser as _Parser
 
     def _init_parser(loader, stream) -> None:
         _Parser.__init__(loader, stream)
@@ -173,7 +173,11 @@ def parse_yaml_bytes(path: str, content: bytes):
     """Parse YAML ``content`` read from ``path`` (cached per content; treat as read-only)."""
     try:
         return yaml_load(content.decode("utf-8"))
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+    except (ValueError, OverflowError) as exc:   # a scalar its constructor cannot take: 2001-13-45, 5000 digits
+        if isinstance(exc, UnicodeDecodeError):
+            raise InputError(f"{path}: not valid YAML: not UTF-8 text (byte {exc.start})") from None
+        raise InputError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
+    except yaml.YAMLError as exc:
         where = getattr(exc, "problem_mark", None)
         at = f" (line {where.line + 1}, column {where.column + 1})" if where is not None else ""
         problem = getattr(exc, "problem", None) or type(exc).__name__
