@@ -25,15 +25,16 @@ import pytest
 import yaml
 from test_bad_inputs import REFERENCE, REPO, refused, snapshot  # noqa: F401 - refused is a fixture
 
-import snakemake_forks
 from campaign.archive import check_listed_digests
 from campaign.cli.main import main
+
+import snakemake_forks
 
 RIG = (REPO / "config" / "rig.yaml").read_text(encoding="utf-8")
 TRIAL = "fixed/config1/zero/v1.500/r00.nc"
 #: the "billion laughs": 9 lines whose aliases expand to 9**9 (387 million) strings
 BOMB = "a: &a [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n" + "".join(
-    f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi"))
+    f"{b}: &{b} [{', '.join([f'*{a}'] * 9)}]\n" for a, b in zip("abcdefgh", "bcdefghi", strict=True))
 #: no alias at all: 400 000 nodes in 800 kB (under the size limit)
 WIDE = "[" + "0," * 400_000 + "0]\n"
 DEEP = "[" * 5000 + "]" * 5000 + "\n"
@@ -343,8 +344,10 @@ def _rig_file(work: Path) -> None:
     (work / "bogus.yaml").write_text(RIG + "bogus_key: 1\n")
 
 
-def _bomb(work: Path) -> None:
-    (work / "bomb.yaml").write_text(BOMB)
+def _designed_bomb(work: Path) -> None:
+    """A configuration folder whose designed campaign's settings are the bomb."""
+    shutil.copytree(REPO / "config", work / "cfg")
+    (work / "cfg" / "designed.yaml").write_text(BOMB)
 
 
 #: (change to config/tests/ci.yaml: a dict merged in, a list of --config arguments, or text
@@ -363,8 +366,9 @@ WORKFLOW_CASES = [
     (["campaign_seed=-1"], "configuration key campaign_seed: -1 is less than the minimum of 0", None, {}),
     ({"rig": "bogus.yaml"}, "rig parameter file bogus.yaml: unknown rig parameter 'bogus_key'", _rig_file, {}),
     ("repeats: 2\n", "c.yaml: refused (line {n}, column 1): key 'repeats' is given twice (first on line", None, {}),
-    ({"designed": "bomb.yaml"}, "bomb.yaml: refused (line 5, column 12): more than 20,000 nodes", _bomb, {}),
-    ({}, "SOURCE_DATE_EPOCH = ' ' is not a whole number", None, {"SOURCE_DATE_EPOCH": " "}),
+    ({}, "cfg/designed.yaml: refused (line 5, column 12): more than 20,000 nodes", _designed_bomb,
+     {"CAMPAIGN_CONFIG_DIR": "{work}/cfg"}),
+    ({"campaign": "sde"}, "SOURCE_DATE_EPOCH = ' ' is not a whole number", None, {"SOURCE_DATE_EPOCH": " "}),
     ({"simulate": False, "reuse_archive": "ref"},
      f"configuration key reuse_archive: ref/{TRIAL}: sha256 differs from MANIFEST.sha256", _edited_units, {}),
 ]
@@ -389,6 +393,7 @@ def workflow_runs(tmp_path_factory):
         before = snapshot(work)
         args = ["-s", str(REPO / "Snakefile"), "--directory", str(work), "-n", "--configfile", str(work / "c.yaml"),
                 *extra]
+        env = {k: v.format(work=work) for k, v in env.items()}
         proc = snakemake_forks.run(args, cwd=work, env={**os.environ, **env}, timeout=600)
         runs.append((work, proc.stdout + proc.stderr, proc.returncode, text, before))
     return runs
