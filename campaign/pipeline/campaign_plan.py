@@ -213,10 +213,9 @@ class CampaignPlan(JobOutputs):
         results = paths.reuse_results(self.config["results_root"], root)
         try:
             paths.check_reuse_results(results, root)
-            # before its index is trusted: the files its manifest lists, and the trials it indexes
-            listed = paths.check_manifest(root) if self._check_reuse else None
             held = paths.index_cells(root)
-            paths.check_listed(root, listed, [t for files in held.values() for t in files])
+            if self._check_reuse:   # the files its manifest lists (the index too), and the trials it indexes
+                paths.check_manifest(root, [t for files in held.values() for t in files])
         except (OSError, ValueError) as exc:
             raise _config_error("reuse_archive", str(exc)) from None
         wanted = self._configured_sweeps()

@@ -15,7 +15,7 @@ from ..core.errors import InputError
 from ..core.files import not_regular, open_regular, sha256_file
 from ..core.vocabulary import TRIAL_SUFFIX, cell_dir, trial_relpath
 
-__all__ = ["cell_trials", "find_cell_trials", "index_cells", "check_manifest", "check_listed", "REUSE_PREFIX", "VERIFY_FILE", "reuse_results",
+__all__ = ["cell_trials", "find_cell_trials", "index_cells", "check_manifest", "REUSE_PREFIX", "VERIFY_FILE", "reuse_results",
            "check_reuse_results"]
 
 #: results of re-analysing the archive ``<x>`` go to ``<results_root>/reuse-<x>``
@@ -84,15 +84,12 @@ def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], li
 _MANIFEST = "MANIFEST.sha256"
 
 
-def check_manifest(archive_dir: str | os.PathLike, trials: Sequence[str] | None = None) -> set[str] | None:
+def check_manifest(archive_dir: str | os.PathLike, trials: Sequence[str] = ()) -> None:
     """A finalized archive's files against its manifest, before a re-analysis reads them:
     every file it lists is a regular file with the sha256 it lists, and every trial of
     ``trials`` (paths under ``archive_dir``) is listed. Reads each file once (about 1 s per
     GB); the trials' schema and content are ``campaign archive verify``'s. An archive
     without a manifest (never finalized) is not checked here.
-
-    Returns the files the manifest lists (relative paths), None without a manifest; call
-    :func:`check_listed` with them for trials known only after the index is read.
 
     Raises
     ------
@@ -103,8 +100,8 @@ def check_manifest(archive_dir: str | os.PathLike, trials: Sequence[str] | None 
     root = Path(archive_dir)
     manifest = root / _MANIFEST
     if not manifest.is_file():
-        return None
-    hint = _verify_hint(archive_dir)
+        return
+    hint = f"`campaign archive verify {archive_dir}` lists every problem"
     listed = set()
     with open_regular(manifest, "r", encoding="utf-8", errors="replace") as fh:
         lines = fh.read().splitlines()
@@ -119,23 +116,9 @@ def check_manifest(archive_dir: str | os.PathLike, trials: Sequence[str] | None 
             raise InputError(f"{file}: listed in {_MANIFEST} but {problem}; {hint}")
         if sha256_file(file) != digest:
             raise InputError(f"{file}: sha256 differs from {_MANIFEST} (altered, corrupt or truncated); {hint}")
-    check_listed(archive_dir, listed, trials or ())
-    return listed
-
-
-def _verify_hint(archive_dir) -> str:
-    return f"`campaign archive verify {archive_dir}` lists every problem"
-
-
-def check_listed(archive_dir: str | os.PathLike, listed: set[str] | None, trials: Sequence[str]) -> None:
-    """Every trial of ``trials`` (paths under ``archive_dir``) is one the manifest lists
-    (``listed``, from :func:`check_manifest`; None: no manifest, nothing checked)."""
-    if listed is None:
-        return
     for trial in trials:
-        if os.path.relpath(trial, archive_dir) not in listed:
-            raise InputError(f"{trial}: not in {_MANIFEST} (added after the archive was finalized); "
-                             f"{_verify_hint(archive_dir)}")
+        if os.path.relpath(trial, root) not in listed:
+            raise InputError(f"{trial}: not in {_MANIFEST} (added after the archive was finalized); {hint}")
 
 
 def reuse_results(results_root: str | os.PathLike, archive_dir: str | os.PathLike) -> str:
