@@ -440,8 +440,8 @@ def check_listed_digests(paths: Iterable[str | os.PathLike]) -> None:
     """Each trial file of a finalized campaign folder has the sha256 its ``MANIFEST.sha256``
     lists, before a reader uses it: a flipped bit anywhere in the file (also in a group the
     reader does not open) or an added group is caught, at about 1 ms per MB read. Files
-    outside a finalized folder and symbolic links pass (their readers check the groups'
-    content digests and where the content belongs as they read them).
+    outside a finalized folder, and a path through a symbolic link inside one, pass (their
+    readers check the groups' content digests and where the content belongs).
 
     Raises
     ------
@@ -452,14 +452,14 @@ def check_listed_digests(paths: Iterable[str | os.PathLike]) -> None:
     manifests: dict[Path, dict[str, str]] = {}
     for path in map(Path, paths):
         manifest = _manifest_of(path)
-        if manifest is None or not_regular(path) or path.is_symlink():
-            # not in a finalized folder; a missing file, or a link (which the reader names
-            # with the cell its content belongs to), is left to the reader
-            continue
-        if manifest not in manifests:
-            manifests[manifest] = _listed(manifest)
+        if manifest is None or not_regular(path):
+            continue        # not in a finalized folder; a missing file is named by its reader
         campaign = manifest.parent
         rel = relative_name(campaign, path.absolute())
+        if Path(os.path.realpath(path)) != Path(os.path.realpath(campaign)) / rel:
+            continue        # a link inside the folder: its reader names where it leads
+        if manifest not in manifests:
+            manifests[manifest] = _listed(manifest)
         hint = f"`campaign archive verify {campaign}` lists every problem"
         digest = manifests[manifest].get(rel)
         if digest is None:
