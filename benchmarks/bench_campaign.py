@@ -63,6 +63,7 @@ from pathlib import Path
 import yaml
 
 from campaign.bench.common import BASELINE_AT_TARGETS, XARRAY_WRITE_AT_TARGETS, blas_line, run_command
+from campaign.core.yamlfile import read_yaml
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -145,7 +146,7 @@ def bench_one(name: str, unit: str, cores: int, tree: Path = REPO) -> dict:
     """Run one campaign from clean in a temporary directory with the workflow of ``tree``;
     return the measurements."""
     probe_before = machine_probe()
-    cfg = yaml.safe_load(CONFIGS[name].read_text())
+    cfg = read_yaml(CONFIGS[name])
     cfg["job_unit"] = unit
     work = Path(tempfile.mkdtemp(prefix=f"bench-{name}-{unit}-"))
     try:

@@ -41,6 +41,7 @@ from pathlib import Path
 import yaml
 
 from campaign.bench.common import blas_line, run_command
+from campaign.core.yamlfile import read_yaml
 
 REPO = Path(__file__).resolve().parents[1]
 SNAKEMAKE = str(Path(sys.executable).parent / "snakemake")
@@ -53,7 +54,7 @@ TARGETS = {21600: 6.0, 100008: 30.0}
 
 def campaign_config(trials: int) -> dict:
     """The full campaign's configuration with ``trials / (18 x 2)`` speeds."""
-    cfg = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
+    cfg = read_yaml(REPO / "config" / "config.yaml")
     n = trials // (CELLS * REPEATS)
     cfg.update(campaign=f"plan{trials}", speeds=[round(0.1 + 0.001 * i, 3) for i in range(n)], repeats=REPEATS,
                figures={})

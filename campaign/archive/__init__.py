@@ -31,7 +31,7 @@ from .fileformat import (
     prepare_trial,
     provenance,
 )
-from .folder import TrialRecord, list_trials, open_campaign, outside_layout, to_cell_dataset, trial_files
+from .folder import TrialRecord, list_trials, open_campaign, outside_layout, read_record, to_cell_dataset, trial_files
 from .jobs import (
     JOBS,
     TrialEntry,
@@ -44,6 +44,7 @@ from .jobs import (
 from .manifest import (
     Problem,
     Verification,
+    check_listed_digests,
     finalize_campaign,
     verify,
     verify_report,
@@ -58,8 +59,9 @@ __all__ = [
     "REFERENCES", "TRIAL_BYTES",
     "TrialRecord", "Problem", "Verification", "ChannelArray", "GroupArrays", "TrialArrays",
     "provenance", "content_digest", "prepare_trial", "write_trial", "open_trial", "open_trial_arrays", "open_trial_tree", "trial_path",
-    "list_trials", "trial_files", "outside_layout", "open_campaign", "to_cell_dataset",
+    "list_trials", "read_record", "trial_files", "outside_layout", "open_campaign", "to_cell_dataset",
     "JOBS", "TrialEntry", "write_trial_entry", "intact_trials", "write_job_manifest", "read_job_manifests",
     "job_trial_paths",
     "write_manifest", "write_index", "write_readme", "finalize_campaign", "verify", "verify_report",
+    "check_listed_digests",
 ]

@@ -17,6 +17,8 @@ import sys
 from collections.abc import Iterable, Sequence
 from typing import Any
 
+import yaml
+
 from ..core.errors import InputError
 from ..core.yamlfile import yaml_load
 
@@ -117,4 +119,8 @@ def key_value(text: str) -> tuple[str, Any]:
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--set expects KEY=VALUE, got {text!r}")
     key, value = text.split("=", 1)
-    return key.strip(), yaml_load(value)
+    try:
+        return key.strip(), yaml_load(value)
+    except yaml.YAMLError as exc:
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        raise argparse.ArgumentTypeError(f"--set {key.strip()}: the value is not valid YAML: {problem}") from None

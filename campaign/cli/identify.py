@@ -15,6 +15,7 @@ import math
 import sys
 import warnings
 
+from ..archive import check_listed_digests
 from ..core.errors import InputError
 from ..core.files import check_output_dir
 from ..core.progress import progress
@@ -85,8 +86,15 @@ def _fmt(v, spec=".4g") -> str:
     return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else format(v, spec)
 
 
+def _trials(paths) -> list:
+    """``paths``, each checked against its finalized folder's manifest before it is read."""
+    paths = list(paths)
+    check_listed_digests(paths)
+    return paths
+
+
 def run_identify(args) -> int:
-    records = identify_files(progress(args.paths, desc="identify"))
+    records = identify_files(progress(_trials(args.paths), desc="identify"))
     if args.json:
         json.dump([r.to_dict() for r in records], sys.stdout, indent=1, allow_nan=False)
         sys.stdout.write("\n")
@@ -102,7 +110,7 @@ def run_identify(args) -> int:
 
 def _fits(args):
     _check_fit_options(args)
-    records = identify_files(progress(find_trials(args.archive), desc="identify"))
+    records = identify_files(progress(_trials(find_trials(args.archive)), desc="identify"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", IdentifiabilityWarning)
         fits = fit_gain_classes(records, n_bootstrap=args.bootstrap, random_state=args.seed, warn=False)
@@ -147,7 +155,7 @@ def run_tables(args) -> int:
     _check_fit_options(args)
     check_output_dir(args.out, files=TABLE_FILES)
     paper = load_paper()
-    records = identify_files(progress(find_trials(args.archive), desc="identify"))
+    records = identify_files(progress(_trials(find_trials(args.archive)), desc="identify"))
     # the tables put the paper's PUMA 560 values beside the trials': another robot has none
     others = sorted({r.robot for r in records} - {paper["robot"]})
     if others:

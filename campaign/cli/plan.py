@@ -138,18 +138,28 @@ def register(subparsers) -> argparse.ArgumentParser:
     return p
 
 
+#: the most impact directions one plan ranks: 3600 (0.1 deg apart on a fan) take about 2 s and
+#: 200 MB; time and memory grow with the count (36 000: half a minute and 0.5 GB)
+MAX_DIRECTIONS = 3600
+
+
+def _direction_count(count: int, option: str) -> int:
+    if count < 1:
+        raise InputError(f"{option} {count}: need at least 1 direction")
+    if count > MAX_DIRECTIONS:
+        raise InputError(f"{option} {count}: at most {MAX_DIRECTIONS} directions (0.1 deg apart on a full "
+                         "fan); the planner's time and memory grow with each")
+    return count
+
+
 def _directions(args):
     if args.count is not None and args.cone is None:
         raise InputError(f"--count {args.count}: counts the directions of --cone; give --cone X,Y,Z,DEG too")
     if args.horizontal is not None:
-        if args.horizontal < 1:
-            raise InputError(f"--horizontal {args.horizontal}: need at least 1 direction")
-        return horizontal_directions(args.horizontal)
+        return horizontal_directions(_direction_count(args.horizontal, "--horizontal"))
     if args.cone is not None:
         v = parse_vector(args.cone, option="--cone", size=4)
-        count = 9 if args.count is None else args.count
-        if count < 1:
-            raise InputError(f"--count {count}: need at least 1 direction")
+        count = _direction_count(9 if args.count is None else args.count, "--count")
         if not any(v[:3]):
             raise InputError(f"--cone {args.cone}: the zero vector has no direction")
         return cone_directions(v[:3], v[3], count)

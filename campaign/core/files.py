@@ -361,10 +361,12 @@ def source_date_epoch() -> _dt.datetime | None:
     Raises
     ------
     InputError
-        The variable is set but is not a whole number of seconds (naming it and its value).
+        The variable is set but is not a whole number of seconds (naming it and its value),
+        empty or blank included: NumPy reads it with ``int()`` on import and fails with a
+        traceback.
     """
-    text = os.environ.get("SOURCE_DATE_EPOCH", "").strip()
-    if not text:
+    text = os.environ.get("SOURCE_DATE_EPOCH")
+    if text is None:
         return None
     try:
         return _dt.datetime.fromtimestamp(int(text), _dt.UTC)

@@ -19,7 +19,7 @@ import numpy as np
 from ..archive import open_trial_arrays
 from ..core.errors import InputError
 from ..core.vocabulary import FIXED, figure_cells, table2_column, table2_columns
-from ..core.yamlfile import config_dir, yaml_load
+from ..core.yamlfile import config_dir, read_yaml
 from ..model.paper import load_paper, paper_offset_deg
 from ..model.robot import load_robot
 from ..model.robot.floating import base_body_of
@@ -199,8 +199,7 @@ def campaign_report(*, rig=None, table4_csv, fig9_trials: Mapping[str, str | Pat
 def _calibration_record(rig) -> dict:
     """The calibration record of the rig file (default ``config/rig.yaml``); InputError if it has none."""
     path = Path(rig) if rig is not None else config_dir() / "rig.yaml"
-    with open(path) as fh:
-        tree = yaml_load(fh)
+    tree = read_yaml(path)
     record = tree.get("calibration")
     if not record:
         raise InputError(f"{path} has no calibration record: run `campaign calibrate` first")

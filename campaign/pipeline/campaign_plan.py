@@ -22,11 +22,9 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..core import vocabulary
 from ..core.errors import InputError
-from ..core.yamlfile import config_file
+from ..core.yamlfile import config_file, read_yaml
 from ..model import conventions
 from . import config as config_checks
 from . import paths
@@ -52,8 +50,7 @@ CALIBRATION_FILES = {"fit": "fit.md", "md": "calibration.md", "html": "calibrati
 
 
 def _read_yaml(path: str) -> dict:
-    with open(path, encoding="utf-8") as fh:
-        return yaml.safe_load(fh) or {}
+    return read_yaml(path) or {}
 
 
 def _config_error(key: str, message: str) -> InputError:
@@ -75,6 +72,10 @@ class CampaignPlan(JobOutputs):
         with its defaults filled in.
     rig_file, paper_file : str
         The rig parameter file and the paper's conventions (``config/paper.yaml``).
+    check_reuse : bool
+        Check a re-analysed archive's files against its manifest
+        (:func:`campaign.pipeline.paths.check_manifest`); the workflow does so in its main
+        process, not again in every job.
 
     Attributes
     ----------
@@ -104,8 +105,9 @@ class CampaignPlan(JobOutputs):
         a trial a figure picks that the campaign does not hold, ... (one line naming the key).
     """
 
-    def __init__(self, *, config: Mapping[str, Any], rig_file: str, paper_file: str):
+    def __init__(self, *, config: Mapping[str, Any], rig_file: str, paper_file: str, check_reuse: bool = True):
         self.config = config
+        self._check_reuse = check_reuse
         self.rig_file, self.paper_file = str(rig_file), str(paper_file)
         # the paper's two bases, in its order: the arm on the ground, then on the emulated structure
         self.fixed_base, self.flexible_base = vocabulary.bases()
@@ -148,11 +150,11 @@ class CampaignPlan(JobOutputs):
                                      wanted={p: not self.missing_requirement(p) for p in ("fig5", "fig9", "plan_maps")})
 
     @classmethod
-    def from_config(cls, config: Mapping[str, Any]) -> CampaignPlan:
+    def from_config(cls, config: Mapping[str, Any], *, check_reuse: bool = True) -> CampaignPlan:
         """The plan of ``config`` with its rig file (``rig``, else the project's
         ``config/rig.yaml``) and the project's ``config/paper.yaml``."""
         rig = config["rig"] if config.get("rig") else str(config_file("rig.yaml"))
-        return cls(config=config, rig_file=rig, paper_file=str(config_file("paper.yaml")))
+        return cls(config=config, rig_file=rig, paper_file=str(config_file("paper.yaml")), check_reuse=check_reuse)
 
     # ------------------------------------------------------------------------------------
     # what is swept: the robot, the structure, the sweeps (configured or held by an archive)
@@ -212,6 +214,8 @@ class CampaignPlan(JobOutputs):
         try:
             paths.check_reuse_results(results, root)
             held = paths.index_cells(root)
+            if self._check_reuse:   # the files its manifest lists (the index too), and the trials it indexes
+                paths.check_manifest(root, [t for files in held.values() for t in files])
         except (OSError, ValueError) as exc:
             raise _config_error("reuse_archive", str(exc)) from None
         wanted = self._configured_sweeps()

@@ -19,8 +19,9 @@ import yaml
 from ..core.errors import InputError
 from ..core.files import source_date_epoch
 from ..core.vocabulary import figure_cells
+from ..core.yamlfile import yaml_load
 
-__all__ = ["parse_typed_strings", "check_environment", "check_schema", "check_paths", "check_workflow_config",
+__all__ = ["parse_typed_strings", "check_config_files", "check_environment", "check_schema", "check_paths", "check_workflow_config",
            "trial_pick_problem", "check_products"]
 # ---------------------------------------------------------------------------------------
 # the workflow's configuration
@@ -53,7 +54,7 @@ def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
             # YAML 1.1 would also read yes/no/on/off; a switch is spelled true or false
             return {"true": True, "false": False}.get(value.strip().lower(), value)
         try:
-            value = yaml.safe_load(value)
+            value = yaml_load(value)
         except yaml.YAMLError:
             return value  # the schema then names the key and the bad string
     if isinstance(value, list) and isinstance(spec.get("items"), Mapping):
@@ -64,22 +65,39 @@ def _typed(value: Any, spec: Mapping[str, Any], root: Mapping[str, Any]) -> Any:
     return value
 
 
+def check_config_files(paths: Sequence[str | Path]) -> None:
+    """The configuration files Snakemake read, read again as this project reads YAML
+    (:func:`campaign.core.yamlfile.read_yaml`): a key given twice, which Snakemake's loader
+    silently resolves to its last value, is refused naming the key and its lines; so are an
+    alias bomb and a file over the size limit. One line naming the file."""
+    from ..core.yamlfile import read_yaml
+
+    for path in paths:
+        if Path(path).is_file():
+            read_yaml(path, copy=False)
+
+
 def check_environment() -> None:
     """The environment the jobs read: a ``SOURCE_DATE_EPOCH`` that is set is a whole number of
     seconds (:func:`campaign.core.files.source_date_epoch`), or one line naming it."""
     source_date_epoch()
 
 
-def check_schema(settings: Mapping[str, Any], schema: Mapping[str, Any]) -> None:
+def check_schema(settings: Mapping[str, Any], schema: Mapping[str, Any], *, where: str = "configuration key") -> None:
     """``settings`` (the workflow configuration) against the JSON schema: the first failure
-    as one line naming its key."""
+    as one line, ``"<where> <key>: <what is wrong>"``.
+
+    An ``integer`` is an integer as written: JSON Schema also takes a float with no fraction
+    (``1e30``, ``3.0``), which a seed or a count must not be."""
     import jsonschema
 
-    cls = jsonschema.validators.validator_for(schema)
+    base = jsonschema.validators.validator_for(schema)
+    strict = base.TYPE_CHECKER.redefine("integer", lambda _, v: isinstance(v, int) and not isinstance(v, bool))
+    cls = jsonschema.validators.extend(base, type_checker=strict)
     error = jsonschema.exceptions.best_match(cls(schema).iter_errors(settings))
     if error is not None:
         key = ".".join(str(p) for p in error.absolute_path) or "(top level)"
-        raise InputError(f"configuration key {key}: {error.message}")
+        raise InputError(f"{where} {key}: {error.message}")
 
 
 
@@ -116,13 +134,18 @@ def check_workflow_config(settings: Mapping[str, Any], *, sweeps: Mapping[str, M
 
 def check_paths(settings: Mapping[str, Any]) -> None:
     """The folders and files a configuration names, before anything reads or writes them:
-    ``archive_root`` and ``results_root`` are folders (or do not exist yet), ``rig`` is an
+    ``archive_root`` and ``results_root`` are folders (or do not exist yet) and not the same
+    folder, ``rig`` is an
     existing file, ``reuse_archive`` (when nothing is simulated) and ``identification_csv``
     are not folders of the wrong kind. One line naming the key."""
     for key in ("archive_root", "results_root"):
         value = settings.get(key)
         if value is not None and Path(value).exists() and not Path(value).is_dir():
             raise InputError(f"configuration key {key}: {value!r} is a file, not a folder")
+    archive, results = settings.get("archive_root", "archive"), settings.get("results_root", "results")
+    if Path(archive).resolve() == Path(results).resolve():
+        raise InputError(f"configuration key results_root: {results!r} is also archive_root; an archive folder "
+                         "holds its trials and their manifest only: give the results another folder")
     rig = settings.get("rig")
     if rig is not None and not Path(rig).is_file():
         what = "is a folder, not" if Path(rig).is_dir() else "does not exist: it names"

@@ -12,10 +12,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..core.errors import InputError
-from ..core.files import not_regular, open_regular
+from ..core.files import not_regular, open_regular, sha256_file
 from ..core.vocabulary import TRIAL_SUFFIX, cell_dir, trial_relpath
 
-__all__ = ["cell_trials", "find_cell_trials", "index_cells", "REUSE_PREFIX", "VERIFY_FILE", "reuse_results",
+__all__ = ["cell_trials", "find_cell_trials", "index_cells", "check_manifest", "REUSE_PREFIX", "VERIFY_FILE", "reuse_results",
            "check_reuse_results"]
 
 #: results of re-analysing the archive ``<x>`` go to ``<results_root>/reuse-<x>``
@@ -80,6 +80,46 @@ def index_cells(archive_dir: str | os.PathLike) -> dict[tuple[str, int, str], li
         raise ValueError(f"{index}: lists no trial")
     return {cell: [p for _, _, p in sorted(rows)] for cell, rows in sorted(cells.items())}
 
+
+#: the archive's manifest (campaign.archive.MANIFEST, which loads h5py; the plan's tests check both agree)
+_MANIFEST = "MANIFEST.sha256"
+
+
+def check_manifest(archive_dir: str | os.PathLike, trials: Sequence[str] = ()) -> None:
+    """A finalized archive's files against its manifest, before a re-analysis reads them:
+    every file it lists is a regular file with the sha256 it lists, and every trial of
+    ``trials`` (paths under ``archive_dir``) is listed. Reads each file once (about 1 s per
+    GB); the trials' schema and content are ``campaign archive verify``'s. An archive
+    without a manifest (never finalized) is not checked here.
+
+    Raises
+    ------
+    InputError
+        One line naming the first file that fails, what is wrong, and the command that
+        lists every problem.
+    """
+    root = Path(archive_dir)
+    manifest = root / _MANIFEST
+    if not manifest.is_file():
+        return
+    hint = f"`campaign archive verify {archive_dir}` lists every problem"
+    listed = set()
+    with open_regular(manifest, "r", encoding="utf-8", errors="replace") as fh:
+        lines = fh.read().splitlines()
+    for n, line in enumerate(lines, 1):
+        digest, sep, rel = line.partition("  ")
+        if not sep or len(digest) != 64 or rel.startswith("/") or ".." in Path(rel).parts:
+            raise InputError(f"{manifest}, line {n}: not '<sha256>  <path>' inside the archive; {hint}")
+        listed.add(rel)
+        file = root / rel
+        problem = not_regular(file)
+        if problem:
+            raise InputError(f"{file}: listed in {_MANIFEST} but {problem}; {hint}")
+        if sha256_file(file) != digest:
+            raise InputError(f"{file}: sha256 differs from {_MANIFEST} (altered, corrupt or truncated); {hint}")
+    for trial in trials:
+        if os.path.relpath(trial, root) not in listed:
+            raise InputError(f"{trial}: not in {_MANIFEST} (added after the archive was finalized); {hint}")
 
 
 def _check_listed_trial(path: Path, relpath: str, index: Path) -> None:

@@ -14,11 +14,10 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, NamedTuple
 
-import yaml
-
 from .. import studies as study_registry
 from ..core import vocabulary
 from ..core.errors import InputError
+from ..core.yamlfile import read_yaml
 from . import digests
 
 __all__ = ["Output", "log_path", "JobOutputs", "StudiesPlan", "DesignedPlan", "PRIORITY", "STAGE_CODE", "FIGURES",
@@ -279,8 +278,7 @@ class DesignedPlan:
         #: against workflow/schemas/designed.schema.yaml, which fills in their defaults
         self.settings: dict | None = None
         if Path(self.file).is_file():
-            with open(self.file, encoding="utf-8") as fh:
-                self.settings = yaml.safe_load(fh)
+            self.settings = read_yaml(self.file)
         elif named:
             raise InputError(f"configuration key designed: {self.file!r} does not exist")
 

@@ -15,14 +15,14 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..archive import intact_trials, trial_path, write_job_manifest, write_trial, write_trial_entry
-from ..core.errors import SimulationError
+from ..archive import intact_trials, read_record, trial_path, write_job_manifest, write_trial, write_trial_entry
+from ..core.errors import InputError, SimulationError, TrialFileError
 from ..core.timing import Timer
 from ..core.tolerance import worst
 from ..model.paper import gain_counts
 from ..plan.stroke import check_scene_stroke
 from ..rig.batch import simulate_batch
-from ..scene.checks import check_rig_params, check_speeds, pendulum_reach
+from ..scene.checks import check_rig_params, check_seed, check_speeds, pendulum_reach
 from ..scene.description import Scene, make_scene
 
 __all__ = ["run_cells", "run_cell", "run_trial"]
@@ -34,7 +34,7 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
               timer: Timer | None = None,
               progress: Callable[[int, int, str], None] | None = None,
               job_manifest: str | os.PathLike | None = None, job: str = "simulate",
-              repeat_indices: Sequence[int] | None = None) -> list[Path]:
+              repeat_indices: Sequence[int] | None = None, keep_others: str | None = None) -> list[Path]:
     """Simulate every speed x repeat of sweep cells and write one trial file per trial.
 
     Every scene is built and checked first, then the trials are integrated one after another
@@ -73,6 +73,10 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     repeat_indices : sequence of int, optional
         Only these repeat indices (each ``< repeats``), e.g. ``[1]`` for one trial
         (:func:`run_trial`); default all.
+    keep_others : str, optional
+        The option that named ``archive_dir`` (``"--out"``): a file at a trial's path that is
+        not that trial (another seed or rig, or no trial) is then refused before any
+        simulation, not replaced (the workflow's jobs own their paths and replace it).
 
     Returns
     -------
@@ -82,16 +86,20 @@ def run_cells(cells: Iterable[Sequence[Any]], *, archive_dir: str | os.PathLike,
     Raises
     ------
     ValueError
-        A bad cell, speed, repeat count or rig parameter (before any simulation).
+        A bad cell, speed, repeat count, campaign seed (an integer in [0, 2**63 - 1]) or rig
+        parameter (before any simulation).
     campaign.core.errors.SimulationError
         One or more trials failed to integrate, each named with its cell and its message;
         every other trial of the batch is written (each is complete).
     """
     timer = timer if timer is not None else Timer()
+    check_seed(campaign_seed, key="campaign_seed")
     # every speed within the pendulum's reach and distinct in its path, before any trial
     speeds = check_speeds(speeds, reach=pendulum_reach(check_rig_params(params, rig=rig)))
     plan = _plan_trials(cells, archive_dir=archive_dir, speeds=speeds, repeats=repeats, campaign_seed=campaign_seed,
                         gain_overrides=gain_overrides, rig=rig, params=params, repeat_indices=repeat_indices)
+    if keep_others is not None:
+        _check_others(plan, archive_dir=Path(archive_dir), option=keep_others)
     n = len(plan)
     finished = [0]
     t_start = time.perf_counter()
@@ -143,6 +151,24 @@ def _plan_trials(cells, *, archive_dir, speeds, repeats, campaign_seed, gain_ove
                 check_scene_stroke(scene)
                 plan.append((scene, trial_path(archive_dir, scene)))
     return plan
+
+
+def _check_others(plan, *, archive_dir: Path, option: str) -> None:
+    """Each file already at a planned trial's path holds that trial (the same scene: its
+    cell, seed and rig), else InputError naming ``option``, the file and both seeds."""
+    for scene, path in plan:
+        if not path.exists():
+            continue
+        try:
+            held = read_record(archive_dir, path)
+        except TrialFileError:
+            raise InputError(f"{option} {archive_dir}: {path} is there and is not a readable trial file; "
+                             "a sweep replaces only a file of the same trial (remove it, or choose another folder)") \
+                from None
+        if held.scene_sha256 != scene.sha256:
+            what = f"seed {held.seed}, this sweep's {scene.seed}" if held.seed != scene.seed else "another rig"
+            raise InputError(f"{option} {archive_dir}: {path} holds another trial ({what}); a sweep does not "
+                             "replace another trial: write to another folder or remove it")
 
 
 def _write_trials(plan, results, *, timer: Timer, per_trial_ms: float,

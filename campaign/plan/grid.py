@@ -32,15 +32,23 @@ def grid_points(resolution, x_range=WORKSPACE_RANGE, z_range=WORKSPACE_RANGE, *,
         res = math.nan
     if isinstance(resolution, bool) or not (math.isfinite(res) and res > 0):
         raise InputError(f"{key} = {resolution!r} m must be a finite grid step > 0")
-    nx = math.floor((x_range[1] - x_range[0]) / res + 0.5) + 1
-    nz = math.floor((z_range[1] - z_range[0]) / res + 0.5) + 1
-    if nx * nz > MAX_GRID_POINTS:
-        finest = max(x_range[1] - x_range[0], z_range[1] - z_range[0]) / (math.isqrt(MAX_GRID_POINTS) - 1)
-        raise InputError(f"{key} = {res:g} m gives a workspace grid of {nx} x {nz} = {nx * nz:.3g} points, over the "
-                         f"{MAX_GRID_POINTS:,} this map samples at most (a step of at least {finest:.4g} m over "
-                         f"x {list(x_range)}, z {list(z_range)} m)")
-    _check_coarse(key, res, nx, nz, x_range, z_range)
-    return nx * nz
+    # steps per axis as floats first: a step of 1e-300 m gives 2e300 of them (4e600 points,
+    # past what a float holds), and one of 5e-324 m an infinite number
+    sx, sz = (x_range[1] - x_range[0]) / res, (z_range[1] - z_range[0]) / res
+    nx, nz = (math.floor(s + 0.5) + 1 if s < 1e15 else s + 1 for s in (sx, sz))
+    if nx * nz <= MAX_GRID_POINTS:
+        _check_coarse(key, res, int(nx), int(nz), x_range, z_range)
+        return int(nx * nz)
+    finest = max(x_range[1] - x_range[0], z_range[1] - z_range[0]) / (math.isqrt(MAX_GRID_POINTS) - 1)
+    raise InputError(f"{key} = {res:g} m gives a workspace grid of {_count(nx)} x {_count(nz)} = "
+                     f"{_count(float(nx) * float(nz))} points, over the "
+                     f"{MAX_GRID_POINTS:,} this map samples at most (a step of at least {finest:.4g} m over "
+                     f"x {list(x_range)}, z {list(z_range)} m)")
+
+
+def _count(n: float) -> str:
+    """A count of grid points as text: whole below a billion, else ``2e+300`` (``inf`` past a float)."""
+    return str(int(n)) if n < 1e9 else f"{n:.3g}"
 
 
 def _check_coarse(key: str, res: float, nx: int, nz: int, x_range, z_range) -> None:

@@ -84,8 +84,14 @@ def _flatten(tree: Mapping, prefix: str = "") -> dict[str, Any]:
     return out
 
 
+#: the sections of a rig file beside its parameters, and what a parameter's leaf may say
+_RIG_SECTIONS = ("scenes", "structures", "calibration")
+_LEAF_KEYS = ("value", "units", "note", "assumption")
+
+
 def _read_rig(path):
-    path = Path(path) if path is not None else config_dir() / "rig.yaml"
+    project = config_dir() / "rig.yaml"
+    path = Path(path) if path is not None else project
     if not path.exists():
         raise InputError(f"rig parameter file {path} does not exist")
     check_regular_file(path, what="rig parameter file")  # a FIFO or a folder, named as what it is
@@ -95,7 +101,35 @@ def _read_rig(path):
     scenes = tree.pop("scenes", {}) or {}
     structures = tree.pop("structures", {}) or {}
     tree.pop("calibration", None)
+    if path.resolve() != project.resolve():
+        _check_rig_keys(path, tree, project)
     return tree, scenes, structures
+
+
+def _check_rig_keys(path: Path, tree: Mapping, project: Path) -> None:
+    """Every parameter of the rig file ``path`` is one of the project's rig file, and each
+    documented leaf says no more than :data:`_LEAF_KEYS`: InputError naming the first
+    unknown key, as an unknown ``--set`` key is named (a misspelt key would otherwise be
+    ignored and its parameter keep the project's value)."""
+    known = read_yaml(project, copy=False)
+    known = _flatten({k: v for k, v in known.items() if k not in _RIG_SECTIONS})
+    for name in _flatten(tree):
+        if name not in known:
+            raise InputError(f"rig parameter file {path}: unknown rig parameter {name!r}; "
+                             f"{allowed_names(name, list(known))}")
+
+    def leaves(node, prefix=""):
+        for key, sub in node.items():
+            if isinstance(sub, Mapping) and "value" in sub:
+                yield f"{prefix}{key}", sub
+            elif isinstance(sub, Mapping):
+                yield from leaves(sub, f"{prefix}{key}.")
+
+    for name, leaf in leaves(tree):
+        extra = [k for k in leaf if k not in _LEAF_KEYS]
+        if extra:
+            raise InputError(f"rig parameter file {path}: parameter {name} has unknown field {extra[0]!r} "
+                             f"(a parameter's fields: {', '.join(_LEAF_KEYS)})")
 
 
 def load_rig(path: str | Path | None = None) -> tuple[dict[str, Any], dict[str, dict]]:
@@ -122,7 +156,8 @@ def hammer_reach(head_mass: float, rod_mass: float, radius: float, gravity: floa
 def load_structures(path: str | Path | None = None) -> dict[str, dict[str, Any]]:
     """Named structures of a rig file: ``{name: {dotted key: value}}`` (the values a
     structure sets over the ``flexible:`` leaves; ``{}`` for the leaves themselves)."""
-    _, _, structures = _read_rig(path)
+    tree, _, structures = _read_rig(path)
+    values = _flatten(tree)
     out = {}
     for name, node in structures.items():
         over = {}
@@ -130,6 +165,9 @@ def load_structures(path: str | Path | None = None) -> dict[str, dict[str, Any]]
             if not str(key).startswith(_STRUCTURE_PREFIXES):
                 raise InputError(f"structure {name!r} sets {key!r}: a structure may set only flexible.* and ves.* "
                                  "parameters")
+            if key not in values:
+                raise InputError(f"structure {name!r} sets unknown rig parameter {key!r}; "
+                                 f"{allowed_names(str(key), list(values))}")
             over[str(key)] = leaf["value"] if isinstance(leaf, Mapping) and "value" in leaf else leaf
         out[str(name)] = over
     return out

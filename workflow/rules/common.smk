@@ -16,12 +16,12 @@ import os
 import sys
 from pathlib import Path
 
-import yaml
 from snakemake.exceptions import WorkflowError
 from snakemake.utils import min_version, validate
 
 from campaign.core import vocabulary
 from campaign.core.errors import InputError
+from campaign.core.yamlfile import read_yaml
 from campaign.pipeline import config as config_checks
 from campaign.pipeline.campaign_plan import CampaignPlan
 from campaign.pipeline.plan_parts import PRIORITY
@@ -39,10 +39,11 @@ configfile: "config/config.yaml"
 # --config values arrive as strings unless Snakemake recognises them (simulate=false,
 # speeds=[1.0,2.5]): read the command line's (not a file's) as the schema's types, then validate
 # (one line naming the key), then let Snakemake's validate fill in the schema's defaults
-with open(Path(workflow.basedir, "workflow", "schemas", "config.schema.yaml"), encoding="utf-8") as _fh:
-    _schema = yaml.safe_load(_fh)
-config_checks.parse_typed_strings(config, _schema, given=workflow.config_settings.config)
+_schema = read_yaml(Path(workflow.basedir, "workflow", "schemas", "config.schema.yaml"))
 try:
+    # the files as this project reads YAML: a key given twice is refused, not resolved to its last value
+    config_checks.check_config_files(workflow.configfiles)
+    config_checks.parse_typed_strings(config, _schema, given=workflow.config_settings.config)
     config_checks.check_environment()
     config_checks.check_schema(config, _schema)
     # the folders and files the configuration names, before anything reads them
@@ -82,13 +83,19 @@ class Refusing:
 
 
 try:
-    PLAN = Refusing(CampaignPlan.from_config(config))
+    # a reused archive's files checked against its manifest once, in the main process (not per job)
+    PLAN = Refusing(CampaignPlan.from_config(config, check_reuse=workflow.is_main_process))
 except InputError as _exc:
     raise WorkflowError(str(_exc)) from None
 for _note in PLAN.notes:
     print(_note, file=sys.stderr)
 # the designed campaign's settings (the designed rules exist when its file does)
 if PLAN.designed.settings:
+    try:
+        config_checks.check_schema(PLAN.designed.settings, read_yaml(Path(workflow.basedir, "workflow", "schemas",
+                                   "designed.schema.yaml")), where=f"designed campaign file {PLAN.designed.file}: key")
+    except InputError as _exc:
+        raise WorkflowError(str(_exc)) from None
     validate(PLAN.designed.settings, schema="../schemas/designed.schema.yaml")
 
 

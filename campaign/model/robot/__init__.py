@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ...core.yamlfile import parse_yaml_bytes
+from ...core.yamlfile import parse_yaml_bytes, read_yaml_bytes
 from ..conventions import ROBOTS_DIR, robot_dir
 
 __all__ = ["Robot", "load_robot", "robot_dir", "ROBOTS_DIR"]
@@ -133,8 +133,7 @@ def load_robot(name_or_path: str | Path = "puma560") -> Robot:
     """
     folder = robot_dir(name_or_path)
     drive_file = Path(name_or_path) if Path(name_or_path).is_file() else folder / "drives.yaml"
-    with open(drive_file, "rb") as fh:
-        drive_content = fh.read()
+    drive_content = read_yaml_bytes(drive_file, what="drive file")
     spec = parse_yaml_bytes(str(drive_file), drive_content)
     urdf = folder / spec["urdf"]
     try:
