@@ -91,6 +91,7 @@ STAGE_ROWS = {
     "identification, fixed": ("identify_fixed", ("identify",)),
     "identification, flexible": ("identify_flexible", ("identify",)),
     "planner maps": ("plan_maps", ("maps", "figure")),
+    "planner maps: of which drawing the two figures": ("plan_maps", ("figure",)),
     "planner maps: imports": ("plan_maps", ("startup", "imports")),
     "figures 4-9": (("fig4", "fig5", "fig6", "fig7", "fig8", "fig9"), ("figure",)),
     "figures 4-9: imports (jobs drawing figures only)": (("fig5", "fig9", "model_figures"), ("startup", "imports")),

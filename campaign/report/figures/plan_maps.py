@@ -27,7 +27,8 @@ from ...plan.maps import direction_map, workspace_map
 from ...rig.contact import ContactLaw
 from . import style
 
-__all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "paper_points"]
+__all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "workspace_figure",
+           "directions_figure", "paper_points"]
 
 _CLASS_COLOR = ("#7570b3", "#d95f02", "#1b9e77", "#e7298a")
 
@@ -140,31 +141,49 @@ def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=2.0):
     return planner, kw
 
 
+def workspace_figure(*, lambdas=None, model=None, rig=None, resolution: float = 0.05, base: str = FLEXIBLE,
+                     y: float | None = None) -> tuple[dict, dict[int, np.ndarray], str]:
+    """The numbers of :func:`make_workspace`: the map (:func:`campaign.plan.maps.workspace_map`),
+    the paper's configurations to mark and the summary line (the figure is drawn from the
+    first two by :func:`draw_workspace`)."""
+    grid_points(resolution)
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
+    marks = paper_points(planner.robot)
+    y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)
+    m = workspace_map(planner.robot, direction=impact_direction(), y=y, resolution=resolution, **kw)
+    reach = int(np.count_nonzero(m["n_branches"]))
+    return m, marks, (f"workspace map: {reach} of {m['n_branches'].size} points reachable in the plane "
+                      f"y = {y:.4g} m, m* {np.nanmin(m['m_eff_best']):.3g}-{np.nanmax(m['m_eff_worst']):.3g} kg")
+
+
 def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
                    rig=None, resolution: float = 0.05, base: str = FLEXIBLE, y: float | None = None) -> str:
     """Compute the workspace map (the paper's n and plane by default) with a response ``model`` or
     the gain classes' ``lambdas`` (:func:`campaign.plan.factory.planner_model`) and save it;
     returns a summary line. A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused
     first (InputError)."""
-    grid_points(resolution)
-    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
-    marks = paper_points(planner.robot)
-    y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)
-    m = workspace_map(planner.robot, direction=impact_direction(), y=y, resolution=resolution, **kw)
+    m, marks, line = workspace_figure(lambdas=lambdas, model=model, rig=rig, resolution=resolution, base=base, y=y)
     style.save(draw_workspace(m, marks=marks), png, pdf)
-    reach = int(np.count_nonzero(m["n_branches"]))
-    return (f"workspace map: {reach} of {m['n_branches'].size} points reachable in the plane y = {y:.4g} m, "
-            f"m* {np.nanmin(m['m_eff_best']):.3g}-{np.nanmax(m['m_eff_worst']):.3g} kg")
+    return line
+
+
+def directions_figure(*, lambdas=None, model=None, rig=None, config: int | None = 1, q=None, base: str = FLEXIBLE,
+                      count: int = 72) -> tuple[dict, str, str]:
+    """The numbers of :func:`make_directions`: the map (:func:`campaign.plan.maps.direction_map`),
+    the figure's title prefix and the summary line (the figure is :func:`draw_directions`)."""
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
+    title = f"Configuration {config}: " if q is None else ""
+    q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
+    d = direction_map(planner.robot, q, count=count, **kw)
+    return d, title, (f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base) "
+                      f"over {count} directions")
 
 
 def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
                     rig=None, config: int | None = 1, q=None, base: str = FLEXIBLE, count: int = 72) -> str:
     """Compute the direction map at a paper configuration (or DH pose ``q`` [rad]) with a
     response ``model`` or the gain classes' ``lambdas`` and save it; returns a summary line."""
-    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base)
-    title = f"Configuration {config}: " if q is None else ""
-    q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
-    d = direction_map(planner.robot, q, count=count, **kw)
+    d, title, line = directions_figure(lambdas=lambdas, model=model, rig=rig, config=config, q=q, base=base,
+                                       count=count)
     style.save(draw_directions(d, title=title), png, pdf)
-    return (f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base) "
-            f"over {count} directions")
+    return line
