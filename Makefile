@@ -1,13 +1,28 @@
-# Set-up and entry points. `make campaign` and `make test` each create .venv (python3 -m venv)
-# if it is missing and install the project into it from the pinned lock, then do their job.
-# The install reruns only when pyproject.toml or constraints.txt changes (stamp file).
+# Set-up and entry points. `make campaign` and `make test` each create .venv if it is missing
+# and install the project into it from the pinned lock, then do their job. The install reruns
+# only when pyproject.toml or constraints.txt changes (stamp file).
 
 PYTHON ?= python3
+, := ,
 VENV   := .venv
 PY     := $(VENV)/bin/python
 LOCK   := constraints.txt
 STAMP  := $(VENV)/.campaign-installed
 CLUSTER_STAMP := $(VENV)/.campaign-cluster-installed
+# The installer: uv (PyPI's `uv`, a fast installer: it downloads in parallel and links from its
+# cache) when it is on the PATH, else pip; both install the same pinned lock into the same
+# .venv. `make UV= ...` uses pip even where uv is installed.
+UV ?= $(shell command -v uv 2>/dev/null)
+# the interpreter's own path for uv venv, so that uv never picks or downloads another Python
+PYTHON_EXE = $$($(PYTHON) -c 'import sys; print(sys.executable)')
+# install the project (the extras in $(1)) into .venv from the lock; pip first installs itself
+# into a venv that uv made without it
+ifneq ($(UV),)
+INSTALL = $(UV) pip install --python $(PY) -c $(LOCK) -e '.[$(1)]'
+else
+INSTALL = { $(PY) -m pip --version >/dev/null 2>&1 || $(PY) -m ensurepip -q; } && \
+	$(PY) -m pip install --disable-pip-version-check -c $(LOCK) -e '.[$(1)]'
+endif
 # `make test-slurm SLURM_TEST_ARGS=--skip-if-unable` passes on a machine that cannot run it
 SLURM_TEST_ARGS ?=
 
@@ -24,7 +39,7 @@ help:
 	@echo "make bench      run every benchmarks/bench_*.py on one BLAS thread, each output also in benchmarks/out/ (timings; see benchmarks/README.md)"
 	@echo "make docs       build the user guide into docs/_build/html (Sphinx, warnings are errors)"
 	@echo "make screenshots  build the reduced campaign's report and the guide, check them in headless Chromium, PNGs in build/screenshots/"
-	@echo "make install    only (re)install the project into .venv from $(LOCK)"
+	@echo "make install    only (re)install the project into .venv from $(LOCK) (with $(if $(UV),uv,pip))"
 	@echo "make install-cluster  the same plus the SLURM executor plugin (extra 'cluster')"
 	@echo "make lock       re-resolve pyproject.toml in a scratch venv and rewrite $(LOCK)"
 
@@ -68,14 +83,18 @@ install: $(STAMP)
 install-cluster: $(CLUSTER_STAMP)
 
 $(PY):
+ifneq ($(UV),)
+	UV_PYTHON_DOWNLOADS=never $(UV) venv --python "$(PYTHON_EXE)" $(VENV)
+else
 	$(PYTHON) -m venv $(VENV)
+endif
 
 $(STAMP): pyproject.toml $(LOCK) | $(PY)
-	$(PY) -m pip install --disable-pip-version-check -c $(LOCK) -e '.[test]'
+	$(call INSTALL,test)
 	touch $@
 
 $(CLUSTER_STAMP): pyproject.toml $(LOCK) | $(PY)
-	$(PY) -m pip install --disable-pip-version-check -c $(LOCK) -e '.[test,cluster]'
+	$(call INSTALL,test$(,)cluster)
 	touch $@ $(STAMP)
 
 # Newest versions allowed by pyproject.toml (with the test and cluster extras), resolved in a

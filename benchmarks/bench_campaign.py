@@ -19,9 +19,13 @@ hardly CPU times); the CPU of the whole run not spent in jobs is Snakemake's own
 scheduling, job spawning). Per-job overhead against per-trial cost, the measurement behind
 ``job_unit``, is printed from the same lines.
 
-``--before DIR`` runs the same campaigns with the workflow and package of another source
-tree (e.g. ``git worktree add --detach /tmp/before <commit>``), alternating with this one
-run by run, so that old and new are measured side by side under the same load.
+``--before REF`` runs the same campaigns with the workflow and package of another version:
+a git ref of this repository (exported with ``git archive`` into a temporary folder) or the
+folder of another source tree, alternating with this one run by run, so that old and new
+are measured side by side under the same load. A second table then gives the CPU per stage
+as the jobs' ``TIMING`` lines split it (:data:`STAGE_ROWS`: simulation and trial writing per
+base, identification per base, the planner's maps, the figures, each with its job's imports,
+and start-up + imports over all jobs), old and new side by side.
 
 Usage::
 
@@ -29,7 +33,7 @@ Usage::
     python benchmarks/bench_campaign.py --campaigns ci --units sweep,cell
     python benchmarks/bench_campaign.py --readme benchmarks/out/summary.md   # also record the summary
     python benchmarks/bench_campaign.py --repeats 3              # each run 3 times, the median shown
-    python benchmarks/bench_campaign.py --repeats 3 --before /tmp/before
+    python benchmarks/bench_campaign.py --repeats 3 --before main   # a git ref, or a source tree's folder
 
 With ``--repeats N`` each campaign runs N times, one after the other; the table shows the run
 with the median wall time (its CPU split) and the range of the N wall times, and the split
@@ -49,13 +53,17 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
 import argparse
+import atexit
 import datetime
+import io
 import json
 import platform
 import re
 import shutil
 import statistics
+import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 from pathlib import Path
@@ -74,6 +82,22 @@ STAGES = {"simulation": ("simulate", "write"), "identification": ("identify",), 
           "tables": ("table",), "figures": ("figure",), "maps": ("maps",), "calibration report": ("report",),
           "finalize": ("finalize",), "start-up + imports": ("startup", "imports")}
 CONFIGS = {"full": REPO / "config" / "config.yaml", "ci": REPO / "config" / "tests" / "ci.yaml"}
+#: the rows of the per-stage table: the TIMING keys each sums over the records (jobs and their
+#: products) whose job name starts with one of the prefixes ("": every record)
+STAGE_ROWS = {
+    "simulation, fixed": ("simulate_fixed", ("simulate",)),
+    "simulation, flexible": ("simulate_flexible", ("simulate",)),
+    "writing trial files, fixed": ("simulate_fixed", ("write",)),
+    "writing trial files, flexible": ("simulate_flexible", ("write",)),
+    "identification, fixed": ("identify_fixed", ("identify",)),
+    "identification, flexible": ("identify_flexible", ("identify",)),
+    "planner maps": ("plan_maps", ("maps", "figure")),
+    "planner maps: of which drawing the two figures": ("plan_maps", ("figure",)),
+    "planner maps: imports": ("plan_maps", ("startup", "imports")),
+    "figures 4-9": (("fig4", "fig5", "fig6", "fig7", "fig8", "fig9"), ("figure",)),
+    "figures 4-9: imports (jobs drawing figures only)": (("fig5", "fig9", "model_figures"), ("startup", "imports")),
+    "start-up + imports, all jobs": ("", ("startup", "imports")),
+}
 
 
 def run(cmd: list[str], cwd: Path, *, tree: Path = REPO) -> tuple[float, float]:
@@ -142,6 +166,15 @@ def stage_split(recs: list[dict], cpu: float) -> dict[str, float]:
     return parts
 
 
+def stage_rows(recs: list[dict]) -> dict[str, float]:
+    """CPU seconds of each row of :data:`STAGE_ROWS` (the split by stage and base)."""
+    out = {}
+    for row, (prefix, keys) in STAGE_ROWS.items():
+        prefixes = (prefix,) if isinstance(prefix, str) else prefix
+        out[row] = sum(r["cpu"].get(k, 0.0) for r in recs if r["job"].split()[0].startswith(prefixes) for k in keys)
+    return out
+
+
 def bench_one(name: str, unit: str, cores: int, tree: Path = REPO) -> dict:
     """Run one campaign from clean in a temporary directory with the workflow of ``tree``;
     return the measurements."""
@@ -174,10 +207,11 @@ def bench_one(name: str, unit: str, cores: int, tree: Path = REPO) -> dict:
         "campaign": name, "unit": unit, "cores": cores, "wall": wall, "report": report, "dag": dag, "probe": probe,
         "probes": (probe_before, probe_after), "tree": "this" if tree == REPO else "before",
         "cpu": cpu, "report_cpu": report_cpu, "jobs": len(jobs), "sim_jobs": len(sim), "trials": n_trials,
-        "parts": parts, "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan"),
+        "parts": parts, "stages": stage_rows(recs), "load": os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan"),
         "job_overhead": sum(per_job) / len(per_job) if per_job else float("nan"),
         "sim_per_trial": {b: _per_trial(sim, trials, b, ("simulate", "write")) for b in ("fixed", "flexible")},
         "ident_per_trial": {b: _per_trial(ident, trials, b, ("identify",)) for b in ("fixed", "flexible")},
+        "trials_by_base": {b: sum(v for k, v in trials.items() if f"_{b}/" in k) for b in ("fixed", "flexible")},
     }
 
 
@@ -224,6 +258,38 @@ def split_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def stages_table(rows: list[dict]) -> str:
+    """:data:`STAGE_ROWS` down, one column per campaign and tree: the median CPU [s] of each
+    stage over the runs, per trial [ms] for the stages of one base."""
+    head = "| stage | " + " | ".join(f"{r['campaign']}, {r['tree']}" for r in rows) + " |"
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for stage in STAGE_ROWS:
+        cells = []
+        for r in rows:
+            cpu = r["stage_median"][stage]
+            base = next((b for b in ("fixed", "flexible") if stage.endswith(f", {b}")), None)
+            n = r["trials_by_base"].get(base, 0) if base else 0
+            cells.append(f"{cpu:.2f}" + (f" ({1e3 * cpu / n:.0f} ms)" if n else ""))
+        lines.append(f"| {stage} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def before_tree(ref: str, parser: argparse.ArgumentParser) -> Path:
+    """The source tree of ``--before``: a folder as it is, or a git ref of this repository
+    exported into a temporary folder (removed when the script ends)."""
+    if Path(ref).is_dir():
+        return Path(ref).resolve()
+    git = ["git", "-C", str(REPO)]
+    if subprocess.run([*git, "rev-parse", "--verify", "--quiet", f"{ref}^{{commit}}"], capture_output=True).returncode:
+        parser.error(f"--before {ref}: neither a folder nor a git ref of {REPO}")
+    tree = Path(tempfile.mkdtemp(prefix="bench-before-"))
+    atexit.register(shutil.rmtree, tree, ignore_errors=True)
+    archive = subprocess.run([*git, "archive", "--format=tar", ref], capture_output=True, check=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+        tar.extractall(tree, filter="data")
+    return tree
+
+
 def granularity(rows: list[dict]) -> str:
     lines = []
     for r in rows:
@@ -258,13 +324,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cores", type=int, default=2, help="snakemake --cores (default: %(default)s)")
     parser.add_argument("--repeats", type=int, default=1,
                         help="runs of each campaign; the median wall time is shown (default: %(default)s)")
-    parser.add_argument("--before", type=Path,
-                        help="another source tree (its Snakefile and package) to run the same campaigns with, "
-                             "alternating with this one")
+    parser.add_argument("--before", metavar="REF",
+                        help="another version to run the same campaigns with, alternating with this one: a git ref "
+                             "of this repository or the folder of a source tree (its Snakefile and package)")
     parser.add_argument("--readme", type=Path, help=f"write the summary under '{HEADING}' in this file")
     args = parser.parse_args(argv)
     print(blas_line())
-    trees = [args.before, REPO] if args.before else [REPO]
+    before = before_tree(args.before, parser) if args.before else None
+    trees = [before, REPO] if before else [REPO]
     rows = []
     for name in args.campaigns.split(","):
         if name not in CONFIGS:
@@ -286,7 +353,8 @@ def main(argv: list[str] | None = None) -> int:
                 runs = sorted(runs, key=lambda r: r["wall"])
                 median = runs[(len(runs) - 1) // 2]
                 split = {k: statistics.median(r["parts"][k] for r in runs) for k in median["parts"]}
-                rows.append({**median, "walls": [r["wall"] for r in runs], "split": split})
+                stages = {k: statistics.median(r["stages"][k] for r in runs) for k in median["stages"]}
+                rows.append({**median, "walls": [r["wall"] for r in runs], "split": split, "stage_median": stages})
     body = "\n\n".join([
         f"Each campaign from a clean temporary directory with `snakemake --cores {args.cores}` (profile "
         "`profiles/default`), figures, tables and the archive manifest included; `+ report` adds "
@@ -307,9 +375,11 @@ def main(argv: list[str] | None = None) -> int:
         "the CPU no job spent), the median of each over the runs"
         + (f"; `before`: the workflow and package of `{args.before}`" if args.before else "") + ":\n\n"
         + split_table(rows),
+        "CPU by stage and base [s], the median of each over the runs, from the jobs' `TIMING` lines (per trial in "
+        "brackets):\n\n" + stages_table(rows),
         "Per-job overhead against per-trial cost (the measurement behind `job_unit`):\n\n" + granularity(rows),
         machine() + " Rerun: `.venv/bin/python benchmarks/bench_campaign.py"
-        + (f" --repeats {args.repeats}" if args.repeats > 1 else "") + (" --before <old tree>" if args.before else "")
+        + (f" --repeats {args.repeats}" if args.repeats > 1 else "") + (f" --before {args.before}" if args.before else "")
         + " --readme benchmarks/out/summary.md`.",
     ])
     print(body)

@@ -14,7 +14,7 @@ the inertia by those three terms:
   unit impulse and the shape the piezo channel measures (:func:`measured_pulse_shape`:
   the force peaks at about a fifth of the contact and decays slowly, far from a
   half-sine). The joint velocity at the pulse's end is ``G(T) J_n^T``; ``G(T)``
-  (:func:`pulse_compliance`) is symmetric and tends to ``H^-1`` (eq 11 with
+  (:func:`campaign.joints.pulse.pulse_compliance`) is symmetric and tends to ``H^-1`` (eq 11 with
   ``lambda = 0``) as ``T -> 0``. ``K_p``, ``K_d`` are the servo's known gains
   (:func:`servo_gains`); ``beta`` (one damping per joint: the joints' viscous friction) is
   fitted. Damping and friction belong to the joints, not to the servo, so one fit serves
@@ -50,8 +50,9 @@ from ..rig.controller import joint_gains
 from ..scene.description import load_rig
 from .lambda_fit import design_arrays
 from .params import Params
+from .pulse import pulse_compliance
 
-__all__ = ["servo_gains", "half_sine_shape", "measured_pulse_shape", "pulse_compliance", "friction_step",
+__all__ = ["servo_gains", "half_sine_shape", "measured_pulse_shape", "friction_step",
            "apparent_mass", "ImpedanceFit"]
 
 
@@ -86,59 +87,6 @@ def measured_pulse_shape(paths, contact_start, contact_end, *, segments: int = 4
     if not shares:
         raise InputError("measured_pulse_shape needs at least one trial")
     return np.mean(shares, axis=0)
-
-
-def pulse_compliance(H, *, stiffness, damping, duration, shape) -> np.ndarray:
-    """Joint velocity at the end of a unit-impulse force pulse, per unit of joint impulse.
-
-    ``G(T)`` with ``qd(T) = G(T) u`` for ``H qdd + D qd + K q = u f(t)``, ``q(0) = qd(0) = 0``,
-    ``D = diag(damping)``, ``K = diag(stiffness)``, ``f`` a pulse of duration ``T`` and unit
-    integral, constant over each of its equal steps with the step's share ``shape[k]`` of
-    the impulse. Exact for that pulse (zero-order hold: one matrix exponential per row).
-    With ``D = K = 0`` it is ``H^-1`` (eq 11 with ``lambda = 0``) for any pulse.
-
-    Parameters
-    ----------
-    H : ndarray, shape (N, nv, nv)
-    stiffness, damping : array_like, shape (nv,) or (N, nv)
-    duration : array_like, shape () or (N,)
-        Pulse duration ``T`` [s].
-    shape : array_like, shape (K,)
-        Impulse share of each step (:func:`half_sine_shape`, :func:`measured_pulse_shape`).
-
-    Returns
-    -------
-    ndarray, shape (N, nv, nv)
-    """
-    from scipy.linalg import expm
-
-    H = np.asarray(H, float)
-    N, nv = H.shape[:2]
-    K = np.broadcast_to(np.asarray(stiffness, float), (N, nv))
-    D = np.broadcast_to(np.asarray(damping, float), (N, nv))
-    T = np.broadcast_to(np.asarray(duration, float), (N,))
-    w = np.asarray(shape, float)
-    if not np.all(np.isfinite(T) & (T > 0)):
-        raise InputError(f"pulse duration must be > 0 s, got {np.asarray(duration).tolist()}")
-    if w.ndim != 1 or w.size < 1 or not np.all(np.isfinite(w) & (w >= 0)) or not w.sum() > 0:
-        raise InputError(f"pulse shape must be K >= 1 finite shares >= 0, got {w.tolist()}")
-    w = w / w.sum()
-    dt = T / w.size
-    Hi = np.linalg.inv(H)
-    # [[A, B], [0, 0]] dt  ->  exp = [[Ad, Bd], [0, I]]: the step's state transition and the
-    # response to a constant unit joint torque over it (x = [q, qd])
-    M = np.zeros((N, 3 * nv, 3 * nv))
-    M[:, :nv, nv:2 * nv] = np.eye(nv)
-    M[:, nv:2 * nv, :nv] = -Hi * K[:, None, :]
-    M[:, nv:2 * nv, nv:2 * nv] = -Hi * D[:, None, :]
-    M[:, nv:2 * nv, 2 * nv:] = Hi
-    E = expm(M * dt[:, None, None])                      # batched over the rows
-    Ad, Bd = E[:, :2 * nv, :2 * nv], E[:, :2 * nv, 2 * nv:] / dt[:, None, None]
-    Z = np.zeros((N, 2 * nv, nv))
-    for share in w:
-        Z = Ad @ Z + Bd * share
-    G = Z[:, nv:]
-    return 0.5 * (G + np.swapaxes(G, 1, 2))
 
 
 _MODES_CACHE: dict[int, np.ndarray] = {}
@@ -211,7 +159,7 @@ def apparent_mass(G, Jn, *, kappa_pos, kappa_neg, speed, e, m_b, iterations: int
     Parameters
     ----------
     G : ndarray, shape (N, nv, nv)
-        :func:`pulse_compliance`.
+        :func:`campaign.joints.pulse.pulse_compliance`.
     Jn : ndarray, shape (N, nv)
         ``n^T J_lin``.
     kappa_pos, kappa_neg : array_like, shape (nv,)

@@ -18,7 +18,7 @@ velocity along ``n`` then, for the joints obeying
 (``H`` the joint-space inertia with the reflected rotor inertia, eq 7 with lambda = 0; the
 servo's proportional and derivative gains and the viscous friction of
 :class:`campaign.plan.post_contact.ArmAfterImpact`) under the contact law's own pulse up to its
-peak (:func:`campaign.joints.impedance.pulse_compliance`, exact for the pulse held over equal
+peak (:func:`campaign.joints.pulse.pulse_compliance`, exact for the pulse held over equal
 steps). The pulse's duration follows from the reduced mass, which follows from the
 apparent mass: a fixed-point iteration. Without servo and friction it is eq 7's m* with
 lambda = 0 for any duration. Gravity's stiffness is left out: over the tens of
@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import SimulationError
-from ..joints.impedance import pulse_compliance
+from ..joints.pulse import pulse_compliance
 from ..rig.contact import pulse_shape
 
 __all__ = ["compression_mass", "PEAK_SEGMENTS"]
@@ -104,7 +104,7 @@ def compression_mass(H, J, n, kp, damping, *, contact, mass: float, speed: float
     (one eigen-decomposition per pose and gain set), the pulse held over ``K`` equal steps
     of length ``h`` gives ``n.v_tip(t_peak) = sum_j a_j (1 - e^(-lambda_j h)) / (lambda_j h)
     sum_k w_k e^(lambda_j (K - k) h)`` per unit impulse (``w_k`` the steps' impulse shares),
-    the same held pulse :func:`campaign.joints.impedance.pulse_compliance` propagates with
+    the same held pulse :func:`campaign.joints.pulse.pulse_compliance` propagates with
     matrix exponentials; that path is taken where the state matrix is close to defective
     (e.g. no servo and no friction).
     """
@@ -153,7 +153,7 @@ def compression_mass(H, J, n, kp, damping, *, contact, mass: float, speed: float
 
 
 def _held_pulse_tip(H, kp, damping, Jn, w):
-    """``h -> n.v_tip`` per unit impulse by :func:`campaign.joints.impedance.pulse_compliance`
+    """``h -> n.v_tip`` per unit impulse by :func:`campaign.joints.pulse.pulse_compliance`
     (matrix exponentials), for state matrices the modal form cannot take."""
 
     N, D, nv = Jn.shape

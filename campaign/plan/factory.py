@@ -19,7 +19,6 @@ import numpy as np
 
 from ..core.errors import InputError
 from ..core.vocabulary import FLEXIBLE, gain_classes
-from ..joints.modelfile import load_model, shipped_model_path
 from ..model.paper import load_paper
 from ..model.robot import Robot, load_robot
 from ..rig.beam import Beam
@@ -73,6 +72,10 @@ def planner_model(*, model=None, fits: Sequence[str | Path] = (), named: Mapping
         if model is not None:
             raise InputError("give either a response model (--model) or lambdas (--fit, --lambda), not both")
         return None, planner_lambdas(fits=fits, named=named, nv=nv)
+    # here, not at the top: the model file's reader brings the identification and the archive
+    # (about 0.3 s), which a job predicting with lambdas (the planner's maps) never needs
+    from ..joints.modelfile import load_model, shipped_model_path
+
     return load_model(shipped_model_path() if model is None else model, rig=rig), None
 
 

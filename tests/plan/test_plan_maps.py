@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -49,6 +51,22 @@ def test_workspace_map_keeps_the_best_and_worst_branch_of_each_point(puma, wmap)
     ok = np.isfinite(wmap["structure_peak_best"])
     assert np.all(wmap["structure_peak_best"][ok] <= wmap["structure_peak_worst"][ok])
     assert np.all(wmap["structure_peak_best"][ok] > 0)
+
+
+def test_the_closed_form_map_is_the_iterative_solvers_map(puma, beam, wmap):
+    # the PUMA's drive file declares the closed form; the same arm with the iterative solver
+    newton = workspace_map(dataclasses.replace(puma, position_ik="iterative"), direction=[-1, 0, 0], y=-0.15005,
+                           x_range=(-0.9, 0.9), z_range=(-0.9, 0.9), resolution=0.3, beam=beam, **KW)
+    # x = 0 in the plane y = -d is the shoulder-singular line, where the shoulder's two branches
+    # merge and Newton, its Jacobian singular, stops on near-duplicates of them
+    off = ~np.isclose(wmap["x"], 0.0)
+    assert np.all(wmap["n_branches"][:, ~off] <= newton["n_branches"][:, ~off])
+    np.testing.assert_array_equal(newton["n_branches"][:, off], wmap["n_branches"][:, off])
+    for key in ("m_eff", "m_eff_flexible", "structure_peak"):
+        for end in ("best", "worst"):
+            # Newton accepts a pose up to 1e-9 m off its target: m* moves by that through the
+            # arm's conditioning (at most 1.2e-9 of m* measured over the full map's plane)
+            np.testing.assert_allclose(wmap[f"{key}_{end}"][..., off], newton[f"{key}_{end}"][..., off], rtol=1e-7)
 
 
 def test_direction_map_is_eq_7_along_each_direction(puma, beam):

@@ -64,6 +64,20 @@ def test_an_identification_job_never_imports_xarray(tmp_path):
     assert out.strip().splitlines()[-1] == "1 True []", out
 
 
+@pytest.mark.parametrize("imports, absent", [
+    # a simulation job: its flexible-base stroke check predicts with the planner, which needs the
+    # joints' pulse response only, not the identification or the lambda fit
+    ("from campaign.pipeline import run_cells, run_trial", ("campaign.identify", "campaign.joints.lambda_fit")),
+    # the planner's maps predict with lambdas: no response model file, so no identification or archive
+    ("from campaign.plan import planner_lambdas; from campaign.report.figures import plan_maps",
+     ("campaign.identify", "campaign.archive", "campaign.joints.modelfile", "h5py")),
+])
+def test_a_job_imports_only_the_stages_it_runs(imports, absent):
+    code = f"import sys; {imports}; print(sorted(m for m in {absent!r} if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
+
+
 def test_the_workflows_start_up_imports_neither_numpy_nor_the_robot_model():
     """common.smk imports these on every start, a dry run included: each package face on the
     way (campaign.core, .model, .pipeline, .studies) exports its names on first use only."""

@@ -8,7 +8,8 @@ A robot is described by two files in one folder:
   motor-side viscous ``B`` and Coulomb ``Tc_pos``/``Tc_neg`` friction, peak joint torque
   ``tau_max``, encoder resolution, which joints move, where the others are locked, where
   the impact point is, and the robot's pose conventions (the offset of the angles users
-  give poses in, its numbered configurations: :mod:`campaign.model.conventions`).
+  give poses in, its numbered configurations: :mod:`campaign.model.conventions`), and
+  optionally how the impact point's inverse kinematics is solved (``position_ik``).
 
 :func:`load_robot` turns them into a :class:`Robot`: a Pinocchio ``model`` reduced to the
 active joints (the locked links ride on the last active one), with
@@ -28,6 +29,7 @@ import pinocchio as pin
 
 from ...core.yamlfile import parse_yaml_bytes, read_yaml_bytes
 from ..conventions import ROBOTS_DIR, robot_dir
+from .elbow import POSITION_IK, elbow_geometry
 
 __all__ = ["Robot", "load_robot", "robot_dir", "ROBOTS_DIR"]
 
@@ -66,6 +68,11 @@ class Robot:
         model's: ``q = radians(angle + angle_offset_deg)``.
     source : str
         Path of the drive file the robot was loaded from.
+    position_ik : str
+        How the impact point's inverse kinematics is solved
+        (:func:`campaign.model.robot.ik.position_branches_many`): ``"elbow"`` in closed form,
+        for an arm whose geometry is an elbow arm's (:mod:`campaign.model.robot.elbow`),
+        ``"iterative"`` for any other (or when the drive file's ``position_ik`` says so).
     """
 
     name: str
@@ -82,6 +89,7 @@ class Robot:
     q_upper: np.ndarray
     angle_offset_deg: np.ndarray
     source: str
+    position_ik: str = "iterative"
 
     @property
     def nv(self) -> int:
@@ -199,6 +207,10 @@ def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
     armature = vals["Jm"] * G**2
     model.armature = armature.copy()
 
+    position_ik = spec.get("position_ik", "auto")
+    if position_ik not in ("auto", *POSITION_IK):
+        raise ValueError(f"{drive_file}: position_ik = {position_ik!r} must be one of auto, {', '.join(POSITION_IK)}")
+
     imp = spec["impact_frame"]
     parent = model.getFrameId(imp["parent_frame"])
     if parent >= model.nframes:
@@ -206,6 +218,14 @@ def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
     pf = model.frames[parent]
     placement = pf.placement * pin.SE3(np.eye(3), np.asarray(imp["xyz"], dtype=float))
     fid = model.addFrame(pin.Frame(imp["name"], pf.parentJoint, parent, placement, pin.FrameType.OP_FRAME))
+    if position_ik in ("auto", "elbow"):
+        try:
+            elbow_geometry(model, fid, where=str(drive_file))     # the closed form fits this arm
+            position_ik = "elbow"
+        except ValueError:
+            if position_ik == "elbow":
+                raise
+            position_ik = "iterative"
 
     return Robot(
         name=str(spec["robot"]),
@@ -222,4 +242,5 @@ def _build_robot(drive_file: Path, spec: dict, urdf: str) -> Robot:
         q_upper=np.array(model.upperPositionLimit, dtype=float),
         angle_offset_deg=offset,
         source=str(drive_file),
+        position_ik=str(position_ik),
     )

@@ -2,8 +2,9 @@
 
 The impact point (the wrist centre) depends on the positioning joints only, so the arm
 reaches a point with a finite set of poses, its *branches* (a PUMA 560 has up to four:
-shoulder left or right, elbow up or down). They are found numerically with Pinocchio's
-kinematics, with no closed form of any particular arm:
+shoulder left or right, elbow up or down). An elbow arm's (the PUMA 560's) are solved in
+closed form (:mod:`campaign.model.robot.elbow`, the robot's ``position_ik``); any other arm's
+numerically with Pinocchio's kinematics:
 
 1. damped Newton (Levenberg-Marquardt on ``oMf[impact].translation - target`` with the
    ``LOCAL_WORLD_ALIGNED`` frame Jacobian) from a fixed set of starts spread over the joint
@@ -13,9 +14,10 @@ kinematics, with no closed form of any particular arm:
    angle is defined modulo 2 pi), discarded if no turn fits;
 3. poses closer than ``dedup_tol`` in every joint merged.
 
-A pose counts as reaching the point when its forward kinematics hits it within ``tol``.
-The tests check completeness: the poses of random configurations within the limits are
-found again from their own wrist centre.
+Either way a pose counts as reaching the point when its forward kinematics (Pinocchio) hits
+it within ``tol``. The tests check completeness (the poses of random configurations within
+the limits are found again from their own wrist centre) and the closed form against the
+iterative solver and forward kinematics.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import pinocchio as pin
 
 from ...core.errors import InputError
 from . import Robot
+from .elbow import POSITION_IK, elbow_candidates, elbow_geometry
 
 __all__ = ["IKResult", "position_branches", "position_branches_many", "impact_point", "reach_starts", "reach_sphere"]
 
@@ -151,26 +154,46 @@ def position_branches(robot: Robot, target, *, tol: float = 1e-9, dedup_tol: flo
 
 def position_branches_many(robot: Robot, targets, *, tol: float = 1e-9, dedup_tol: float = 1e-5,
                            max_iter: int = 30, starts: np.ndarray | None = None,
-                           data: pin.Data | None = None) -> list[IKResult]:
+                           data: pin.Data | None = None, method: str | None = None) -> list[IKResult]:
     """:func:`position_branches` of many targets (M, 3) [m] at once.
 
-    The Newton iterations of every (target, start) pair run together, so the NumPy work of
-    an iteration is paid once for all targets (a map's grid), not once per target.
+    ``method``: ``"elbow"``, the closed form of an elbow arm
+    (:mod:`campaign.model.robot.elbow`, a few array operations for all targets), or
+    ``"iterative"``, the Newton iterations of every (target, start) pair run together (the
+    NumPy work of an iteration is paid once for all targets, not once per target); default
+    the robot's ``position_ik`` (its drive file), iterative when ``starts`` are given.
     """
     P = np.asarray(targets, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or not np.all(np.isfinite(P)):
         raise InputError(f"target points must be finite 3-vectors, got shape {np.shape(targets)}")
+    method = (robot.position_ik if starts is None else "iterative") if method is None else method
+    if method not in POSITION_IK:
+        raise InputError(f"IK method {method!r} is not one of {', '.join(POSITION_IK)}")
     centre, radius = reach_sphere(robot)
     # beyond the arm's reach no start can converge: such a target gets no branch without an
     # iteration (far enough away, the Newton steps would overflow)
     near = np.abs(P - centre).max(axis=1) <= radius
     if not np.all(near):
         found = iter(position_branches_many(robot, P[near], tol=tol, dedup_tol=dedup_tol, max_iter=max_iter,
-                                            starts=starts, data=data) if np.any(near) else ())
+                                            starts=starts, data=data, method=method) if np.any(near) else ())
         none = IKResult(np.empty((0, robot.model.nq)), np.empty(0), False)
         return [next(found) if ok else none for ok in near]
+    data = robot.model.createData() if data is None else data
+    if method == "elbow":
+        geo = elbow_geometry(robot.model, robot.impact_frame_id, where=robot.source)
+        Q, real = elbow_candidates(geo, P)
+        Q = Q.reshape(-1, robot.model.nq)
+        hit = real.ravel().copy()
+        for i in np.flatnonzero(hit):
+            hit[i] = np.linalg.norm(impact_point(robot, Q[i], data=data) - P[i // 4]) <= tol
+        return _branches(robot, P, Q, hit, 4, tol=tol, dedup_tol=dedup_tol, data=data)
+    return _iterate(robot, P, tol=tol, dedup_tol=dedup_tol, max_iter=max_iter, starts=starts, data=data)
+
+
+def _iterate(robot: Robot, P: np.ndarray, *, tol: float, dedup_tol: float, max_iter: int,
+             starts: np.ndarray | None, data: pin.Data) -> list[IKResult]:
+    """The iterative solver of :func:`position_branches_many`."""
     model = robot.model
-    data = model.createData() if data is None else data
     fid = robot.impact_frame_id
     S0 = reach_starts(robot) if starts is None else np.asarray(starts, dtype=float)
     M, S, nq = P.shape[0], S0.shape[0], S0.shape[1]
@@ -221,11 +244,18 @@ def position_branches_many(robot: Robot, targets, *, tol: float = 1e-9, dedup_to
         Q[bad], J[bad], err[bad] = Q_old[~better], J_old[~better], err_old[~better]
         cost[rows] = np.where(better, new, cost_old)
         history.append(cost.copy())
+    return _branches(robot, P, Q, np.sqrt(cost) <= tol, S, tol=tol, dedup_tol=dedup_tol, data=data)
 
-    hit = np.sqrt(cost) <= tol
+
+def _branches(robot: Robot, P: np.ndarray, Q: np.ndarray, hit: np.ndarray, S: int, *, tol: float,
+              dedup_tol: float, data: pin.Data) -> list[IKResult]:
+    """The branches of each target from its ``S`` candidate rows of ``Q`` (``hit``: the rows
+    that reach it): wrapped into the joint limits, merged within ``dedup_tol``, sorted, and
+    checked by forward kinematics."""
+    nq = Q.shape[1]
     wrapped, inside = _wrap_into_limits(Q, robot.q_lower, robot.q_upper, 1e-9)
     out = []
-    for m in range(M):
+    for m in range(P.shape[0]):
         sl = slice(m * S, (m + 1) * S)
         h, ins = hit[sl], inside[sl]
         cand = wrapped[sl][h & ins]

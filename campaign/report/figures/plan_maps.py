@@ -27,7 +27,8 @@ from ...plan.maps import direction_map, workspace_map
 from ...rig.contact import ContactLaw
 from . import style
 
-__all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "paper_points", "MAP_SPEED"]
+__all__ = ["draw_workspace", "draw_directions", "make_workspace", "make_directions", "workspace_figure",
+           "directions_figure", "paper_points", "MAP_SPEED"]
 
 #: the object's speed of the maps [m/s]
 MAP_SPEED = 2.0
@@ -143,6 +144,21 @@ def _setup(*, lambdas, model=None, rig=None, base=FLEXIBLE, speed=MAP_SPEED, str
     return planner, kw
 
 
+def workspace_figure(*, lambdas=None, model=None, rig=None, resolution: float = 0.05, base: str = FLEXIBLE,
+                     y: float | None = None, structure: str | None = None) -> tuple[dict, dict[int, np.ndarray], str]:
+    """The numbers of :func:`make_workspace`: the map (:func:`campaign.plan.maps.workspace_map`),
+    the paper's configurations to mark and the summary line (the figure is drawn from the
+    first two by :func:`draw_workspace`)."""
+    grid_points(resolution)
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base, structure=structure)
+    marks = paper_points(planner.robot)
+    y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)
+    m = workspace_map(planner.robot, direction=impact_direction(), y=y, resolution=resolution, **kw)
+    reach = int(np.count_nonzero(m["n_branches"]))
+    return m, marks, (f"workspace map: {reach} of {m['n_branches'].size} points reachable in the plane "
+                      f"y = {y:.4g} m, m* {np.nanmin(m['m_eff_best']):.3g}-{np.nanmax(m['m_eff_worst']):.3g} kg")
+
+
 def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
                    rig=None, resolution: float = 0.05, base: str = FLEXIBLE, y: float | None = None,
                    structure: str | None = None) -> str:
@@ -150,15 +166,26 @@ def make_workspace(png: str | os.PathLike, pdf: str | os.PathLike | None = None,
     the gain classes' ``lambdas`` (:func:`campaign.plan.factory.planner_model`) and save it;
     returns a summary line. A grid over :data:`campaign.plan.grid.MAX_GRID_POINTS` is refused
     first (InputError)."""
-    grid_points(resolution)
-    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base, structure=structure)
-    marks = paper_points(planner.robot)
-    y = float(np.mean([p[1] for p in marks.values()])) if y is None else float(y)
-    m = workspace_map(planner.robot, direction=impact_direction(), y=y, resolution=resolution, **kw)
+    m, marks, line = workspace_figure(lambdas=lambdas, model=model, rig=rig, resolution=resolution, base=base, y=y,
+                                      structure=structure)
     style.save(draw_workspace(m, marks=marks), png, pdf)
-    reach = int(np.count_nonzero(m["n_branches"]))
-    return (f"workspace map: {reach} of {m['n_branches'].size} points reachable in the plane y = {y:.4g} m, "
-            f"m* {np.nanmin(m['m_eff_best']):.3g}-{np.nanmax(m['m_eff_worst']):.3g} kg")
+    return line
+
+
+def directions_figure(*, lambdas=None, model=None, rig=None, config: int | None = 1, q=None, base: str = FLEXIBLE,
+                      count: int = 72, structure: str | None = None) -> tuple[dict, str, str]:
+    """The numbers of :func:`make_directions`: the map (:func:`campaign.plan.maps.direction_map`),
+    the figure's title prefix and the summary line (the figure is :func:`draw_directions`)."""
+    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base, structure=structure)
+    title = f"Configuration {config}: " if q is None else ""
+    q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
+    d = direction_map(planner.robot, q, count=count, **kw)
+    line = f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base)"
+    if "structure_peak" in d:        # the flexible base's panel: the structure's peak displacement
+        peak = 1e3 * np.asarray(d["structure_peak"], dtype=float)
+        where = structure or "the rig file's structure"
+        line += f", structure peak {np.nanmin(peak):.3g}-{np.nanmax(peak):.3g} mm ({where})"
+    return d, title, f"{line} over {count} directions"
 
 
 def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None, *, lambdas=None, model=None,
@@ -166,14 +193,7 @@ def make_directions(png: str | os.PathLike, pdf: str | os.PathLike | None = None
                     structure: str | None = None) -> str:
     """Compute the direction map at a paper configuration (or DH pose ``q`` [rad]) with a
     response ``model`` or the gain classes' ``lambdas`` and save it; returns a summary line."""
-    planner, kw = _setup(lambdas=lambdas, model=model, rig=rig, base=base, structure=structure)
-    title = f"Configuration {config}: " if q is None else ""
-    q = configuration_q(config) if q is None else np.asarray(q, dtype=float)
-    d = direction_map(planner.robot, q, count=count, **kw)
+    d, title, line = directions_figure(lambdas=lambdas, model=model, rig=rig, config=config, q=q, base=base,
+                                       count=count, structure=structure)
     style.save(draw_directions(d, title=title), png, pdf)
-    line = f"direction map: m* {np.min(d['m_eff']):.3g}-{np.max(d['m_eff']):.3g} kg (fixed base)"
-    if "structure_peak" in d:        # the flexible base's panel: the structure's peak displacement
-        peak = 1e3 * np.asarray(d["structure_peak"], dtype=float)
-        where = structure or "the rig file's structure"
-        line += f", structure peak {np.nanmin(peak):.3g}-{np.nanmax(peak):.3g} mm ({where})"
-    return f"{line} over {count} directions"
+    return line
