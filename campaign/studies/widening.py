@@ -45,7 +45,7 @@ from ..model.paper import paper_offset_deg
 from ..rig.trial import simulate_arrays
 from ..scene.description import make_scene
 from .common import Log, quiet
-from .response_model import _random_poses
+from .response_model import random_poses
 
 __all__ = ["Settings", "cases", "measure", "fit_rates", "coverage", "study"]
 
@@ -96,12 +96,12 @@ def cases(model, seed: int, s: Settings | None = None) -> list[dict]:
     out = []
     for k, v in enumerate(s.speeds):
         out += [dict(kind="speed", q=q, n=n, gain=g, speed=v, head=None)
-                for q, n, _ in _random_poses(s.speed_poses, seed + 10 * k, speeds=v) for g in s.gains]
+                for q, n, _ in random_poses(s.speed_poses, seed + 10 * k, speeds=v) for g in s.gains]
     for k, head in enumerate(s.heads):
         out += [dict(kind="hammer", q=q, n=n, gain=g, speed=s.head_speed, head=float(head))
-                for q, n, _ in _random_poses(s.head_poses, seed + 100 + 10 * k, speeds=s.head_speed) for g in s.gains]
+                for q, n, _ in random_poses(s.head_poses, seed + 100 + 10 * k, speeds=s.head_speed) for g in s.gains]
     if s.m_eff_poses:
-        pool = _random_poses(s.m_eff_pool, seed + 200, speed_range=s.inside_speed_range)
+        pool = random_poses(s.m_eff_pool, seed + 200, speed_range=s.inside_speed_range)
         picked = _outside_m_eff(model, pool, s.gains)[:s.m_eff_poses]
         out += [dict(kind="m_eff", q=q, n=n, gain=g, speed=v, head=None) for q, n, v in picked for g in s.gains]
     return out
