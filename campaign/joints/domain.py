@@ -10,7 +10,7 @@ an InputError: exit status 2 in the CLI), or, asked to extrapolate, returns what
 outside (:class:`Excursion`) and the extra scatter of ``ln m*`` the interval then carries
 (:func:`widening`): per quantity a rate times the distance outside the bound
 (:data:`WIDENING`, measured on held-out trials outside the domain; user guide, *The
-response model*, "Outside the domain").
+response model*, "Where the model holds").
 """
 
 from __future__ import annotations
