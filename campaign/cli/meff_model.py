@@ -116,7 +116,8 @@ def run_model(args, *, robot, config, q_paper, q, n) -> int:
         outside += model.domain_.check(m_eff=m, extrapolate=args.extrapolate, hint=HINT)
         if outside:
             extra["interval_95_in_domain"] = [lo, hi]      # the model's own, before the widening
-            lo, hi = (float(x) for x in widen_interval(m, lo, hi, widening(outside)))
+            lo, hi = (float(x) for x in widen_interval(m, lo, hi, widening(outside),
+                                                            quantile=model.interval_quantile(0.95)))
     warn(outside, widened=state == "finite")
     coupling = ("VES loop" if setting.loop is not None else "ideal coupling") if base == FLEXIBLE else None
     if args.json:

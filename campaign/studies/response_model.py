@@ -55,7 +55,7 @@ from ..scene.description import make_scene
 from .common import CELLS, Log, quiet, write_csv
 from .coverage import COVERAGE_COLUMNS, bias_by_speed, coverage_markdown, coverage_table
 
-__all__ = ["Settings", "TARGETS", "simulate_case", "held_out_fixed", "held_out_flexible", "planner_check",
+__all__ = ["Settings", "TARGETS", "simulate_case", "random_poses", "held_out_fixed", "held_out_flexible", "planner_check",
            "summarise", "run", "evaluate", "loop_correction"]
 
 #: the targets the model is held to: (quantity, comparison, value)
@@ -140,7 +140,7 @@ def simulate_case(case: dict, *, campaign_seed: int) -> dict | None:
     return {**case, **rec}
 
 
-def _random_poses(n: int, seed: int, *, speeds=None, speed_range=(1.0, 2.5)) -> list[tuple]:
+def random_poses(n: int, seed: int, *, speeds=None, speed_range=(1.0, 2.5)) -> list[tuple]:
     """``n`` seeded random reachable poses with horizontal directions the rig can strike at
     every gain set and at ``speeds`` (or a speed drawn uniformly in ``speed_range``) (paper
     degrees, unit direction, speed)."""
@@ -164,7 +164,7 @@ def _random_poses(n: int, seed: int, *, speeds=None, speed_range=(1.0, 2.5)) -> 
 def held_out_fixed(s: Settings, *, log: Log = quiet) -> list[dict]:
     """The fixed-base held-out trials: random poses and the paper's configurations."""
     cases = [dict(set="random", base=FIXED, structure=None, q=q, n=n, gain=g, speed=v)
-             for q, n, v in _random_poses(s.fixed_poses, s.fixed_seed, speed_range=s.speed_range) for g in s.gains]
+             for q, n, v in random_poses(s.fixed_poses, s.fixed_seed, speed_range=s.speed_range) for g in s.gains]
     cases += [dict(set="paper", base=FIXED, structure=None, config=c, gain=g, speed=v)
               for c in (1, 2, 3) for g in s.gains for v in s.paper_speeds]
     return _simulate_all(cases, s, log=log)
@@ -172,7 +172,7 @@ def held_out_fixed(s: Settings, *, log: Log = quiet) -> list[dict]:
 
 def held_out_flexible(s: Settings, *, log: Log = quiet) -> list[dict]:
     """The flexible-base held-out trials under each structure: the Table 4 cells and random poses."""
-    poses = _random_poses(s.flexible_poses, s.flexible_seed, speed_range=s.speed_range)
+    poses = random_poses(s.flexible_poses, s.flexible_seed, speed_range=s.speed_range)
     cases = []
     for st in s.structures:
         cases += [dict(set="table4", base=FLEXIBLE, structure=st, config=c, gain=g, speed=v)
@@ -241,7 +241,7 @@ def _points(s: Settings) -> list[np.ndarray]:
     """Contact points: the impact points of seeded random poses the rig can strike."""
     robot = load_robot(load_paper()["robot"])
     return [impact_point(robot, np.radians(np.asarray(q) + paper_offset_deg()))
-            for q, _, _ in _random_poses(s.points, s.points_seed, speeds=s.planner_speed)]
+            for q, _, _ in random_poses(s.points, s.points_seed, speeds=s.planner_speed)]
 
 
 def loop_correction(model, s: Settings) -> dict:

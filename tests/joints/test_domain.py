@@ -72,8 +72,14 @@ def test_extrapolating_returns_the_distances_and_widens_the_interval(setting, im
     w = widening(out)
     assert w == pytest.approx(math.hypot(WIDENING["speed_above"] * math.log(2), WIDENING["mass_below"] * math.log(2),
                                          WIDENING["direction"] * math.asin(0.6)))
-    lo, hi = widen_interval(20.0, 19.0, 20.0 ** 2 / 19.0, w)
+    k = 2.5                                  # a t quantile, not the normal's 1.96
+    lo, hi = widen_interval(20.0, 19.0, 20.0 ** 2 / 19.0, w, quantile=k)
     assert lo < 19.0 and hi > 20.0 ** 2 / 19.0 and lo * hi == pytest.approx(400.0)
+    # the interval's own sd is read with the quantile it was built with, the extra added in quadrature
+    assert math.log(hi / 20.0) == pytest.approx(k * math.hypot(math.log(20.0 / 19.0) / k, w))
+    assert widen_interval(20.0, 19.0, 20.0 ** 2 / 19.0, 0.0, quantile=k) == pytest.approx((19.0, 20.0 ** 2 / 19.0))
+    with pytest.raises(InputError, match="quantile"):
+        widen_interval(20.0, 19.0, 21.0, w, quantile=0.0)
     # a gain set the model never saw has no distance: refused even when extrapolating
     with pytest.raises(OutsideDomain, match="no extrapolation is defined"):
         d.check(gain="zero", extrapolate=True)
