@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import zlib
 from pathlib import Path
 
 import h5py
@@ -36,6 +37,7 @@ from campaign.archive import (
     verify,
     write_trial,
 )
+from campaign.archive import fileformat
 from campaign.archive.decode import plain_value
 from campaign.archive.read import inspect_isolated_many
 from campaign.cli.main import main as cli_main
@@ -108,9 +110,21 @@ def test_roundtrip_identical_values_dtypes_attributes_encodings(tmp_path, base):
             for key in ENCODING_KEYS:
                 if key in var.encoding:
                     assert got.encoding[key] == var.encoding[key], (group, name, key)
-    # the rig's numbers go through untouched, and time series are chunked along time and deflated
+    # the rig's numbers go through untouched; time series are chunked along time and deflated
+    # where deflate pays (a uniform clock always), stored contiguous where it does not
     xr.testing.assert_equal(actual["measured"].to_dataset(), tree["measured"].to_dataset())
-    assert actual["measured"]["f_piezo"].encoding["zlib"] and actual["measured"]["f_piezo"].encoding["shuffle"]
+    assert actual["measured"]["t_force"].encoding["zlib"] and actual["measured"]["t_force"].encoding["shuffle"]
+    for group in archive.GROUPS:
+        for name, var in actual[group].data_vars.items():
+            if var.dims and var.dims[0] in CLOCKS:
+                data = np.ascontiguousarray(var.values)
+                shuffled = data.view(np.uint8).reshape(data.size, data.dtype.itemsize).T.tobytes()
+                ratio = len(zlib.compress(shuffled, fileformat.DEFLATE_LEVEL)) / len(shuffled)
+                if var.encoding["zlib"]:
+                    assert var.encoding["shuffle"] and ratio <= fileformat.DEFLATE_PAYS + 0.15, (group, name, ratio)
+                else:
+                    assert var.encoding["chunksizes"] is None and ratio >= fileformat.DEFLATE_PAYS - 0.15, \
+                        (group, name, ratio)
 
 
 def test_files_decode_like_files_xarray_writes_itself(tmp_path):
@@ -534,12 +548,14 @@ def test_to_cell_dataset_from_records_frames_and_csv(tmp_path):
 # faults: each reported by verify and by the loader, naming the file
 # ---------------------------------------------------------------------------------------
 def _flip_bytes_in_data(path: Path) -> None:
-    with h5py.File(path, "r") as f:
-        info = f["measured/f_piezo"].id.get_chunk_info(0)
+    with h5py.File(path, "r") as f:   # a deflated channel's chunk, or a plain one's bytes
+        dsid = f["measured/f_piezo"].id
+        offset, size = ((dsid.get_chunk_info(0).byte_offset, dsid.get_chunk_info(0).size)
+                        if f["measured/f_piezo"].chunks else (dsid.get_offset(), dsid.get_storage_size()))
     with open(path, "r+b") as fh:
-        fh.seek(info.byte_offset + info.size // 2)
+        fh.seek(offset + size // 2)
         chunk = bytearray(fh.read(4))
-        fh.seek(info.byte_offset + info.size // 2)
+        fh.seek(offset + size // 2)
         fh.write(bytes(b ^ 0x5A for b in chunk))
 
 
