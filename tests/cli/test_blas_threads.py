@@ -24,8 +24,8 @@ try:
 except SystemExit:
     pass
 print(json.dumps({"numpy": "numpy" in sys.modules,
-                  "env": {k: os.environ.get(k) for k in %r}}))
-""" % (BLAS_THREAD_VARIABLES,)
+                  "env": {k: os.environ.get(k) for k in VARIABLES}}))
+""".replace("VARIABLES", repr(BLAS_THREAD_VARIABLES))
 
 
 def _probe(command: str, **env: str) -> dict:
