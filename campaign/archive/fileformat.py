@@ -70,8 +70,10 @@ DEFLATE_LEVEL = 1
 _CHUNK_BYTES = 1 << 18
 #: deflate a channel when its sample compresses to at most this fraction of its bytes
 DEFLATE_PAYS = 0.7
-#: bytes of a channel's sample for that test (from the middle of the record)
+#: bytes of a channel's sample for that test (from the middle of the record); channels
+#: smaller than :data:`_PROBE_MIN_BYTES` are deflated untested (either way they cost little)
 _PROBE_BYTES = 1 << 13
+_PROBE_MIN_BYTES = 1 << 15
 
 SCHEMA_MAJOR = int(SCHEMA_VERSION.split(".")[0])
 _ROOT_REQUIRED = ("scene_json", "scene_sha256", "seed", "base", "config", "gain", "speed", "repeat", "robot")
@@ -359,9 +361,9 @@ def _deflate_pays(data: np.ndarray) -> bool:
 
 def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
     """Storage of one variable (xarray encoding keys): time series chunked along time and
-    deflated where deflate pays (:func:`_deflate_pays`), else contiguous like constants and
-    labels."""
-    if data.ndim and dims[0] in CLOCKS and data.size and _deflate_pays(data):
+    deflated where deflate pays (:func:`_deflate_pays`; a small one always), else contiguous
+    like constants and labels."""
+    if data.ndim and dims[0] in CLOCKS and data.size and (data.nbytes < _PROBE_MIN_BYTES or _deflate_pays(data)):
         row_bytes = data.dtype.itemsize * int(np.prod(data.shape[1:], dtype=np.int64))
         rows = int(min(data.shape[0], max(1, _CHUNK_BYTES // max(row_bytes, 1))))
         return {"dtype": data.dtype, "zlib": True, "complevel": DEFLATE_LEVEL, "shuffle": True,

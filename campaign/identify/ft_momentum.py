@@ -4,7 +4,6 @@ and the piezo force (user guide, *Identification*, step 3)."""
 from __future__ import annotations
 
 import dataclasses
-import functools
 
 import numpy as np
 import pinocchio as pin
@@ -13,6 +12,7 @@ from ..core.errors import InputError
 from ..core.lazy import LazyModule
 from .channels import check_channels, time_coordinate
 from .contact import ContactWindow
+from .linalg import lstsq, solve
 from .options import FT_CHANNELS, IdentifyOptions
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
@@ -285,36 +285,9 @@ def _held_servo_torque(measured: xr.Dataset, grid: np.ndarray, where: str) -> tu
     return Tcum, tau_at
 
 
-@functools.cache
-def _lapack():
-    """SciPy's LAPACK wrappers, imported on first use (scipy.linalg costs start-up time to
-    jobs that never run the momentum balance; identification has imported it by then)."""
-    from scipy.linalg import lapack
-
-    return lapack
-
-
-def _solve(H: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``numpy.linalg.solve(H, b)`` by the same LAPACK routine (dgesv) without numpy's
-    wrapper, which costs six times the solve of a 3 x 3 system; numpy's call (and its
-    error) where dgesv reports a singular matrix."""
-    _, _, x, info = _lapack().dgesv(H, b)
-    return x if info == 0 else np.linalg.solve(H, b)
-
-
-def _least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The least-squares solution of ``A x = b`` for a full-rank ``A`` (m >= n) by QR
-    (LAPACK dgels; numpy's lstsq, an SVD, costs five times as much and agrees to roundoff);
-    ``numpy.linalg.lstsq`` where dgels finds ``A`` rank deficient."""
-    _, x, info = _lapack().dgels(A, b)
-    if info == 0:
-        return x[:A.shape[1]]
-    return np.linalg.lstsq(A, b, rcond=None)[0]
-
-
 def _servo_wrench(A: np.ndarray, H: np.ndarray, dtau: np.ndarray) -> np.ndarray:
     """The reading change a servo torque change ``dtau`` causes: ``-A H^-1 dtau``."""
-    return -(A @ _solve(H, dtau))
+    return -(A @ solve(H, dtau))
 
 
 def _momentum_balance(model, data, frame_id: int, n: np.ndarray, Jn_s: np.ndarray, q: np.ndarray, qd: np.ndarray,
@@ -364,7 +337,7 @@ def _momentum_balance(model, data, frame_id: int, n: np.ndarray, Jn_s: np.ndarra
         h = h + dh
         v_prev = v
         Aw = A[rows] * wrow[:, None]
-        v = _least_squares(Aw, h[rows] * wrow)
+        v = lstsq(Aw, h[rows] * wrow)
         u[k] = n @ Jt @ v
         u_lin[k] = Jn_s @ v
     return u, u_lin, A, Jt

@@ -9,6 +9,7 @@ import pinocchio as pin
 
 from ..model.exiit import impact_jacobian
 from .contact import ContactInput
+from .linalg import lstsq
 from .options import IdentifyOptions
 
 
@@ -94,18 +95,21 @@ def _lti_kernels(a1: float, a0: float, x: np.ndarray):
     limit ``t exp(r t)`` is used when the roots nearly coincide (including a1 = a0 = 0,
     the free double integrator ``h = t``).
     """
-    disc = complex(a1 * a1 - 4.0 * a0)
-    sq = np.sqrt(disc)
-    r1, r2 = (-a1 + sq) / 2.0, (-a1 - sq) / 2.0
+    disc = a1 * a1 - 4.0 * a0
+    half = 0.5 * math.sqrt(abs(disc))     # |r1 - r2| / 2
     span = float(x[-1]) if x.size else 0.0
-    if abs(r1 - r2) * max(span, 1e-12) < 1e-6:
-        r = -a1 / 2.0
-        e = np.exp(r * x)
-        return x * e, (1.0 + r * x) * e
-    e1, e2 = np.exp(r1 * x), np.exp(r2 * x)
-    h = ((e1 - e2) / (r1 - r2)).real
-    hd = ((r1 * e1 - r2 * e2) / (r1 - r2)).real
-    return h, hd
+    alpha = -a1 / 2.0
+    if 2.0 * half * max(span, 1e-12) < 1e-6:
+        e = np.exp(alpha * x)
+        return x * e, (1.0 + alpha * x) * e
+    if disc > 0:    # real roots alpha +- half
+        r1, r2 = alpha + half, alpha - half
+        e1, e2 = np.exp(r1 * x), np.exp(r2 * x)
+        return (e1 - e2) / (r1 - r2), (r1 * e1 - r2 * e2) / (r1 - r2)
+    # complex roots alpha +- i half: the real parts of the same expressions
+    e = np.exp(alpha * x)
+    s, c = np.sin(half * x), np.cos(half * x)
+    return e * s / half, e * (c + alpha * s / half)
 
 
 class _GridPoints:
@@ -125,6 +129,7 @@ class _GridPoints:
         self.needed, inverse = np.unique(np.concatenate([self.j, np.minimum(self.j + 1, n - 1)]),
                                          return_inverse=True)
         self.at_j, self.at_j1 = inverse[:self.j.size], inverse[self.j.size:]
+        self._lags: dict[tuple[int, int], np.ndarray] = {}
 
     def interp(self, values: np.ndarray) -> np.ndarray:
         """:func:`numpy.interp` of a response given at ``needed`` (its formula, its end values)."""
@@ -139,13 +144,21 @@ class _GridPoints:
         return np.where(x < grid[0], values[self.at_j], out)
 
 
-def _convolution_at(g: np.ndarray, support: int, h: np.ndarray, k: np.ndarray) -> np.ndarray:
-    """``sum_j g[j] h[k - j]`` over ``0 <= j <= k`` at the indices ``k``, for a ``g`` that is
-    zero from index ``support`` on (``np.convolve(g, h)[k]``)."""
-    j = np.arange(support)
-    lag = k[:, None] - j[None, :]
-    hk = np.where(lag >= 0, h[np.clip(lag, 0, None)], 0.0)
-    return hk @ g[:support]
+    def lags(self, support: int, n: int) -> np.ndarray:
+        """Indices into ``h`` padded with one zero (length ``n + 1``) of ``h[k - j]`` for each
+        needed ``k`` and ``0 <= j < support`` (the zero where ``k < j``); made once per fit."""
+        key = (support, n)
+        if key not in self._lags:
+            lag = self.needed[:, None] - np.arange(support)[None, :]
+            self._lags[key] = np.where(lag >= 0, lag, n)
+        return self._lags[key]
+
+
+def _convolution_at(g: np.ndarray, support: int, h: np.ndarray, points: _GridPoints) -> np.ndarray:
+    """``sum_j g[j] h[k - j]`` over ``0 <= j <= k`` at the indices ``k = points.needed``,
+    for a ``g`` that is zero from index ``support`` on (``np.convolve(g, h)[k]``)."""
+    padded = np.concatenate([h, [0.0]])
+    return padded[points.lags(support, h.size)] @ g[:support]
 
 
 def _lti_responses(cin: ContactInput, a1: float, a0: float, with_step: bool, velocity: bool = True,
@@ -171,10 +184,10 @@ def _lti_responses(cin: ContactInput, a1: float, a0: float, with_step: bool, vel
             vel = np.convolve(cin.g, hd)[:n] * dt - 0.5 * dt * cin.g * hd[0]  # trapezoid end weight
     else:
         k = points.needed
-        pos = _convolution_at(cin.g, cin.support, h, k) * dt
+        pos = _convolution_at(cin.g, cin.support, h, points) * dt
         vel = None
         if velocity:
-            vel = _convolution_at(cin.g, cin.support, hd, k) * dt - 0.5 * dt * cin.g[k] * hd[0]
+            vel = _convolution_at(cin.g, cin.support, hd, points) * dt - 0.5 * dt * cin.g[k] * hd[0]
     out.append((pos, vel))
     if with_step:
         # response to a unit step: the integrals of h and h' from 0 to t
@@ -219,7 +232,7 @@ def _lti_fit(t, s, t_s, t_e, cin: ContactInput, with_step: bool = True, info: di
         A, resp = design(x, velocity)
         sc = np.abs(A).max(axis=0)
         sc[sc == 0] = 1.0
-        p, *_ = np.linalg.lstsq(A / sc, s, rcond=None)
+        p = lstsq(A / sc, s)
         return p / sc, A, resp
 
     def resid(x):
