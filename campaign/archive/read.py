@@ -168,7 +168,7 @@ def _dims_of(f: h5py.File, dset: h5py.Dataset, scales: dict[Any, tuple[str, int]
     """
     if dset.ndim == 0:
         return ()
-    refs = dset.attrs.get("DIMENSION_LIST")
+    refs = _attr_value(dset.id, b"DIMENSION_LIST") if h5a.exists(dset.id, b"DIMENSION_LIST") else None
     if refs is None or len(refs) != dset.ndim or any(len(r) == 0 for r in refs):
         raise ValueError("has no dimension scale on every axis (not a netCDF-4 variable)")
     dims = []
