@@ -150,7 +150,7 @@ def _anonymous_file() -> int:
         return os.dup(fh.fileno())
 
 
-def _hdf5_image(plan: tuple[dict[str, Any], dict[str, GroupPlan]], tmp: Path) -> bytes:
+def _hdf5_image(plan: tuple[dict[str, Any], dict[str, GroupPlan]], tmp: Path, *, level: int = DEFLATE_LEVEL) -> bytes:
     """The bytes of a planned trial's file, as HDF5 writes them to ``tmp``.
 
     HDF5 creates ``tmp`` (a few bytes), then its file descriptor is pointed at an anonymous
@@ -167,7 +167,7 @@ def _hdf5_image(plan: tuple[dict[str, Any], dict[str, GroupPlan]], tmp: Path) ->
             started = os.pread(fd, os.fstat(fd).st_size, 0)
             os.pwrite(scratch, started, 0)
             os.dup2(scratch, fd, inheritable=False)
-            _fill_h5(f, plan)
+            _fill_h5(f, plan, level=level)
         with open(scratch, "rb", closefd=False) as fh:
             fh.seek(0)
             return fh.read()
