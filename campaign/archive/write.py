@@ -40,7 +40,8 @@ xr: Any = LazyModule("xarray")
 # shuffle then deflate on chunked variables.
 #: the HDF5 1.8 file format, which netCDF-C (4.4 on) writes too and every netCDF-4 reader
 #: reads: its object headers take a trial's attributes and dimension scales in less time
-#: than the library's earliest format (5-25 % of the image, benchmarks/bench_identify_write.py)
+#: than the library's earliest format (up to a quarter of the image's CPU, measured with
+#: benchmarks/bench_identify_write.py's settings)
 LIBVER = ("v108", "v108")
 _VLEN_STR = h5py.string_dtype()
 _VLEN_STR_TYPE = h5t.py_create(_VLEN_STR, logical=True)

@@ -33,9 +33,10 @@ def solve(H: np.ndarray, b: np.ndarray) -> np.ndarray:
 def lstsq(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The least-squares solution of ``A x = b`` (``A`` m x n, m >= n, full rank) by QR
     (dgels; ``numpy.linalg.lstsq``, an SVD, costs five times as much and agrees to
-    roundoff); ``numpy.linalg.lstsq(A, b, rcond=None)`` where dgels finds ``A`` rank
-    deficient."""
-    _, x, info = _lapack().dgels(A, b)
-    if info == 0:
-        return x[:A.shape[1]]
+    roundoff); ``numpy.linalg.lstsq(A, b, rcond=None)`` where ``A`` has fewer rows than
+    columns or dgels finds it rank deficient."""
+    if A.shape[0] >= A.shape[1]:
+        _, x, info = _lapack().dgels(A, b)
+        if info == 0:
+            return x[:A.shape[1]]
     return np.linalg.lstsq(A, b, rcond=None)[0]
