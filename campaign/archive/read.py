@@ -11,7 +11,7 @@ from typing import Any, Mapping, Sequence
 
 import h5py
 import numpy as np
-from h5py import h5, h5a, h5d, h5ds, h5i, h5o, h5p, h5r, h5t
+from h5py import h5, h5a, h5d, h5ds, h5i, h5o, h5p, h5r, h5s, h5t
 
 from ..core.errors import TrialFileError
 from ..core.files import not_regular
@@ -135,6 +135,20 @@ def _attr_names(oid: Any) -> list[bytes]:
     return names
 
 
+def _read_data(dset: h5py.Dataset) -> Any:
+    """A dataset's values exactly as h5py's ``dset[()]`` gives them; numbers read through the
+    low-level API (a tenth of the high-level call's cost on a trial's small channels)."""
+    dsid = dset.id
+    dtype = dsid.dtype
+    shape = dsid.shape
+    if dtype.kind not in "iuf" or shape is None:   # strings, an empty dataspace: h5py's own way
+        return dset[()]
+    arr = np.empty(shape, dtype=dtype)
+    if arr.size:
+        dsid.read(h5s.ALL, h5s.ALL, arr)
+    return arr[()] if arr.ndim == 0 else arr
+
+
 def _read_attrs(obj: h5py.HLObject) -> dict[str, Any]:
     """An HDF5 object's attributes in file order (h5py values), HDF5/netCDF-4 bookkeeping left out."""
     oid = (obj["/"] if isinstance(obj, h5py.File) else obj).id   # a file's attributes are its root group's
@@ -235,7 +249,7 @@ def _read_group(f: h5py.File, group: str, base: str, problems: list[str], want: 
             continue
         dset = h5py.Dataset(oid)
         try:
-            data = dset[()]
+            data = _read_data(dset)
             vattrs = _read_attrs(dset)
         except Exception as exc:  # noqa: BLE001 - see _CORRUPT
             problems.append(f"{group}/{name}: cannot read data (corrupt): {exc}")
