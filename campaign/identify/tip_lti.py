@@ -130,18 +130,27 @@ class _GridPoints:
                                          return_inverse=True)
         self.at_j, self.at_j1 = inverse[:self.j.size], inverse[self.j.size:]
         self._lags: dict[tuple[int, int], np.ndarray] = {}
+        # numpy.interp's cases, fixed by the times: on a grid sample, past either end
+        if n >= 2:
+            self._step = grid[self.j + 1] - grid[self.j]
+            self._offset = self.x - grid[self.j]
+            self._on_sample = self.x == grid[self.j]
+            self._right = self.x >= grid[-1]
+            self._left = self.x < grid[0]
+            self._special = bool(self._on_sample.any() or self._right.any() or self._left.any())
 
     def interp(self, values: np.ndarray) -> np.ndarray:
         """:func:`numpy.interp` of a response given at ``needed`` (its formula, its end values)."""
-        grid, x, j = self.grid, self.x, self.j
         y0, y1 = values[self.at_j], values[self.at_j1]
-        if grid.size < 2:
-            return np.full(x.shape, y0[0] if y0.size else np.nan)
+        if self.grid.size < 2:
+            return np.full(self.x.shape, y0[0] if y0.size else np.nan)
         with np.errstate(invalid="ignore", divide="ignore"):
-            slope = (y1 - y0) / (grid[j + 1] - grid[j])
-            out = np.where(x == grid[j], y0, slope * (x - grid[j]) + y0)
-        out = np.where(x >= grid[-1], values[self.at_j1], out)
-        return np.where(x < grid[0], values[self.at_j], out)
+            out = (y1 - y0) / self._step * self._offset + y0
+        if self._special:
+            out = np.where(self._on_sample, y0, out)
+            out = np.where(self._right, y1, out)
+            out = np.where(self._left, y0, out)
+        return out
 
 
     def lags(self, support: int, n: int) -> np.ndarray:
