@@ -9,6 +9,7 @@ import hashlib
 import json
 import re
 import subprocess
+import zlib
 from importlib.metadata import PackageNotFoundError
 from importlib.metadata import version as _dist_version
 from pathlib import Path
@@ -58,11 +59,21 @@ REFERENCES = ("Yoshida, K., Mavroidis, C. and Dubowsky, S., \"Impact Dynamics of
               "Manipulators\", Proc. 1996 IEEE International Conference on Robotics and Automation, "
               "Minneapolis, MN, pp. 1909-1916")
 
-# Chosen with benchmarks/bench_archive.py: deflate level 1 + shuffle compresses float channels
-# as well as level 4 or 9 (the noise bits dominate) at the lowest cost; one chunk holds up to
-# 256 KiB, so a trial's channels are one chunk each and long recordings still split along time.
+# Chosen with benchmarks/bench_archive.py and benchmarks/bench_identify_write.py: deflate
+# level 1 + shuffle compresses float channels as well as level 4 or 9 (the noise bits
+# dominate) at the lowest cost; one chunk holds up to 256 KiB, so a trial's channels are one
+# chunk each and long recordings still split along time. Deflate is kept where it pays
+# (clocks, quantised channels, smooth truth states: 1.5-28x) and left out where it does not
+# (noisy F/T and base-pose channels: 1.1-1.3x, which cost as much to deflate as the rest):
+# the user guide's *Benchmarks* page has the measurement.
 DEFLATE_LEVEL = 1
 _CHUNK_BYTES = 1 << 18
+#: deflate a channel when its sample compresses to at most this fraction of its bytes
+DEFLATE_PAYS = 0.7
+#: bytes of a channel's sample for that test (from the middle of the record); channels
+#: smaller than :data:`_PROBE_MIN_BYTES` are deflated untested (either way they cost little)
+_PROBE_BYTES = 1 << 13
+_PROBE_MIN_BYTES = 1 << 15
 
 SCHEMA_MAJOR = int(SCHEMA_VERSION.split(".")[0])
 _ROOT_REQUIRED = ("scene_json", "scene_sha256", "seed", "base", "config", "gain", "speed", "repeat", "robot")
@@ -336,10 +347,23 @@ def _scene_of(attrs: Mapping[str, Any]) -> Scene:
     return scene
 
 
+def _deflate_pays(data: np.ndarray) -> bool:
+    """Whether shuffle + deflate stores ``data`` in at most :data:`DEFLATE_PAYS` of its
+    bytes, judged on a sample of :data:`_PROBE_BYTES` from the middle of the record."""
+    flat = data.reshape(-1)
+    n = min(flat.size, max(1, _PROBE_BYTES // data.dtype.itemsize))
+    start = (flat.size - n) // 2
+    sample = np.ascontiguousarray(flat[start:start + n])
+    # HDF5's shuffle filter: the first bytes of every element, then the second bytes, ...
+    shuffled = sample.view(np.uint8).reshape(n, data.dtype.itemsize).T.tobytes()
+    return len(zlib.compress(shuffled, DEFLATE_LEVEL)) <= DEFLATE_PAYS * len(shuffled)
+
+
 def _encoding(dims: tuple[str, ...], data: np.ndarray) -> dict[str, Any]:
     """Storage of one variable (xarray encoding keys): time series chunked along time and
-    deflated, constants and labels contiguous."""
-    if data.ndim and dims[0] in CLOCKS:
+    deflated where deflate pays (:func:`_deflate_pays`; a small one always), else contiguous
+    like constants and labels."""
+    if data.ndim and dims[0] in CLOCKS and data.size and (data.nbytes < _PROBE_MIN_BYTES or _deflate_pays(data)):
         row_bytes = data.dtype.itemsize * int(np.prod(data.shape[1:], dtype=np.int64))
         rows = int(min(data.shape[0], max(1, _CHUNK_BYTES // max(row_bytes, 1))))
         return {"dtype": data.dtype, "zlib": True, "complevel": DEFLATE_LEVEL, "shuffle": True,

@@ -230,6 +230,9 @@ class ContactInput:
         self.grid = contact.start + dt * np.arange(n)
         self.dt = dt
         self.g = np.interp(self.grid, tt, rr / total, left=0.0, right=0.0)
+        nonzero = np.flatnonzero(self.g)
+        #: ``g`` is zero from this index on (the samples after the contact)
+        self.support = int(nonzero[-1]) + 1 if nonzero.size else 0
 
     def phi(self, x):
         x = np.asarray(x, float)

@@ -12,6 +12,7 @@ from ..core.errors import InputError
 from ..core.lazy import LazyModule
 from .channels import check_channels, time_coordinate
 from .contact import ContactWindow
+from .linalg import lstsq, solve
 from .options import FT_CHANNELS, IdentifyOptions
 
 #: imported on first use: the campaign's identification jobs read trials as plain arrays
@@ -24,7 +25,8 @@ def cross(a, b) -> np.ndarray:
 
     numpy.cross's products and differences in its order (the same numbers), without its
     ~30 us of axis handling per call (the F/T momentum balance calls it three times per
-    F/T sample).
+    F/T sample); a 3-vector is taken as three Python floats (the same IEEE products
+    again, without numpy's per-element overhead).
 
     Parameters
     ----------
@@ -34,9 +36,22 @@ def cross(a, b) -> np.ndarray:
     -------
     ndarray, shape (3,) or (3, k)
     """
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape == (3,):
+        a0, a1, a2 = a.tolist()
+        b0, b1, b2 = b.tolist()
+        return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
     a0, a1, a2 = a
     b0, b1, b2 = b
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
+#: the components of ``c x B`` per row: ``c[_NEXT] * B[_LAST] - c[_LAST] * B[_NEXT]``
+_NEXT, _LAST = np.array([1, 2, 0]), np.array([2, 0, 1])
+
+
+def cross_columns(c: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``c x B[:, j]`` for each column of ``B`` (3, k): :func:`cross`'s numbers, as whole rows."""
+    return c.take(_NEXT)[:, None] * B.take(_LAST, axis=0) - c.take(_LAST)[:, None] * B.take(_NEXT, axis=0)
 
 
 def _momentum_map(model, data, q, frame_id: int):
@@ -49,10 +64,9 @@ def _momentum_map(model, data, q, frame_id: int):
     inertias only: the armature (reflected rotor inertia) is a joint-space term, and the
     mounting's F/T sensor does not see it either (:func:`campaign.rig.sensors.base_wrench`).
     """
-    Ag = np.array(pin.computeCentroidalMap(model, data, q))
+    A = np.array(pin.computeCentroidalMap(model, data, q))
     com = np.array(data.com[0])
-    A = Ag.copy()
-    A[3:] += cross(com[:, None], Ag[:3])   # L_O = L_G + c x P
+    A[3:] += cross_columns(com, A[:3])   # L_O = L_G + c x P (each column of P)
     pin.updateFramePlacements(model, data)
     p = np.array(data.oMf[frame_id].translation)
     Jt = pin.computeFrameJacobian(model, data, q, frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
@@ -273,7 +287,7 @@ def _held_servo_torque(measured: xr.Dataset, grid: np.ndarray, where: str) -> tu
 
 def _servo_wrench(A: np.ndarray, H: np.ndarray, dtau: np.ndarray) -> np.ndarray:
     """The reading change a servo torque change ``dtau`` causes: ``-A H^-1 dtau``."""
-    return -A @ np.linalg.solve(H, dtau)
+    return -(A @ solve(H, dtau))
 
 
 def _momentum_balance(model, data, frame_id: int, n: np.ndarray, Jn_s: np.ndarray, q: np.ndarray, qd: np.ndarray,
@@ -308,7 +322,9 @@ def _momentum_balance(model, data, frame_id: int, n: np.ndarray, Jn_s: np.ndarra
         q = q + (1.5 * v - 0.5 * v_prev) * dt
         A_prev, H_prev = A, H
         A, p, Jt, com = _momentum_map(model, data, q, frame_id)
-        dh = np.concatenate([n * dI, cross(0.5 * (p0 + p), n) * dI])
+        dh = np.empty(6)
+        dh[:3] = n * dI
+        dh[3:] = cross(0.5 * (p0 + p), n) * dI
         dh[3:] += cross(0.5 * (com_prev + com) - com0, bal.mg) * dt
         if servo:
             H = pin.crba(model, data, q)
@@ -321,7 +337,7 @@ def _momentum_balance(model, data, frame_id: int, n: np.ndarray, Jn_s: np.ndarra
         h = h + dh
         v_prev = v
         Aw = A[rows] * wrow[:, None]
-        v = np.linalg.lstsq(Aw, h[rows] * wrow, rcond=None)[0]
+        v = lstsq(Aw, h[rows] * wrow)
         u[k] = n @ Jt @ v
         u_lin[k] = Jn_s @ v
     return u, u_lin, A, Jt

@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import zlib
 from pathlib import Path
 
 import h5py
@@ -36,6 +37,7 @@ from campaign.archive import (
     verify,
     write_trial,
 )
+from campaign.archive import fileformat
 from campaign.archive.decode import plain_value
 from campaign.archive.read import inspect_isolated_many
 from campaign.cli.main import main as cli_main
@@ -108,9 +110,23 @@ def test_roundtrip_identical_values_dtypes_attributes_encodings(tmp_path, base):
             for key in ENCODING_KEYS:
                 if key in var.encoding:
                     assert got.encoding[key] == var.encoding[key], (group, name, key)
-    # the rig's numbers go through untouched, and time series are chunked along time and deflated
+    # the rig's numbers go through untouched; time series are chunked along time and deflated
+    # where deflate pays (a uniform clock always), stored contiguous where it does not
     xr.testing.assert_equal(actual["measured"].to_dataset(), tree["measured"].to_dataset())
-    assert actual["measured"]["f_piezo"].encoding["zlib"] and actual["measured"]["f_piezo"].encoding["shuffle"]
+    assert actual["measured"]["t_force"].encoding["zlib"] and actual["measured"]["t_force"].encoding["shuffle"]
+    for group in archive.GROUPS:
+        for name, var in actual[group].data_vars.items():
+            if var.dims and var.dims[0] in CLOCKS:
+                data = np.ascontiguousarray(var.values)
+                shuffled = data.view(np.uint8).reshape(data.size, data.dtype.itemsize).T.tobytes()
+                ratio = len(zlib.compress(shuffled, fileformat.DEFLATE_LEVEL)) / len(shuffled)
+                if var.encoding["zlib"]:   # small channels are deflated untested
+                    assert var.encoding["shuffle"], (group, name)
+                    assert data.nbytes < fileformat._PROBE_MIN_BYTES or ratio <= fileformat.DEFLATE_PAYS + 0.15, \
+                        (group, name, ratio)
+                else:
+                    assert var.encoding["chunksizes"] is None and ratio >= fileformat.DEFLATE_PAYS - 0.15, \
+                        (group, name, ratio)
 
 
 def test_files_decode_like_files_xarray_writes_itself(tmp_path):
@@ -534,12 +550,14 @@ def test_to_cell_dataset_from_records_frames_and_csv(tmp_path):
 # faults: each reported by verify and by the loader, naming the file
 # ---------------------------------------------------------------------------------------
 def _flip_bytes_in_data(path: Path) -> None:
-    with h5py.File(path, "r") as f:
-        info = f["measured/f_piezo"].id.get_chunk_info(0)
+    with h5py.File(path, "r") as f:   # a deflated channel's chunk, or a plain one's bytes
+        dsid = f["measured/f_piezo"].id
+        offset, size = ((dsid.get_chunk_info(0).byte_offset, dsid.get_chunk_info(0).size)
+                        if f["measured/f_piezo"].chunks else (dsid.get_offset(), dsid.get_storage_size()))
     with open(path, "r+b") as fh:
-        fh.seek(info.byte_offset + info.size // 2)
+        fh.seek(offset + size // 2)
         chunk = bytearray(fh.read(4))
-        fh.seek(info.byte_offset + info.size // 2)
+        fh.seek(offset + size // 2)
         fh.write(bytes(b ^ 0x5A for b in chunk))
 
 
@@ -724,3 +742,17 @@ def test_cli_ls_and_finalize(campaign, capsys):
     assert [p.file for p in verify(campaign)] == ["MANIFEST.sha256"]
     assert cli_main(["archive", "finalize", str(campaign)]) == 0
     assert verify(campaign) == []
+
+
+def test_time_series_are_deflated_where_deflate_pays():
+    """A uniform clock and a quantised channel compress and are deflated; white noise in
+    float64 does not, and is stored contiguous; a small channel is deflated untested."""
+    rng = np.random.default_rng(7)
+    n = 20_000
+    clock = np.arange(n) * 1e-4
+    quantised = np.round(np.cumsum(rng.normal(size=n)) * 10) / 10
+    noise = rng.normal(size=(n, 3))
+    for data, deflated in ((clock, True), (quantised, True), (noise, False), (noise[:100], True)):
+        enc = fileformat._encoding(("t_force",) + (("axis",) if data.ndim == 2 else ()), data)
+        assert enc["zlib"] is deflated, data.shape
+        assert enc["chunksizes"] is None if not deflated else enc["chunksizes"][0] == data.shape[0]
