@@ -40,6 +40,14 @@ __all__ = ["FITS", "RecordedHitOptions", "identify_recording", "HIT_COLUMNS"]
 #: the fits of the motion outside the contact
 FITS = ("quadratic", "linear")
 _DEGREE = {"quadratic": 2, "linear": 1}
+#: the degree of the end effector's fit after the contact: an arm's tip does not decelerate
+#: at a constant rate after a hit (its joints' velocities redistribute, its friction and
+#: controller take over), so the quadratic model gets one more term there
+_ROBOT_POST_DEGREE = {"quadratic": 3, "linear": 1}
+
+
+def _degree(fit: str, body: str, side: str) -> int:
+    return _ROBOT_POST_DEGREE[fit] if (body, side) == ("robot", "post") else _DEGREE[fit]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,6 +65,10 @@ class RecordedHitOptions:
     window_spread : float
         Each bootstrap draw scales the fitted windows before and after the contact by a
         factor drawn within 1 +- this: the intervals include the choice of the windows.
+    edge_spread : float
+        Each bootstrap draw moves the contact's start and end, each on its own, by up to
+        this many object sample periods (uniformly): samples a period apart place an edge
+        only to within the period around it, and the velocities are read at the edges.
     min_dv_ratio : float
         The end effector's velocity change below this fraction of the approach speed flags
         the hit (object too light against m*).
@@ -73,6 +85,7 @@ class RecordedHitOptions:
     min_samples: int | None = None
     margin: int = 0
     window_spread: float = 0.25
+    edge_spread: float = 1.0
     min_dv_ratio: float = 0.10
     max_rel_width: float = 0.5
     n_boot: int = 400
@@ -86,12 +99,21 @@ class RecordedHitOptions:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InputError(f"{name} = {value!r}: must be a positive number")
+        if not (isinstance(self.edge_spread, (int, float)) and math.isfinite(self.edge_spread)
+                and self.edge_spread >= 0):
+            raise InputError(f"edge_spread = {self.edge_spread!r}: must be a number >= 0")
         if self.n_boot < 20:
             raise InputError(f"n_boot = {self.n_boot}: at least 20 bootstrap draws")
 
     @property
     def need(self) -> int:
         return self.min_samples if self.min_samples is not None else _DEGREE[self.fit] + 3
+
+    def need_of(self, body: str, side: str) -> int:
+        """Fewest samples the fit of ``body`` on ``side`` ("pre", "post") may use."""
+        if self.min_samples is not None:
+            return self.min_samples
+        return _degree(self.fit, body, side) + 3
 
 
 def HIT_COLUMNS(n_joints: int) -> list[str]:  # noqa: N802 - a column list built like a constant
@@ -134,10 +156,10 @@ def _contact(rec: Recording, n: np.ndarray, centre: float, opts: RecordedHitOpti
     for name, b in bodies:
         before = np.count_nonzero((b.t >= coarse.t_s - b.pre) & (b.t < coarse.t_s))
         after = np.count_nonzero((b.t > coarse.t_s + coarse.T) & (b.t <= coarse.t_s + coarse.T + b.post))
-        for where, count in (("before", before), ("after", after)):
-            if count < opts.need:
+        for where, side, count in (("before", "pre", before), ("after", "post", after)):
+            if count < opts.need_of(name, side):
                 raise _Refused(f"too few samples: the {name} has {count} {where} the contact within its fit window "
-                               f"(need {opts.need})")
+                               f"(need {opts.need_of(name, side)})")
     try:
         return fit_contact([bodies[0][1]], guess=coarse.t_s, deg=deg, reach=0.02,
                            min_T=max(0.004, coarse.T - 0.03), max_T=coarse.T + 0.03)
@@ -159,12 +181,12 @@ def _velocities(sets, t_s: float, t_e: float, opts: RecordedHitOptions, rng=None
     """(v_o, v_o', v_e, v_e') from the four fits, evaluated at the contact's edges; with ``rng``
     one bootstrap draw (each fit's residuals resampled)."""
     out = []
-    for (_, t, s, pre, post) in sets:
-        for idx, at in ((pre, t_s), (post, t_e)):
-            v, fitted, resid = _fit_velocity(t[idx], s[idx], _DEGREE[opts.fit], at)
+    for (name, t, s, pre, post) in sets:
+        for idx, at, side in ((pre, t_s, "pre"), (post, t_e, "post")):
+            deg = _degree(opts.fit, name, side)
+            v, fitted, resid = _fit_velocity(t[idx], s[idx], deg, at)
             if rng is not None:
-                v = _fit_velocity(t[idx], fitted + rng.choice(resid, size=len(resid), replace=True),
-                                  _DEGREE[opts.fit], at)[0]
+                v = _fit_velocity(t[idx], fitted + rng.choice(resid, size=len(resid), replace=True), deg, at)[0]
             out.append(v)
     return out  # object pre, object post, robot pre, robot post
 
@@ -202,10 +224,10 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
               ("robot", rec.t_robot, rec.ee_position @ n, opts.post_window_robot)]
     sets = _sets(bodies, lo_edge, hi_edge, opts)
     for name, _, _, pre, post in sets:
-        for where, idx in (("before", pre), ("after", post)):
-            if len(idx) < opts.need:
+        for where, side, idx in (("before", "pre", pre), ("after", "post", post)):
+            if len(idx) < opts.need_of(name, side):
                 raise _Refused(f"too few samples: the {name} has {len(idx)} {where} the contact within its fit "
-                               f"window (need {opts.need})")
+                               f"window (need {opts.need_of(name, side)})")
     for k in range(rec.q.shape[1]):
         row[f"q_{k + 1}"] = float(np.interp(t_s, rec.t_robot, rec.q[:, k]))
     if rec.inertia_inv is not None:
@@ -218,13 +240,17 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     if ve - ve2 <= 0:
         raise _Refused(f"the end effector does not slow along n (velocity change {ve2 - ve:.3g} m/s)")
     rng = np.random.default_rng(opts.seed)
+    edge = opts.edge_spread * float(np.median(np.diff(rec.t_object)))
     draws = []
     for _ in range(opts.n_boot):
         ts_b, T_b = found.windows[int(rng.integers(len(found.windows)))]
-        te_b = ts_b + T_b
+        ts_b, te_b = ts_b + rng.uniform(-edge, edge), ts_b + T_b + rng.uniform(-edge, edge)
+        if te_b <= ts_b:
+            ts_b, te_b = t_s, t_e
         scale = tuple(rng.uniform(1 - opts.window_spread, 1 + opts.window_spread, 2))
         drawn = _sets(bodies, lo_edge, hi_edge, opts, scale)
-        if any(len(pre) < opts.need or len(post) < opts.need for _, _, _, pre, post in drawn):
+        if any(len(pre) < opts.need_of(name, "pre") or len(post) < opts.need_of(name, "post")
+               for name, _, _, pre, post in drawn):
             drawn = sets
         a, b, c, d = _velocities(drawn, ts_b, te_b, opts, rng)
         if c - d > 0 and c - a > 0:
