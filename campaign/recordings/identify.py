@@ -81,7 +81,7 @@ class RecordedHitOptions:
     fit: str = "quadratic"
     pre_window: float = 0.05
     post_window_object: float = 0.06
-    post_window_robot: float = 0.05
+    post_window_robot: float = 0.06
     min_samples: int | None = None
     margin: int = 0
     window_spread: float = 0.25
@@ -217,9 +217,11 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     t_s, t_e = found.t_s, found.t_s + found.T
     row.update(n_x=n[0], n_y=n[1], n_z=n[2], contact_start=t_s, contact_duration=found.T,
                contact_duration_lo=found.T_range[0], contact_duration_hi=found.T_range[1])
-    # the samples the contact's edges may still hold: a margin of whole samples is excluded too
+    # the fits take no sample any window that fits as well would put in the contact, and a
+    # margin of whole samples beyond: a window too short would hand them in-contact samples
     dt = float(np.median(np.diff(rec.t_robot)))
-    lo_edge, hi_edge = t_s - opts.margin * dt, t_e + opts.margin * dt
+    lo_edge = min(w[0] for w in found.windows) - opts.margin * dt
+    hi_edge = max(w[0] + w[1] for w in found.windows) + opts.margin * dt
     bodies = [("object", rec.t_object, rec.object_position @ n, opts.post_window_object),
               ("robot", rec.t_robot, rec.ee_position @ n, opts.post_window_robot)]
     sets = _sets(bodies, lo_edge, hi_edge, opts)
