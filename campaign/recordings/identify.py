@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from .cleaning import impact_direction_of
-from .contact import Body, ContactFit, fit_contact, noise_level
+from .contact import Body, ContactFit, fit_contact, noise_level, velocity_change
 from .fileformat import Recording
 
 __all__ = ["FITS", "RecordedHitOptions", "identify_recording", "HIT_COLUMNS"]
@@ -214,6 +214,12 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
         raise _Refused(f"too few samples: the object has {len(rec.t_object)}")
     n, centre = impact_direction_of(rec.t_object, rec.object_position)
     found = _contact(rec, n, centre, opts)
+    # the impact direction again, from the object's velocity change across the window only: the
+    # change over a longer span holds what else moves the object (gravity along a curved path)
+    dv = velocity_change(rec.t_object, rec.object_position, t_s=found.t_s, T=found.T, deg=_DEGREE[opts.fit],
+                         pre=opts.pre_window, post=opts.post_window_object)
+    if float(np.linalg.norm(dv)) > 0 and float(dv @ n) > 0:
+        n = dv / float(np.linalg.norm(dv))
     t_s, t_e = found.t_s, found.t_s + found.T
     row.update(n_x=n[0], n_y=n[1], n_z=n[2], contact_start=t_s, contact_duration=found.T,
                contact_duration_lo=found.T_range[0], contact_duration_hi=found.T_range[1])
