@@ -5,16 +5,20 @@ Along the impact direction n (the direction of the object's velocity change):
 * the contact window (start and duration) is fitted to the object's positions: its motion
   before and after plus a velocity change of free profile over the window, the shortest
   window that fits as well as the best (:mod:`campaign.recordings.contact`);
+* n is then the object's velocity change across that window (each coordinate fitted with
+  the window's model), not over a longer span that holds what else moves the object;
 * each body's velocity just before (after) the contact is the derivative, at the window's
-  edge, of a polynomial fitted to the samples before (after) it, never across it:
-  ``quadratic`` (default; constant acceleration: the object's sliding friction, the
-  controller's push and re-acceleration) or ``linear`` (constant velocity);
+  edge, of a polynomial fitted to the samples before (after) it, never across it nor inside
+  any window that fits as well: ``quadratic`` (default; constant acceleration: the object's
+  sliding friction, the controller's push and re-acceleration; the end effector after the
+  contact a cubic, its deceleration not being constant) or ``linear`` (constant velocity);
 * ``m* = m_o (v_o' - v_o) / (v_e - v_e')`` (the object's momentum change over the end
   effector's velocity change) and ``e = (v_o' - v_e') / (v_e - v_o)``;
 * intervals: a bootstrap of each fit's residuals (scaled for the fitted parameters), each
   draw taking one of the contact windows the samples fit as well (a soft contact's slow
-  end gives many) and the fitted windows' lengths within +-25 %, seeded; m* and e are the
-  draws' medians, the intervals their 2.5 and 97.5 percentiles.
+  end gives many), moving its start and end each by up to a sample period (the samples
+  place an edge no better) and the fitted windows' lengths within +-25 %, seeded; m* and e
+  are the draws' medians, the intervals their 2.5 and 97.5 percentiles.
 
 A hit is refused (no numbers) when a fit has too few samples, no contact is found or the
 end effector does not slow along n; it is flagged (numbers kept) when the end effector's
