@@ -23,7 +23,7 @@ import dataclasses
 import numpy as np
 from scipy.optimize import least_squares
 
-__all__ = ["Body", "ContactFit", "KNOTS", "fit_contact", "fit_onset", "design", "noise_level"]
+__all__ = ["Body", "ContactFit", "KNOTS", "fit_contact", "fit_onset", "design", "noise_level", "velocity_change"]
 
 #: segments of the velocity change's piecewise-linear profile over the contact
 KNOTS = 6
@@ -201,6 +201,18 @@ def fit_contact(bodies: list[Body], *, guess: float, deg: int, search: str = "gr
     starts, durations = [w[0] for w in windows], [w[1] for w in windows]
     return ContactFit(t_s, T, (min(starts), max(starts)), (min(durations), max(durations)), float(knots[-1]), sigma,
                       shape, windows)
+
+
+def velocity_change(t: np.ndarray, p: np.ndarray, *, t_s: float, T: float, deg: int, pre: float,
+                    post: float) -> np.ndarray:
+    """A body's velocity change over the window ``[t_s, t_s + T]`` [m/s], each coordinate of its
+    positions ``p`` (samples x coordinates) fitted with the window's model on the samples within
+    ``pre`` before and ``post`` after it: the direction of the contact's impulse on a free body."""
+    t = np.asarray(t, float)
+    m = _samples(t, t_s, T, pre, post)
+    coef, *_ = np.linalg.lstsq(design(t[m], t_s, T, deg), np.asarray(p, float)[m], rcond=None)
+    first = 3 if deg >= 2 else 2
+    return coef[first + KNOTS - 1]
 
 
 def fit_onset(t: np.ndarray, s: np.ndarray, *, T: float, shape: tuple[float, ...] | None, guess: float,

@@ -5,16 +5,20 @@ Along the impact direction n (the direction of the object's velocity change):
 * the contact window (start and duration) is fitted to the object's positions: its motion
   before and after plus a velocity change of free profile over the window, the shortest
   window that fits as well as the best (:mod:`campaign.recordings.contact`);
+* n is then the object's velocity change across that window (each coordinate fitted with
+  the window's model), not over a longer span that holds what else moves the object;
 * each body's velocity just before (after) the contact is the derivative, at the window's
-  edge, of a polynomial fitted to the samples before (after) it, never across it:
-  ``quadratic`` (default; constant acceleration: the object's sliding friction, the
-  controller's push and re-acceleration) or ``linear`` (constant velocity);
+  edge, of a polynomial fitted to the samples before (after) it, never across it nor inside
+  any window that fits as well: ``quadratic`` (default; constant acceleration: the object's
+  sliding friction, the controller's push and re-acceleration; the end effector after the
+  contact a cubic, its deceleration not being constant) or ``linear`` (constant velocity);
 * ``m* = m_o (v_o' - v_o) / (v_e - v_e')`` (the object's momentum change over the end
   effector's velocity change) and ``e = (v_o' - v_e') / (v_e - v_o)``;
 * intervals: a bootstrap of each fit's residuals (scaled for the fitted parameters), each
   draw taking one of the contact windows the samples fit as well (a soft contact's slow
-  end gives many) and the fitted windows' lengths within +-25 %, seeded; m* and e are the
-  draws' medians, the intervals their 2.5 and 97.5 percentiles.
+  end gives many), moving its start and end each by up to a sample period (the samples
+  place an edge no better) and the fitted windows' lengths within +-25 %, seeded; m* and e
+  are the draws' medians, the intervals their 2.5 and 97.5 percentiles.
 
 A hit is refused (no numbers) when a fit has too few samples, no contact is found or the
 end effector does not slow along n; it is flagged (numbers kept) when the end effector's
@@ -32,7 +36,7 @@ import numpy as np
 
 from ..core.errors import InputError
 from .cleaning import impact_direction_of
-from .contact import Body, ContactFit, fit_contact, noise_level
+from .contact import Body, ContactFit, fit_contact, noise_level, velocity_change
 from .fileformat import Recording
 
 __all__ = ["FITS", "RecordedHitOptions", "identify_recording", "HIT_COLUMNS"]
@@ -40,6 +44,14 @@ __all__ = ["FITS", "RecordedHitOptions", "identify_recording", "HIT_COLUMNS"]
 #: the fits of the motion outside the contact
 FITS = ("quadratic", "linear")
 _DEGREE = {"quadratic": 2, "linear": 1}
+#: the degree of the end effector's fit after the contact: an arm's tip does not decelerate
+#: at a constant rate after a hit (its joints' velocities redistribute, its friction and
+#: controller take over), so the quadratic model gets one more term there
+_ROBOT_POST_DEGREE = {"quadratic": 3, "linear": 1}
+
+
+def _degree(fit: str, body: str, side: str) -> int:
+    return _ROBOT_POST_DEGREE[fit] if (body, side) == ("robot", "post") else _DEGREE[fit]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,6 +69,10 @@ class RecordedHitOptions:
     window_spread : float
         Each bootstrap draw scales the fitted windows before and after the contact by a
         factor drawn within 1 +- this: the intervals include the choice of the windows.
+    edge_spread : float
+        Each bootstrap draw moves the contact's start and end, each on its own, by up to
+        this many object sample periods (uniformly): samples a period apart place an edge
+        only to within the period around it, and the velocities are read at the edges.
     min_dv_ratio : float
         The end effector's velocity change below this fraction of the approach speed flags
         the hit (object too light against m*).
@@ -69,10 +85,11 @@ class RecordedHitOptions:
     fit: str = "quadratic"
     pre_window: float = 0.05
     post_window_object: float = 0.06
-    post_window_robot: float = 0.05
+    post_window_robot: float = 0.06
     min_samples: int | None = None
     margin: int = 0
     window_spread: float = 0.25
+    edge_spread: float = 1.0
     min_dv_ratio: float = 0.10
     max_rel_width: float = 0.5
     n_boot: int = 400
@@ -86,12 +103,21 @@ class RecordedHitOptions:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise InputError(f"{name} = {value!r}: must be a positive number")
+        if not (isinstance(self.edge_spread, (int, float)) and math.isfinite(self.edge_spread)
+                and self.edge_spread >= 0):
+            raise InputError(f"edge_spread = {self.edge_spread!r}: must be a number >= 0")
         if self.n_boot < 20:
             raise InputError(f"n_boot = {self.n_boot}: at least 20 bootstrap draws")
 
     @property
     def need(self) -> int:
         return self.min_samples if self.min_samples is not None else _DEGREE[self.fit] + 3
+
+    def need_of(self, body: str, side: str) -> int:
+        """Fewest samples the fit of ``body`` on ``side`` ("pre", "post") may use."""
+        if self.min_samples is not None:
+            return self.min_samples
+        return _degree(self.fit, body, side) + 3
 
 
 def HIT_COLUMNS(n_joints: int) -> list[str]:  # noqa: N802 - a column list built like a constant
@@ -134,10 +160,10 @@ def _contact(rec: Recording, n: np.ndarray, centre: float, opts: RecordedHitOpti
     for name, b in bodies:
         before = np.count_nonzero((b.t >= coarse.t_s - b.pre) & (b.t < coarse.t_s))
         after = np.count_nonzero((b.t > coarse.t_s + coarse.T) & (b.t <= coarse.t_s + coarse.T + b.post))
-        for where, count in (("before", before), ("after", after)):
-            if count < opts.need:
+        for where, side, count in (("before", "pre", before), ("after", "post", after)):
+            if count < opts.need_of(name, side):
                 raise _Refused(f"too few samples: the {name} has {count} {where} the contact within its fit window "
-                               f"(need {opts.need})")
+                               f"(need {opts.need_of(name, side)})")
     try:
         return fit_contact([bodies[0][1]], guess=coarse.t_s, deg=deg, reach=0.02,
                            min_T=max(0.004, coarse.T - 0.03), max_T=coarse.T + 0.03)
@@ -159,12 +185,12 @@ def _velocities(sets, t_s: float, t_e: float, opts: RecordedHitOptions, rng=None
     """(v_o, v_o', v_e, v_e') from the four fits, evaluated at the contact's edges; with ``rng``
     one bootstrap draw (each fit's residuals resampled)."""
     out = []
-    for (_, t, s, pre, post) in sets:
-        for idx, at in ((pre, t_s), (post, t_e)):
-            v, fitted, resid = _fit_velocity(t[idx], s[idx], _DEGREE[opts.fit], at)
+    for (name, t, s, pre, post) in sets:
+        for idx, at, side in ((pre, t_s, "pre"), (post, t_e, "post")):
+            deg = _degree(opts.fit, name, side)
+            v, fitted, resid = _fit_velocity(t[idx], s[idx], deg, at)
             if rng is not None:
-                v = _fit_velocity(t[idx], fitted + rng.choice(resid, size=len(resid), replace=True),
-                                  _DEGREE[opts.fit], at)[0]
+                v = _fit_velocity(t[idx], fitted + rng.choice(resid, size=len(resid), replace=True), deg, at)[0]
             out.append(v)
     return out  # object pre, object post, robot pre, robot post
 
@@ -192,20 +218,28 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
         raise _Refused(f"too few samples: the object has {len(rec.t_object)}")
     n, centre = impact_direction_of(rec.t_object, rec.object_position)
     found = _contact(rec, n, centre, opts)
+    # the impact direction again, from the object's velocity change across the window only: the
+    # change over a longer span holds what else moves the object (gravity along a curved path)
+    dv = velocity_change(rec.t_object, rec.object_position, t_s=found.t_s, T=found.T, deg=_DEGREE[opts.fit],
+                         pre=opts.pre_window, post=opts.post_window_object)
+    if float(np.linalg.norm(dv)) > 0 and float(dv @ n) > 0:
+        n = dv / float(np.linalg.norm(dv))
     t_s, t_e = found.t_s, found.t_s + found.T
     row.update(n_x=n[0], n_y=n[1], n_z=n[2], contact_start=t_s, contact_duration=found.T,
                contact_duration_lo=found.T_range[0], contact_duration_hi=found.T_range[1])
-    # the samples the contact's edges may still hold: a margin of whole samples is excluded too
+    # the fits take no sample any window that fits as well would put in the contact, and a
+    # margin of whole samples beyond: a window too short would hand them in-contact samples
     dt = float(np.median(np.diff(rec.t_robot)))
-    lo_edge, hi_edge = t_s - opts.margin * dt, t_e + opts.margin * dt
+    lo_edge = min(w[0] for w in found.windows) - opts.margin * dt
+    hi_edge = max(w[0] + w[1] for w in found.windows) + opts.margin * dt
     bodies = [("object", rec.t_object, rec.object_position @ n, opts.post_window_object),
               ("robot", rec.t_robot, rec.ee_position @ n, opts.post_window_robot)]
     sets = _sets(bodies, lo_edge, hi_edge, opts)
     for name, _, _, pre, post in sets:
-        for where, idx in (("before", pre), ("after", post)):
-            if len(idx) < opts.need:
+        for where, side, idx in (("before", "pre", pre), ("after", "post", post)):
+            if len(idx) < opts.need_of(name, side):
                 raise _Refused(f"too few samples: the {name} has {len(idx)} {where} the contact within its fit "
-                               f"window (need {opts.need})")
+                               f"window (need {opts.need_of(name, side)})")
     for k in range(rec.q.shape[1]):
         row[f"q_{k + 1}"] = float(np.interp(t_s, rec.t_robot, rec.q[:, k]))
     if rec.inertia_inv is not None:
@@ -218,13 +252,17 @@ def _identify(rec: Recording, opts: RecordedHitOptions, row: dict[str, Any]) -> 
     if ve - ve2 <= 0:
         raise _Refused(f"the end effector does not slow along n (velocity change {ve2 - ve:.3g} m/s)")
     rng = np.random.default_rng(opts.seed)
+    edge = opts.edge_spread * float(np.median(np.diff(rec.t_object)))
     draws = []
     for _ in range(opts.n_boot):
         ts_b, T_b = found.windows[int(rng.integers(len(found.windows)))]
-        te_b = ts_b + T_b
+        ts_b, te_b = ts_b + rng.uniform(-edge, edge), ts_b + T_b + rng.uniform(-edge, edge)
+        if te_b <= ts_b:
+            ts_b, te_b = t_s, t_e
         scale = tuple(rng.uniform(1 - opts.window_spread, 1 + opts.window_spread, 2))
         drawn = _sets(bodies, lo_edge, hi_edge, opts, scale)
-        if any(len(pre) < opts.need or len(post) < opts.need for _, _, _, pre, post in drawn):
+        if any(len(pre) < opts.need_of(name, "pre") or len(post) < opts.need_of(name, "post")
+               for name, _, _, pre, post in drawn):
             drawn = sets
         a, b, c, d = _velocities(drawn, ts_b, te_b, opts, rng)
         if c - d > 0 and c - a > 0:

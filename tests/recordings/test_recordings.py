@@ -18,6 +18,7 @@ from campaign.recordings import (
     drop_stale,
     export_airhockey,
     identify_recording,
+    read_airhockey_hit,
     read_recording,
     recording_files,
     repair_stamps,
@@ -65,6 +66,32 @@ def test_round_trip_recovers_the_rigs_truth_within_the_intervals(imported):
     # the logged model is the rig's eq 7 (rotor inertia included): the momentum balance's m* is
     # heavier, as the joints' friction resists the contact too
     assert 0 < float(row["m_eff_logged"]) < truth["m_eff"]
+
+
+#: export seeds drawn after the identification's last change, not used to develop it; on them (and
+#: 30 such seeds of this trial and of three more rig trials, docs/recordings.rst) every hit the
+#: identification did not refuse had the truth inside its 95 % intervals but three of 116
+COVERAGE_SEEDS = range(300, 310)
+
+
+def test_intervals_hold_the_truth_over_export_seeds(imported):
+    """The interval's coverage, measured: the same rig hit exported with the logger's quirks drawn
+    anew (noise, stale rows, glitches), imported and identified; the 95 % intervals hold the
+    truth's m* and e in all but at most one of the hits identified, and at most one is refused."""
+    tmp, _, truth = imported
+    rows = []
+    for seed in COVERAGE_SEEDS:
+        robot_file, object_file = export_airhockey(tmp / "trial.nc", tmp / "coverage" / str(seed), hit=1,
+                                                   clock_lead=LEAD, seed=seed)
+        rec = read_airhockey_hit(robot_file, object_file, object_mass=truth["object_mass"], session="rig", hit="1")
+        rows.append(identify_recording(rec, RecordedHitOptions(n_boot=200)))
+    identified = [r for r in rows if not r["flag"].startswith("refused")]
+    assert len(identified) >= len(rows) - 1
+    for key in ("m_eff", "e"):
+        covered = sum(r[f"{key}_lo"] <= truth[key] <= r[f"{key}_hi"] for r in identified)
+        assert covered >= len(identified) - 1, (key, covered, len(identified))
+    # intervals that say something: m* to within +-15 % (the window's placement costs the most)
+    assert all(r["m_eff_hi"] - r["m_eff_lo"] < 0.3 * truth["m_eff"] for r in identified)
 
 
 def test_import_handles_the_loggers_quirks(imported):
