@@ -244,6 +244,7 @@ def fit_scatter(residuals, gains: Sequence[str], dv, *, speed, m_eff, structures
         raise InputError(f"fit_scatter: dof range {dof} is not within {DOF_RANGE}")
     ok = (np.isfinite(r) & np.isfinite(dv) & (dv > 0) & np.isfinite(p2) & np.isfinite(v) & (v > 0)
           & np.isfinite(m) & (m > 0))
+    gains, structures = [str(g) for g in gains], [None if s is None else str(s) for s in structures]
     names = sorted({g for g, k in zip(gains, ok, strict=True) if k})
     st_names = sorted({s for s, k in zip(structures, ok, strict=True) if k and s is not None})
     if ok.sum() < 5 * len(names) + len(st_names) + 5:
@@ -263,7 +264,7 @@ def fit_scatter(residuals, gains: Sequence[str], dv, *, speed, m_eff, structures
         return np.where(flex, _variance(tables, d, c[np.maximum(si, 0)], gi, dv, v, m) + p2, fixed)
 
     def normal_nll(x):
-        var = variance(x)
+        var = np.maximum(variance(x), 1e-12)                  # every term nil: a tiny floor
         return float(np.sum(0.5 * np.log(var) + r ** 2 / (2 * var)))
 
     def pinball(x, ks):
@@ -277,17 +278,20 @@ def fit_scatter(residuals, gains: Sequence[str], dv, *, speed, m_eff, structures
     rms, mdv, mv = float(np.sqrt(np.mean(r ** 2))), float(np.median(dv)), float(np.median(v))
     x0 = np.log(np.concatenate([np.full(G, rms / 3), np.full(G, rms * mdv / 3), np.full(G, rms * mv / 3),
                                 np.full(G, rms / 3), [rms / 3], np.full(S, rms * mdv / 3)]))
+    bounds = [_LOG_SCALE] * x0.size
+    x0 = minimize(normal_nll, x0, method="L-BFGS-B", bounds=bounds).x
     options = {"maxiter": 80000, "maxfev": 80000, "xatol": 1e-8, "fatol": 1e-12}
-    x0 = minimize(normal_nll, x0, method="Nelder-Mead", options=options).x
     best = None
     for nu in ([dof[0]] if dof[0] == dof[1] else [n for n in DOF_GRID if dof[0] <= n <= dof[1]] or [dof[0]]):
         ks = [_t_quantile(level, nu) for level in LEVELS]
-        # from the likelihood fit and from the best so far; Nelder-Mead restarted where it
-        # stopped until a restart gains nothing (the loss is piecewise linear)
+        # the loss is piecewise linear: Powell's line searches (which reach back from a nil
+        # term), then Nelder-Mead restarted where it stopped until a restart gains nothing;
+        # from the likelihood fit and from the best so far
         for x in [x0] + ([best[1]] if best is not None else []):
+            x = minimize(pinball, x, args=(ks,), method="Powell", bounds=bounds, options={"xtol": 1e-6}).x
             loss = pinball(x, ks)
             for _ in range(12):
-                x = minimize(pinball, x, args=(ks,), method="Nelder-Mead", options=options).x
+                x = np.clip(minimize(pinball, x, args=(ks,), method="Nelder-Mead", options=options).x, *_LOG_SCALE)
                 loss, gained = pinball(x, ks), loss - pinball(x, ks)
                 if gained <= 1e-9 * loss:
                     break
