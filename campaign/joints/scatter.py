@@ -210,7 +210,7 @@ def fit_scatter(residuals, gains: Sequence[str], dv, *, speed, m_eff, structures
 
     Minimises the quantile (pinball) loss of ``|residual|`` against both intervals'
     half-widths ``k sigma_total`` at the levels :data:`LEVELS` (see the module notes),
-    starting from a normal likelihood fit, at each degrees of freedom of :data:`DOF_GRID`
+    starting from a normal likelihood fit, at each degrees of freedom of ``DOF_GRID``
     within ``dof`` (or at ``dof`` held); the least loss wins.
 
     Parameters
