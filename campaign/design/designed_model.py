@@ -32,7 +32,7 @@ from ..identify.table import read_identification
 from ..joints.impacts import Impacts
 from ..joints.impedance_model import JointImpedance
 from ..joints.modelfile import save_model, shipped_model_path
-from ..joints.scatter import DESIGNED_DOF, fit_scatter, tip_velocity_change
+from ..joints.scatter import SMALL_MASS_REFERENCE, fit_scatter, tip_velocity_change
 from ..joints.setting import Setting, display_path
 
 __all__ = ["fit_model", "model_markdown", "compare_shipped", "model_differences"]
@@ -67,9 +67,8 @@ def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, S
         model.structure_residuals_[name] = {k: (float(x) if math.isfinite(x) else None)
                                             for k, x in zip(imp.keys, r, strict=True)}
         model.domain_ = model.domain_.with_structure(name, imp, masses=model._masses(imp))
-    r, gains, dv, structures, psd = (sum((list(part[j]) for part in spread), []) for j in range(5))
-    model.scatter_model_ = fit_scatter(r, gains, dv, structures=structures, parameter_sd=psd,
-                                       dof=(DESIGNED_DOF, DESIGNED_DOF))
+    r, gains, dv, structures, psd, speed, m = (sum((list(part[j]) for part in spread), []) for j in range(7))
+    model.scatter_model_ = fit_scatter(r, gains, dv, speed=speed, m_eff=m, structures=structures, parameter_sd=psd)
     save_model(model, out_json, archive=archive)
     write_atomic(out_md, model_markdown(model, archive=display_path(archive)))
     return model
@@ -77,11 +76,11 @@ def fit_model(plan_json, fixed_tables: Sequence, flexible_tables: Mapping[str, S
 
 def _residuals(model: JointImpedance, impacts: Impacts, structure: str | None):
     """``(ln m*_model - ln m*_identified, gain sets, predicted tip velocity change, structures,
-    the parameters' sd)`` of ``impacts``."""
+    the parameters' sd, speeds, predicted m*)`` of ``impacts``."""
     m = model.predict(impacts)
     r = np.log(m) - np.log(impacts.m_eff)
     dv = tip_velocity_change(m, impacts.speed, model._masses(impacts), model.restitution_)
-    return r, impacts.gain, dv, [structure] * len(impacts), model.parameter_sd(impacts)
+    return r, impacts.gain, dv, [structure] * len(impacts), model.parameter_sd(impacts), impacts.speed, m
 
 
 def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
@@ -107,13 +106,15 @@ def model_markdown(model: JointImpedance, *, archive: str | None = None) -> str:
     sm = getattr(model, "scatter_model_", None)
     if sm is not None:
         lines += ["Scatter of ln m* the intervals carry (fitted on " f"{sm.n_residuals} residuals; "
-                  "sigma^2 = a_g^2 + b_g^2 / dv^2, on the flexible base + f_g^2 + c_s^2 / dv^2, dv the predicted "
-                  "tip velocity change, "
-                  f"Student t with {sm.dof:.3g} degrees of freedom):", "",
-                  "| gain set | floor a_g | velocity noise b_g [m/s] | flexible base's floor f_g |", "|---|---|---|---|"]
-        lines += [f"| {g} | {sm.floor[g]:.4g} | {sm.velocity_noise[g]:.4g} | {sm.flexible_floor[g]:.4g} |"
-                  for g in sorted(sm.floor)]
-        lines += [""] + [f"- flexible base, {k}: c_s = {v:.4g} m/s" for k, v in sorted(sm.structure.items())] + [""]
+                  "sigma^2 = a_g^2 + b_g^2 / dv^2 + h_g^2 / v^2 + d^2 (m_0 / m*)^2, on the flexible base "
+                  "+ f_g^2 + c_s^2 / dv^2, dv the predicted tip velocity change, v the speed, "
+                  f"m_0 = {SMALL_MASS_REFERENCE:g} kg; Student t with {sm.dof:.3g} degrees of freedom):", "",
+                  "| gain set | floor a_g | velocity noise b_g [m/s] | speed noise h_g [m/s] | flexible base's floor "
+                  "f_g |", "|---|---|---|---|---|"]
+        lines += [f"| {g} | {sm.floor[g]:.4g} | {sm.velocity_noise[g]:.4g} | {sm.speed_noise[g]:.4g} | "
+                  f"{sm.flexible_floor[g]:.4g} |" for g in sorted(sm.floor)]
+        lines += ["", f"- small-m* share d = {sm.small_mass:.4g}"]
+        lines += [f"- flexible base, {k}: c_s = {v:.4g} m/s" for k, v in sorted(sm.structure.items())] + [""]
     for name, s in sorted(getattr(model, "structure_scatter_", {}).items()):
         n = len(model.structure_residuals_.get(name, {}))
         lines.append(f"- flexible base, {name}: scatter {s:.4f} over {n} trials of the plan's held-out poses (the "

@@ -139,14 +139,14 @@ class ResponseModel(Params, ABC):
     def scatter(self, impacts: Impacts, m_eff=None):
         """The residual scatter of ``ln m*`` the intervals carry: with a scatter model
         (``scatter_model_``, :mod:`campaign.joints.scatter`) per impact from its gain set, its
-        structure and the tip velocity change of the predicted ``m_eff``; without one the
+        structure, its speed, the predicted ``m_eff`` and the tip velocity change it gives; without one the
         fit's, or on the flexible base the one measured under the impacts' structure where the
         model has it (``structure_scatter_``)."""
         sm = getattr(self, "scatter_model_", None)
         if sm is not None and m_eff is not None:
             dv = tip_velocity_change(m_eff, impacts.speed, self._masses(impacts), self._restitution())
             structure = (impacts.structure or self._the_setting().structure) if impacts.base == FLEXIBLE else None
-            return sm.sd(impacts.gain, dv, structure=structure)
+            return sm.sd(impacts.gain, dv, impacts.speed, m_eff, structure=structure)
         if impacts.base == FLEXIBLE:
             name = impacts.structure or self._the_setting().structure
             extra = getattr(self, "structure_scatter_", {})

@@ -85,10 +85,14 @@ CANDIDATE_COLUMNS = ("point", "base", "structure", "branch", "gain", "nx", "ny",
 @dataclasses.dataclass(frozen=True)
 class Settings:
     """What the study draws. The seeds were chosen after the model's last modelling choice
-    (no fit, and no choice of the model, saw these poses); :meth:`quick` is a reduced set."""
+    (no fit, and no choice of the model, saw these poses): the held-out trials' poses and
+    sensors (``fixed_seed``, ``flexible_seed``, ``heldout_sensor_seed``) after the scatter
+    model's, the planner's contact points and their trials' sensors (``points_seed``,
+    ``campaign_seed``) after the planner's; :meth:`quick` is a reduced set."""
 
-    fixed_seed: int = 61662
-    flexible_seed: int = 61663
+    fixed_seed: int = 91813
+    flexible_seed: int = 91814
+    heldout_sensor_seed: int = 91816
     points_seed: int = 61664
     campaign_seed: int = 4873
     fixed_poses: int = 60
@@ -186,7 +190,7 @@ def _simulate_all(cases, s: Settings, *, log: Log) -> list[dict]:
     out = []
     t0 = time.process_time()
     for case in cases:
-        rec = simulate_case(case, campaign_seed=s.campaign_seed)
+        rec = simulate_case(case, campaign_seed=s.heldout_sensor_seed)
         if rec is not None:
             out.append(rec)
     log(f"{len(out)} of {len(cases)} trials usable ({len(cases) - len(out)} refused or excluded), "
@@ -478,5 +482,6 @@ def run(out_dir, *, quick: bool = False, log: Log = quiet, model: str | None = N
 
 
 def _seeds(s: Settings) -> str:
-    return (f"Seeds: fixed poses {s.fixed_seed}, flexible poses {s.flexible_seed}, contact points {s.points_seed}, "
-            f"sensors {s.campaign_seed} (drawn after the model's last modelling choice; no fit saw them).")
+    return (f"Seeds: fixed poses {s.fixed_seed}, flexible poses {s.flexible_seed}, their sensors "
+            f"{s.heldout_sensor_seed}; contact points {s.points_seed}, their sensors {s.campaign_seed} (drawn after the "
+            "model's last modelling choice; no fit saw them).")
