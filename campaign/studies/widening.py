@@ -210,7 +210,7 @@ def coverage(rows: Sequence[Mapping], rates: Mapping[str, float]) -> list[dict]:
     return out
 
 
-def study(fit_seed: int = 36001, check_seed: int = 36101, *, model=None, settings: Settings | None = None,
+def study(fit_seed: int = 38001, check_seed: int = 38101, *, model=None, settings: Settings | None = None,
           log: Log = quiet) -> dict:
     """The rates fitted on ``fit_seed``'s trials and checked on ``check_seed``'s, and the rates
     of both pooled: ``rates_fit``, ``counts_fit``, ``check`` (:func:`coverage` of the
