@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from campaign.cli import plan as cli_plan
 from campaign.core.errors import InputError
 from campaign.model.robot.ik import impact_point
 from campaign.plan import RESCORE, build_planner, horizontal_directions, planner_model, predict_model
@@ -60,6 +61,4 @@ def test_the_fixed_base_has_nothing_to_rescore_and_a_bad_count_is_refused(model)
 
 
 def test_the_cli_help_names_the_rescored_count():
-    from campaign.cli import plan as cli_plan
-
     assert f"the best {RESCORE} are predicted again through the VES-II loop" in " ".join(cli_plan.EPILOG.split())
