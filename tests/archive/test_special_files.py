@@ -22,6 +22,8 @@ from campaign.core.files import check_regular_file, not_regular, open_regular, s
 from campaign.core.yamlfile import read_yaml
 from campaign.joints.modelfile import ModelFileError, load_model
 
+import special_nodes
+
 REPO = Path(__file__).resolve().parents[2]
 REFERENCE = REPO / "archive" / "reference"
 #: the trial each case replaces, and the one its symbolic link points at (another speed cell)
@@ -48,20 +50,7 @@ def alarm():
 
 def make_special(path: Path, kind: str) -> None:
     """Put a FIFO, a bound Unix socket or a link to :data:`TWIN`'s file at ``path``."""
-    path.unlink(missing_ok=True)
-    if kind == "fifo":
-        os.mkfifo(path)
-    elif kind == "socket":
-        here = os.getcwd()
-        os.chdir(path.parent)        # a relative name: socket paths are limited to ~100 bytes
-        sock = socket.socket(socket.AF_UNIX)
-        try:
-            sock.bind(path.name)
-        finally:
-            sock.close()
-            os.chdir(here)
-    else:
-        path.symlink_to(Path("..") / TWIN.parent.name / TWIN.name)
+    special_nodes.make_special(path, kind, twin=TWIN)
 
 
 @pytest.fixture(params=["fifo", "socket", "symlink"])

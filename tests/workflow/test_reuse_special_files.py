@@ -6,15 +6,14 @@ other cell's trial twice."""
 
 from __future__ import annotations
 
-import os
 import shutil
-import socket
 import time
 from pathlib import Path
 
 import pytest
 
 import snakemake_forks
+from special_nodes import make_special
 
 pytestmark = pytest.mark.slow
 
@@ -29,20 +28,7 @@ def _make(path: Path, kind: str) -> None:
         shutil.rmtree(path.parent)
         path.parent.symlink_to(TWIN.parent.name)
         return
-    path.unlink()
-    if kind == "fifo":
-        os.mkfifo(path)
-    elif kind == "socket":
-        here = os.getcwd()
-        os.chdir(path.parent)            # a relative name: socket paths are limited to ~100 bytes
-        sock = socket.socket(socket.AF_UNIX)
-        try:
-            sock.bind(path.name)
-        finally:
-            sock.close()
-            os.chdir(here)
-    else:
-        path.symlink_to(Path("..") / TWIN.parent.name / TWIN.name)
+    make_special(path, kind, twin=TWIN)
 
 
 def _tree(root: Path) -> dict[str, tuple]:
