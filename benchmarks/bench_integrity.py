@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 from campaign.archive import check_listed_digests
+from campaign.bench.common import blas_line
 from campaign.pipeline.paths import check_manifest
 
 REFERENCE = Path(__file__).resolve().parents[1] / "archive" / "reference"
@@ -44,6 +45,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--passes", type=int, default=7, help="timed passes of each check (default 7)")
     args = parser.parse_args(argv)
+    print(blas_line())
     trials = sorted(REFERENCE.rglob("*.nc"))
     size_mb = sum(p.stat().st_size for p in trials) / 1e6
     per_trial = _median_seconds(lambda: check_listed_digests(trials), args.passes) / len(trials)
